@@ -1,0 +1,64 @@
+"""Command-line interface `imunoise`.
+
+Each subcommand lives in its own module in this package and exposes
+``register(subparsers) -> None``, which adds one or more sub-parsers whose ``func`` default is the
+handler ``func(args) -> int``. Modules are discovered automatically, so adding a command is adding a file.
+Errors of type :class:`imunoise.errors.ImunoiseError` become a one-line message and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+
+from imunoise import __version__
+from imunoise.errors import ImunoiseError
+
+EPILOG = """examples:
+  imunoise fit gyro.csv --freq 100 --model "2*AR1+WN+RW" --units deg/s --out fit/
+  imunoise demo --out out/demo
+run `imunoise COMMAND --help` for the options and examples of each command."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="imunoise",
+        description="Stochastic error modelling of inertial sensors (GMWM) and INS/GNSS navigation.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"imunoise {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+        if info.name.startswith("_"):
+            continue
+        module = importlib.import_module(f"{__name__}.{info.name}")
+        register = getattr(module, "register", None)
+        if register is not None:
+            register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "func", None) is None:
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except ImunoiseError as exc:
+        print(f"imunoise {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except FileNotFoundError as exc:
+        print(f"imunoise {args.command}: error: file not found: {exc.filename}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,323 @@
+"""Composite error models: sums of independent latent processes (SPEC §2, paper Eq. 7).
+
+``2 * AR1() + WN() + RW()`` builds a :class:`Model`. Its canonical form lists the AR1s first, ordered
+by decreasing φ (slowest first, which removes label switching), then WN, QN, RW, DR; parameters carry
+canonical names ``AR1_1.phi``, ``AR1_1.sigma2``, ..., ``WN.sigma2``, ``QN.q2``, ``RW.gamma2``,
+``DR.omega``. All parameters are per sample at the rate of the data they describe.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections import Counter
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from imunoise.errors import ModelError
+from imunoise.processes import AR1, DR, PROCESS_TYPES, QN, RW, WN, Process
+
+__all__ = ["Model", "StateSpace", "ORDER"]
+
+ORDER = ("AR1", "WN", "QN", "RW", "DR")
+_SINGLETONS = ("WN", "QN", "RW", "DR")
+
+
+@dataclass(frozen=True)
+class StateSpace:
+    """Discrete state-space blocks of one sensor axis' error model over a step dt (SPEC §8).
+
+    Sensor error = ``H @ x + w`` with ``x_{k+1} = Phi @ x_k + q_k``, ``q ~ N(0, Q)`` and a white part w.
+    States: ``bias`` (random constant, plus RW if present), one per AR1, ``DR`` (rate-ramp, drives the
+    bias). ``P0`` holds the stationary variance of each AR1 state and 0 for bias and DR: the filter sets
+    those from its own initial uncertainty. ``white_psd`` is the two-sided continuous PSD of WN + QN
+    (unit²·s = N², N the noise density); ``white_var`` its per-step variance at dt (white_psd / dt).
+    """
+
+    labels: tuple[str, ...]
+    Phi: np.ndarray
+    Q: np.ndarray
+    H: np.ndarray
+    P0: np.ndarray
+    white_psd: float
+    white_var: float
+
+    @property
+    def n(self) -> int:
+        return len(self.labels)
+
+
+class Model:
+    """A sum of independent processes; see module docstring for the canonical form and names."""
+
+    def __init__(self, components: list[Process] | tuple[Process, ...]) -> None:
+        comps = list(components)
+        if not comps:
+            raise ModelError("a model needs at least one process, e.g. WN() + RW()")
+        for c in comps:
+            if not isinstance(c, Process):
+                raise ModelError(f"models are sums of WN, QN, RW, DR, AR1 processes, got {c!r}")
+        counts = Counter(c.kind for c in comps)
+        for kind in _SINGLETONS:
+            if counts[kind] > 1:
+                raise ModelError(
+                    f"{kind} appears {counts[kind]} times; a sum of several {kind} is one {kind} "
+                    "(not identifiable), use it once"
+                )
+        known = {c.known for c in comps}
+        if len(known) > 1:
+            raise ModelError("mixing processes with and without parameters; give all parameters or none")
+        ar1s = [c for c in comps if c.kind == "AR1"]
+        if ar1s and ar1s[0].known:
+            ar1s.sort(key=lambda c: -c.values[0])
+        rest = sorted((c for c in comps if c.kind != "AR1"), key=lambda c: ORDER.index(c.kind))
+        self.components: tuple[Process, ...] = tuple(ar1s + rest)
+
+    # -- construction -------------------------------------------------------------------------------
+    @classmethod
+    def parse(cls, text: str) -> Model:
+        """Read ``"2*AR1 + WN + RW"`` (also ``AR1()``, ``2 AR1``, ``2xAR1``); inverse of ``str()``."""
+        if not isinstance(text, str) or not text.strip():
+            raise ModelError(f"empty model string; write e.g. '2*AR1+WN+RW' (processes: {', '.join(ORDER)})")
+        comps: list[Process] = []
+        for term in text.split("+"):
+            term = term.strip().replace("()", "")
+            match = re.fullmatch(r"(?:(\d+)\s*[*x×]?\s*)?([A-Za-z][A-Za-z0-9]*)", term)
+            if not match or match.group(2).upper() not in PROCESS_TYPES:
+                raise ModelError(
+                    f"cannot read model term {term!r} in {text!r}; write terms like '2*AR1', 'WN' "
+                    f"joined by '+' (processes: {', '.join(ORDER)})"
+                )
+            k = int(match.group(1) or 1)
+            if k < 1:
+                raise ModelError(f"repeat count must be ≥ 1 in {term!r}")
+            comps.extend(PROCESS_TYPES[match.group(2).upper()]() for _ in range(k))
+        return cls(comps)
+
+    def __add__(self, other: Process | Model) -> Model:
+        if isinstance(other, Process):
+            return Model(list(self.components) + [other])
+        if isinstance(other, Model):
+            return Model(list(self.components) + list(other.components))
+        return NotImplemented
+
+    def __radd__(self, other: object) -> Model:
+        if other == 0:
+            return self
+        return NotImplemented
+
+    def __mul__(self, k: int) -> Model:
+        if not isinstance(k, int) or isinstance(k, bool) or k < 1:
+            raise ModelError(f"a model can be repeated a positive whole number of times, got {k!r}")
+        return Model(list(self.components) * k)
+
+    __rmul__ = __mul__
+
+    # -- structure -------------------------------------------------------------------------------------
+    @property
+    def counts(self) -> Counter:
+        return Counter(c.kind for c in self.components)
+
+    @property
+    def structure(self) -> str:
+        return str(self)
+
+    def __str__(self) -> str:
+        counts = self.counts
+        parts = []
+        for kind in ORDER:
+            k = counts.get(kind, 0)
+            if k:
+                parts.append(kind if k == 1 else f"{k}*{kind}")
+        return " + ".join(parts)
+
+    def __repr__(self) -> str:
+        if self.known:
+            return " + ".join(repr(c) for c in self.components)
+        return f"Model({str(self)!r})"
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Model) and self.components == other.components
+
+    def __hash__(self) -> int:
+        return hash(self.components)
+
+    def nests(self, other: Model) -> bool:
+        """True when every process of ``other`` is also in this model (this model ⊇ other)."""
+        mine, theirs = self.counts, other.counts
+        return all(mine.get(k, 0) >= v for k, v in theirs.items())
+
+    def unknown(self) -> Model:
+        """The same structure with parameters to be estimated."""
+        return Model([c.unknown() for c in self.components])
+
+    @property
+    def known(self) -> bool:
+        return all(c.known for c in self.components)
+
+    @property
+    def n_ar1(self) -> int:
+        return self.counts.get("AR1", 0)
+
+    def has(self, kind: str) -> bool:
+        return self.counts.get(kind, 0) > 0
+
+    # -- parameters --------------------------------------------------------------------------------
+    def component_names(self) -> list[str]:
+        """Canonical component names: AR1_1, AR1_2, ..., WN, QN, RW, DR."""
+        names, i = [], 0
+        for c in self.components:
+            if c.kind == "AR1":
+                i += 1
+                names.append(f"AR1_{i}")
+            else:
+                names.append(c.kind)
+        return names
+
+    @property
+    def param_names(self) -> list[str]:
+        return [
+            f"{cname}.{p}" for cname, c in zip(self.component_names(), self.components) for p in c.param_names
+        ]
+
+    @property
+    def n_params(self) -> int:
+        return sum(len(c.param_names) for c in self.components)
+
+    @property
+    def vector(self) -> np.ndarray:
+        """Natural parameter vector in canonical order (same order as ``param_names``)."""
+        return np.array([v for c in self.components for v in c.values], dtype=float)
+
+    @property
+    def params(self) -> dict[str, float]:
+        return dict(zip(self.param_names, self.vector.tolist()))
+
+    def with_vector(self, theta: np.ndarray | list[float]) -> Model:
+        """The same structure with natural parameters θ (canonical order); AR1s are re-sorted by φ."""
+        theta = np.asarray(theta, dtype=float)
+        if theta.shape != (self.n_params,):
+            raise ModelError(f"{self} has {self.n_params} parameters, got a vector of shape {theta.shape}")
+        comps, i = [], 0
+        for c in self.components:
+            k = len(c.param_names)
+            comps.append(c.with_values(theta[i : i + k]))
+            i += k
+        return Model(comps)
+
+    def with_params(self, params: dict[str, float]) -> Model:
+        """The same structure with parameters given by canonical name (all must be present)."""
+        missing = [n for n in self.param_names if n not in params]
+        if missing:
+            raise ModelError(f"missing parameters {missing} for model {self}; expected {self.param_names}")
+        extra = sorted(set(params) - set(self.param_names))
+        if extra:
+            raise ModelError(f"unknown parameters {extra} for model {self}; expected {self.param_names}")
+        return self.with_vector(np.array([params[n] for n in self.param_names], dtype=float))
+
+    # -- wavelet variance ------------------------------------------------------------------------------
+    def wv(self, scales: np.ndarray) -> np.ndarray:
+        """Theoretical Haar WV ν²(τ) at scales τ (samples): the sum of the processes' WVs (SPEC §2)."""
+        tau = np.asarray(scales, dtype=float)
+        return np.sum([c.wv(tau) for c in self.components], axis=0)
+
+    def component_wv(self, scales: np.ndarray) -> dict[str, np.ndarray]:
+        """WV of each process by canonical component name (for per-process plot curves)."""
+        tau = np.asarray(scales, dtype=float)
+        return {name: c.wv(tau) for name, c in zip(self.component_names(), self.components)}
+
+    def wv_jacobian(self, scales: np.ndarray) -> np.ndarray:
+        """∂ν²/∂θ for the natural parameters θ in canonical order, shape (len(scales), n_params)."""
+        tau = np.asarray(scales, dtype=float)
+        return np.hstack([c.wv_jacobian(tau) for c in self.components])
+
+    # -- simulation --------------------------------------------------------------------------------------
+    def simulate(self, n: int, seed: int | np.random.Generator | None = None) -> np.ndarray:
+        """A sample path of length n (per-sample parameters, stationary AR1 starts)."""
+        if not isinstance(n, (int, np.integer)) or n < 1:
+            raise ModelError(f"simulate needs a positive number of samples, got {n!r}")
+        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        return np.sum([c.simulate(int(n), rng) for c in self.components], axis=0)
+
+    # -- continuous-time and filter forms --------------------------------------------------------------
+    def continuous(self, freq: float) -> dict[str, float]:
+        """Continuous-time equivalents with canonical keys (SPEC §2): noise density, K, T_c, ..."""
+        if not freq > 0:
+            raise ModelError(f"sampling frequency must be > 0 Hz, got {freq}")
+        out: dict[str, float] = {}
+        for name, c in zip(self.component_names(), self.components):
+            out.update(c.continuous(freq, name))
+        return out
+
+    def white_variance(self) -> float:
+        """Per-sample variance of the white part: σ²_WN + 2Q² (QN x_t = u_t − u_{t−1} treated as white)."""
+        total = 0.0
+        for c in self.components:
+            if c.kind == "WN":
+                total += c.values[0]
+            elif c.kind == "QN":
+                total += 2.0 * c.values[0]
+        return total
+
+    def state_space(self, dt: float, freq: float | None = None) -> StateSpace:
+        """Discrete (Φ, Q, H) blocks over a filter step dt for parameters per sample at ``freq`` (SPEC §8).
+
+        AR1 over dt: Φ = φ^{dt·f}, Q = σ²_GM(1 − Φ²). RW adds γ²·dt·f to the bias state. DR is a constant
+        ramp state r (unit/s) with bias_{k+1} = bias_k + r·dt. ``freq`` defaults to 1/dt.
+        """
+        if not dt > 0:
+            raise ModelError(f"filter step dt must be > 0 s, got {dt}")
+        f = 1.0 / dt if freq is None else float(freq)
+        if not f > 0:
+            raise ModelError(f"sampling frequency must be > 0 Hz, got {freq}")
+        steps = dt * f
+        labels = ["bias"]
+        ar1 = [c for c in self.components if c.kind == "AR1"]
+        labels += [f"AR1_{i + 1}" for i in range(len(ar1))]
+        has_dr = self.has("DR")
+        if has_dr:
+            labels.append("DR")
+        n = len(labels)
+        Phi = np.eye(n)
+        Q = np.zeros((n, n))
+        P0 = np.zeros((n, n))
+        H = np.zeros(n)
+        H[0] = 1.0
+        for c in self.components:
+            if c.kind == "RW":
+                Q[0, 0] += c.values[0] * steps
+        for i, c in enumerate(ar1, start=1):
+            phi, s2 = c.values
+            var_gm = s2 / (1.0 - phi * phi)
+            phi_dt = math.exp(steps * math.log(phi))
+            Phi[i, i] = phi_dt
+            Q[i, i] = var_gm * (1.0 - phi_dt * phi_dt)
+            P0[i, i] = var_gm
+            H[i] = 1.0
+        if has_dr:
+            Phi[0, n - 1] = dt
+        white_psd = self.white_variance() / f
+        return StateSpace(tuple(labels), Phi, Q, H, P0, white_psd, white_psd / dt)
+
+    # -- serialisation -----------------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"model": str(self)}
+        if self.known:
+            d["params"] = self.params
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Model:
+        """Inverse of :meth:`to_dict`; also reads fit JSON (keys ``model`` and ``params``)."""
+        if "model" not in d:
+            raise ModelError("model JSON needs a 'model' key, e.g. {'model': '2*AR1 + WN', 'params': {...}}")
+        model = cls.parse(d["model"])
+        params = d.get("params")
+        return model.with_params(params) if params else model
+
+
+def default_complete() -> Model:
+    """The paper's complete model, Eq. (7): 4×AR1 + DR + WN + QN + RW."""
+    return 4 * AR1() + DR() + WN() + QN() + RW()

@@ -1,0 +1,28 @@
+"""Shared fixtures: the path to ../shared/data (tests that need it skip with a clear reason)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import matplotlib
+import pytest
+
+matplotlib.use("Agg")
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED_DATA = Path(os.environ.get("IMUNOISE_SHARED_DATA", REPO.parent / "shared" / "data"))
+
+
+def shared_path(*parts: str) -> Path:
+    """Path inside ../shared/data, or skip the calling test with the reason it is missing."""
+    path = SHARED_DATA.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"shared data not available: {path} (clone with ../shared beside the repo)")
+    return path
+
+
+@pytest.fixture
+def shared_data():
+    """Callable fixture: ``shared_data("simts_reference", "reference.json")`` -> Path or skip."""
+    return shared_path
