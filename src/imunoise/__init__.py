@@ -15,9 +15,26 @@ from imunoise.processes import AR1, DR, QN, RW, WN
 __version__ = "0.1.0"
 
 __all__ = [
-    "AR1", "DR", "QN", "RW", "WN", "Model", "StateSpace",
-    "wavelet_variance", "WVAccumulator", "WaveletVariance", "gmwm", "GMWMFit", "select_model", "refit",
-    "ImunoiseError", "DataError", "ModelError", "UnitError", "FitError", "__version__",
+    "AR1",
+    "DR",
+    "QN",
+    "RW",
+    "WN",
+    "Model",
+    "StateSpace",
+    "wavelet_variance",
+    "WVAccumulator",
+    "WaveletVariance",
+    "gmwm",
+    "GMWMFit",
+    "select_model",
+    "refit",
+    "ImunoiseError",
+    "DataError",
+    "ModelError",
+    "UnitError",
+    "FitError",
+    "__version__",
 ]
 
 _LAZY = {

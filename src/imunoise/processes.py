@@ -65,6 +65,7 @@ def ar1_wv(tau: np.ndarray, phi: float, sigma2: float) -> np.ndarray:
     tau = np.asarray(tau, dtype=float)
     m = tau / 2.0
     L = math.log(phi)
+
     # Tails where (2m+1)|L| is small (the cancelling regime), plain expm1 elsewhere: there the tails
     # would subtract huge polynomial terms instead.
     def num_with(order: int) -> np.ndarray:
@@ -72,7 +73,10 @@ def ar1_wv(tau: np.ndarray, phi: float, sigma2: float) -> np.ndarray:
             return _expm1_tail(x, order) if order else np.expm1(x)
 
         return (
-            -3.0 * e(np.full_like(m, L)) - m * e(np.full_like(m, 2 * L)) + 4.0 * e((m + 1) * L) - e((2 * m + 1) * L)
+            -3.0 * e(np.full_like(m, L))
+            - m * e(np.full_like(m, 2 * L))
+            + 4.0 * e((m + 1) * L)
+            - e((2 * m + 1) * L)
         )
 
     small = np.abs((2 * m + 1) * L) < 1.0
@@ -92,6 +96,7 @@ def ar1_wv_dphi(tau: np.ndarray, phi: float, sigma2: float) -> np.ndarray:
     tau = np.asarray(tau, dtype=float)
     m = tau / 2.0
     L = math.log(phi)
+
     def dnum_with(order: int) -> np.ndarray:
         def e(x: np.ndarray) -> np.ndarray:
             return _expm1_tail(x, order) if order else np.expm1(x)
@@ -118,7 +123,8 @@ class Process:
         unknown = set(params) - set(self.param_names)
         if unknown:
             raise ModelError(
-                f"{self.kind} has no parameter(s) {sorted(unknown)}; its parameters are {list(self.param_names)}"
+                f"{self.kind} has no parameter(s) {sorted(unknown)}; "
+                f"its parameters are {list(self.param_names)}"
             )
         values = [params.get(name) for name in self.param_names]
         if any(v is None for v in values) and any(v is not None for v in values):
@@ -127,7 +133,9 @@ class Process:
         if all(v is not None for v in values):
             vals = tuple(float(v) for v in values)  # type: ignore[arg-type]
             if not all(math.isfinite(v) for v in vals):
-                raise ModelError(f"{self.kind}: parameters must be finite, got {dict(zip(self.param_names, vals))}")
+                raise ModelError(
+                    f"{self.kind}: parameters must be finite, got {dict(zip(self.param_names, vals))}"
+                )
             self._validate(vals)
             self._values = vals
 
@@ -312,7 +320,9 @@ class AR1(Process):
     def _validate(self, values):
         phi, s2 = values
         if not 0.0 < phi < 1.0:
-            raise ModelError(f"AR1.phi must be in (0, 1) for a stationary positive-correlation AR1, got {phi}")
+            raise ModelError(
+                f"AR1.phi must be in (0, 1) for a stationary positive-correlation AR1, got {phi}"
+            )
         if s2 < 0:
             raise ModelError(f"AR1.sigma2 must be ≥ 0, got {s2}")
 
