@@ -1,0 +1,230 @@
+"""`imunoise detect`: static detection on an IMU record (SPEC §7, paper §2.3 and Fig. 8)."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from imunoise.errors import DataError, ImunoiseError
+
+EXAMPLES = """examples:
+  imunoise detect --data ../shared/data/rtklibexplorer_drive0708 --learn-from 10 --out out/detect
+  imunoise detect --imu imu.txt.gz --ref ref.nav.gz --lambda0 0.1 --min-duration 3 --out out/detect
+
+λ0 (m/s²): --lambda0 sets it; --learn-from S learns it from the first S seconds of the record, which
+must be a known stop: λ0 = 2 × median of the Eq. 9 statistic there (imunoise.detect.learn_lambda0).
+The paper's 0.02 m/s² suits a quiet IMU only; on a vibrating car learn it.
+With a reference (KF-GINS format), precision/recall of the static epochs are scored against
+reference speed < --speed-threshold (interpolated to IMU epochs inside the reference span)."""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "detect",
+        help="detect static segments (moving std + adaptive threshold) and plot them like paper Fig. 8",
+        description="Static detection: Eq. 9 moving std of accel x/y, adaptive threshold (SPEC §7), "
+        "segments with minimum duration and end trimming, angular-rate gate.",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--imu", help="IMU file: KF-GINS increments or rate CSV (sow,gx,gy,gz,ax,ay,az)")
+    p.add_argument("--ref", help="reference file (KF-GINS: week t lat lon h vN vE vD roll pitch yaw)")
+    p.add_argument("--data", help="dataset folder with dataset.json (SPEC §12); --imu/--ref override it")
+    p.add_argument("--out", required=True, help="output folder (segments.csv, detection.png, summary.json)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--lambda0", type=float, default=None, help="initial threshold λ0 [m/s²] (default 0.02)")
+    g.add_argument("--learn-from", type=float, default=None, metavar="S",
+                   help="learn λ0 from the first S seconds of the record (a known stop)")
+    p.add_argument("--window", type=int, default=100, help="window N [samples] of Eq. 9 (default 100)")
+    p.add_argument("--min-duration", type=float, default=2.0, help="minimum segment duration [s] (default 2)")
+    p.add_argument("--margin", type=float, default=0.5, help="trimmed at each segment end [s] (default 0.5)")
+    p.add_argument("--fixed-threshold", action="store_true", help="use λ0 as a fixed threshold (no Eq. 10)")
+    p.add_argument("--speed-threshold", type=float, default=0.2,
+                   help="reference speed [m/s] below which an epoch counts as static (default 0.2)")
+    p.add_argument("--imu-time-offset", type=float, default=None,
+                   help="seconds added to IMU time stamps (default: dataset.json's value or 0)")
+    p.set_defaults(func=run)
+
+
+def _read_dataset(folder: str | Path) -> dict:
+    """Minimal reader of a dataset folder's ``dataset.json`` (SPEC §12): paths made absolute."""
+    folder = Path(folder)
+    path = folder / "dataset.json"
+    if not path.is_file():
+        raise DataError(f"--data {folder}: no dataset.json there (SPEC §12 manifest)")
+    try:
+        meta = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise DataError(f"{path}: not valid JSON ({exc})") from exc
+    if "imu" not in meta:
+        raise DataError(f"{path}: no 'imu' entry; the manifest must name the IMU file")
+    for key in ("imu", "gnss", "ref", "outages"):
+        if meta.get(key):
+            meta[key] = str(folder / meta[key])
+    return meta
+
+
+def _json_safe(obj):
+    """NaN (undefined precision, ...) → null, so that summary.json is strict JSON."""
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+def _plot(det, t_ref_speed, speed, out: Path, speed_threshold: float, t0: float) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = det.t - t0
+    T = det.statistic
+    fig, axes = plt.subplots(2, 2, figsize=(15, 7.5), gridspec_kw={"width_ratios": [3, 1]}, squeeze=False)
+    # zoom: around the end of the longest segment (threshold rising while still, reset on motion)
+    zoom = None
+    if det.segments:
+        s = max(det.segments, key=lambda s: s.duration)
+        zoom = (s.t1 - t0 - 10.0, s.t1 - t0 + 5.0)
+    for row, axis in enumerate("xy"):
+        for col in (0, 1):
+            ax = axes[row, col]
+            if col == 1 and zoom is None:
+                ax.set_visible(False)
+                continue
+            ax.semilogy(t, T[:, row], lw=0.6, color="tab:blue", label=f"T (accel {axis}), Eq. 9")
+            ax.semilogy(t, det.threshold, lw=1.0, color="darkred", label="adaptive threshold λ")
+            raw = det.static_raw
+            ax.plot(t[raw], T[raw, row], ".", ms=1.5, color="red", label="static epochs (raw)")
+            for s in det.segments:
+                ax.axvspan(s.t0 - t0, s.t1 - t0, color="red", alpha=0.15, lw=0)
+            ax.set_ylabel("moving std [m/s²]")
+            if col == 1:
+                ax.set_xlim(*zoom)
+            if speed is not None:
+                a2 = ax.twinx()
+                a2.plot(t_ref_speed - t0, speed, color="0.4", lw=0.8, label="reference speed")
+                a2.axhline(speed_threshold, color="0.4", ls=":", lw=0.8)
+                a2.set_ylabel("speed [m/s]")
+                if row == 0 and col == 0:
+                    a2.legend(loc="upper right", fontsize=8)
+            if row == 0 and col == 0:
+                ax.legend(loc="upper left", fontsize=8)
+    axes[1, 0].set_xlabel(f"time [s] since {t0:.3f} s (GPS seconds of week)")
+    if zoom is not None:
+        axes[1, 1].set_xlabel("zoom: end of the longest segment [s]")
+    fig.suptitle(
+        f"Static detection (shaded: {len(det.segments)} kept segments, trimmed, "
+        f"≥ {det.config.min_duration_s:g} s; λ0 = {det.config.lambda0:.4g} m/s²)"
+    )
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+
+
+def run(args: argparse.Namespace) -> int:
+    from imunoise.detect import (
+        DetectorConfig,
+        detect_static,
+        learn_lambda0,
+        static_metrics,
+        static_truth_from_speed,
+    )
+    from imunoise.io.kfgins import read_imu, read_reference
+
+    imu_path, ref_path, offset = args.imu, args.ref, args.imu_time_offset
+    if args.data:
+        meta = _read_dataset(args.data)
+        imu_path = imu_path or meta["imu"]
+        ref_path = ref_path or meta.get("ref")
+        if offset is None:
+            offset = float(meta.get("imu_time_offset_s", 0.0) or 0.0)
+    if not imu_path:
+        raise ImunoiseError("give --imu FILE or --data DIR")
+    imu = read_imu(imu_path, time_offset=float(offset or 0.0))
+    gyro, accel = imu.rates()
+    t = imu.t
+
+    lambda0 = 0.02 if args.lambda0 is None else args.lambda0
+    lambda0_source = "default (paper)" if args.lambda0 is None else "--lambda0"
+    if args.learn_from is not None:
+        if not args.learn_from > 0:
+            raise ImunoiseError(f"--learn-from must be > 0 s, got {args.learn_from}")
+        m = t < t[0] + args.learn_from
+        lambda0 = learn_lambda0(accel[m], window=args.window)
+        lambda0_source = f"learned from the first {args.learn_from:g} s (2 × median moving std)"
+    config = DetectorConfig(
+        window=args.window,
+        lambda0=lambda0,
+        min_duration_s=args.min_duration,
+        margin_s=args.margin,
+        adaptive=not args.fixed_threshold,
+    )
+    det = detect_static(t, accel, gyro, config, rate_hz=imu.rate_hz)
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "segments.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["t0", "t1", "duration_s", "i0", "i1"])
+        for s in det.segments:
+            w.writerow([f"{s.t0:.6f}", f"{s.t1:.6f}", f"{s.duration:.3f}", s.i0, s.i1])
+
+    summary: dict = {
+        "imu": str(imu_path),
+        "n_samples": int(t.size),
+        "duration_s": float(t[-1] - t[0]),
+        "lambda0_m_s2": float(lambda0),
+        "lambda0_source": lambda0_source,
+        "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
+        "n_segments": len(det.segments),
+        "static_time_s": det.static_time_s,
+        "gate_open_fraction": float(det.gate_open.mean()),
+        "segments": [{"t0": s.t0, "t1": s.t1, "duration_s": s.duration} for s in det.segments],
+    }
+    speed = t_ref = None
+    if ref_path:
+        ref = read_reference(ref_path)
+        t_ref = ref.t
+        speed = np.linalg.norm(ref.vel_ned, axis=1)
+        inside = (t >= t_ref[0]) & (t <= t_ref[-1])
+        if not inside.any():
+            raise DataError(
+                f"reference {ref_path} does not overlap the IMU time span; check the time stamps / offset"
+            )
+        truth = static_truth_from_speed(t, t_ref, speed, args.speed_threshold)
+        summary["reference"] = {
+            "file": str(ref_path),
+            "speed_threshold_m_s": args.speed_threshold,
+            "epochs_scored": int(inside.sum()),
+            "segments": static_metrics(det.static[inside], truth[inside]),
+            "raw": static_metrics(det.static_raw[inside], truth[inside]),
+        }
+    _plot(det, t_ref, speed, out / "detection.png", args.speed_threshold, float(t[0]))
+    (out / "summary.json").write_text(json.dumps(_json_safe(summary), indent=2))
+
+    print(f"IMU {imu_path}: {t.size} samples, {t[-1] - t[0]:.1f} s at {imu.rate_hz:.1f} Hz")
+    print(f"λ0 = {lambda0:.4g} m/s² ({lambda0_source}); window {config.window} samples; "
+          f"{'adaptive' if config.adaptive else 'fixed'} threshold")
+    print(f"{len(det.segments)} static segments, {det.static_time_s:.1f} s static in total; "
+          f"angular-rate gate open {100 * det.gate_open.mean():.2f} % of epochs (|ω| > 30 °/s)")
+    for s in det.segments:
+        print(f"  {s.t0:.3f} – {s.t1:.3f} s  ({s.duration:.1f} s)")
+    if "reference" in summary:
+        r = summary["reference"]
+        for key, label in (("segments", "segments (trimmed)"), ("raw", "raw per-epoch test")):
+            m = r[key]
+            print(
+                f"vs reference speed < {args.speed_threshold:g} m/s, {label}: "
+                f"precision {m['precision']:.4f}, recall {m['recall']:.4f}, F1 {m['f1']:.4f} "
+                f"({m['n_pred']} predicted, {m['n_true']} true epochs)"
+            )
+    print(f"wrote {out / 'segments.csv'}, {out / 'detection.png'}, {out / 'summary.json'}")
+    return 0
