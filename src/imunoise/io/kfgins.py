@@ -1,0 +1,527 @@
+"""Readers and writers for the KF-GINS text formats (SPEC §1, §12).
+
+Formats (whitespace separated, ``#`` comments, gzip when the name ends in ``.gz``):
+
+- IMU increments: ``t dθx dθy dθz dvx dvy dvz`` — seconds, rad, m/s; increments over (t_{k-1}, t_k].
+  :func:`read_imu` also reads the rate CSV with the header ``sow,gx,gy,gz,ax,ay,az`` (rad/s, m/s²) and
+  converts it to increments as rate·Δt_k with Δt_k = t_k − t_{k-1} (the first Δt is the median).
+- GNSS: ``t lat lon h σN σE σD`` — seconds, degrees, degrees, m, m (4 columns → default σ, warned).
+- Reference / result: ``week t lat lon h vN vE vD roll pitch yaw`` — degrees on disk, NaN attitude allowed.
+- Outage windows: ``start duration`` per line (SPEC §8).
+
+Inside, everything is SI (radians, m, m/s, s). Time checks on every reader: time going backwards or a
+NaN/Inf value raises :class:`~imunoise.errors.DataError` naming the file line; duplicated stamps are
+dropped (the first kept) with a :class:`DataWarning` giving their count; gaps longer than
+``gap_factor`` × the median step are reported with a :class:`DataWarning` (count and largest gap).
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from imunoise.errors import DataError
+
+__all__ = [
+    "DataWarning",
+    "ImuData",
+    "GnssData",
+    "Reference",
+    "read_imu",
+    "read_gnss",
+    "read_reference",
+    "read_outages",
+    "write_imu",
+    "write_gnss",
+    "write_reference",
+    "write_outages",
+    "DEFAULT_GNSS_SIGMA_M",
+]
+
+DEFAULT_GNSS_SIGMA_M = (1.0, 1.0, 2.0)
+"""σ (N, E, D) in m used when a GNSS file has only ``t lat lon h``."""
+
+GAP_FACTOR = 5.0
+"""A time step longer than this many median steps is reported as a gap (issue 4: gaps > 5 samples)."""
+
+
+class DataWarning(UserWarning):
+    """A data problem that was handled (duplicates dropped, gaps found, default σ used)."""
+
+
+# ----------------------------------------------------------------------------------------------
+# containers
+# ----------------------------------------------------------------------------------------------
+
+
+def _as_2d(name: str, a: np.ndarray, n: int, cols: int = 3) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    if a.shape != (n, cols):
+        raise DataError(f"{name} must have shape ({n}, {cols}), got {a.shape}")
+    return a
+
+
+def _as_time(t: np.ndarray) -> np.ndarray:
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1:
+        raise DataError(f"time must be a 1-D array, got shape {t.shape}")
+    return t
+
+
+def _step(t: np.ndarray) -> np.ndarray:
+    """t[k] − t[k−1], the first entry being the median step (SPEC §1 increments convention)."""
+    n = t.size
+    if n < 2:
+        return np.full(n, np.nan)
+    d = np.diff(t)
+    return np.concatenate(([np.median(d)], d))
+
+
+@dataclass(frozen=True, eq=False)
+class ImuData:
+    """IMU samples in body FRD (SPEC §1).
+
+    ``kind == "increments"`` (what every reader returns): ``dtheta`` [rad] and ``dv`` [m/s] are the
+    increments over (t_{k-1}, t_k]. ``kind == "rates"``: the same fields hold rates [rad/s, m/s²];
+    use :meth:`rates`, :meth:`increments` or :meth:`as_increments` to get either form regardless.
+    """
+
+    t: np.ndarray
+    dtheta: np.ndarray
+    dv: np.ndarray
+    kind: str = "increments"
+    frame: str = "FRD"
+
+    def __post_init__(self) -> None:
+        t = _as_time(self.t)
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "dtheta", _as_2d("dtheta", self.dtheta, t.size))
+        object.__setattr__(self, "dv", _as_2d("dv", self.dv, t.size))
+        if self.kind not in ("increments", "rates"):
+            raise DataError(f"ImuData.kind must be 'increments' or 'rates', got {self.kind!r}")
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    @property
+    def dt(self) -> np.ndarray:
+        """Sample intervals t[k] − t[k−1] in s; the first is the median interval."""
+        return _step(self.t)
+
+    @property
+    def rate_hz(self) -> float:
+        """Nominal sampling rate 1 / median(Δt) in Hz."""
+        return float(1.0 / np.median(np.diff(self.t))) if self.t.size > 1 else float("nan")
+
+    def rates(self) -> tuple[np.ndarray, np.ndarray]:
+        """(gyro [rad/s], accel [m/s²]), each (n, 3): increments divided by Δt_k."""
+        if self.kind == "rates":
+            return self.dtheta, self.dv
+        dt = self.dt[:, None]
+        return self.dtheta / dt, self.dv / dt
+
+    def increments(self) -> tuple[np.ndarray, np.ndarray]:
+        """(Δθ [rad], Δv [m/s]), each (n, 3): rates multiplied by Δt_k when stored as rates."""
+        if self.kind == "increments":
+            return self.dtheta, self.dv
+        dt = self.dt[:, None]
+        return self.dtheta * dt, self.dv * dt
+
+    def as_increments(self) -> ImuData:
+        """The same samples with ``kind == "increments"``."""
+        if self.kind == "increments":
+            return self
+        dth, dv = self.increments()
+        return replace(self, dtheta=dth, dv=dv, kind="increments")
+
+    def slice(self, t0: float, t1: float) -> ImuData:
+        """Samples with t0 ≤ t ≤ t1."""
+        m = (self.t >= t0) & (self.t <= t1)
+        return replace(self, t=self.t[m], dtheta=self.dtheta[m], dv=self.dv[m])
+
+
+@dataclass(frozen=True, eq=False)
+class GnssData:
+    """GNSS position fixes: ``llh`` = [lat rad, lon rad, h m] (antenna), ``sigma_ned`` in m."""
+
+    t: np.ndarray
+    llh: np.ndarray
+    sigma_ned: np.ndarray
+
+    def __post_init__(self) -> None:
+        t = _as_time(self.t)
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "llh", _as_2d("llh", self.llh, t.size))
+        object.__setattr__(self, "sigma_ned", _as_2d("sigma_ned", self.sigma_ned, t.size))
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    def _take(self, m: np.ndarray) -> GnssData:
+        return replace(self, t=self.t[m], llh=self.llh[m], sigma_ned=self.sigma_ned[m])
+
+    def slice(self, t0: float, t1: float) -> GnssData:
+        """Epochs with t0 ≤ t ≤ t1."""
+        return self._take((self.t >= t0) & (self.t <= t1))
+
+    def without(self, windows: Iterable[tuple[float, float]]) -> GnssData:
+        """Drop the epochs inside any outage window: start ≤ t < start + duration (SPEC §8)."""
+        keep = np.ones(self.t.size, dtype=bool)
+        for start, dur in windows:
+            keep &= ~((self.t >= start) & (self.t < start + dur))
+        return self._take(keep)
+
+
+@dataclass(frozen=True, eq=False)
+class Reference:
+    """Reference (or result) trajectory: llh [rad, rad, m], vel_ned [m/s], euler (roll, pitch, yaw) [rad]
+    (NaN when unknown), GPS ``week`` (0 when unknown)."""
+
+    t: np.ndarray
+    llh: np.ndarray
+    vel_ned: np.ndarray
+    euler: np.ndarray
+    week: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+
+    def __post_init__(self) -> None:
+        t = _as_time(self.t)
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "llh", _as_2d("llh", self.llh, t.size))
+        object.__setattr__(self, "vel_ned", _as_2d("vel_ned", self.vel_ned, t.size))
+        object.__setattr__(self, "euler", _as_2d("euler", self.euler, t.size))
+        week = np.asarray(self.week)
+        if week.size == 0 and t.size:
+            week = np.zeros(t.size, dtype=int)
+        elif week.ndim == 0:
+            week = np.full(t.size, int(week), dtype=int)
+        if week.shape != t.shape:
+            raise DataError(f"week must have shape {t.shape}, got {week.shape}")
+        object.__setattr__(self, "week", week.astype(int))
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    def slice(self, t0: float, t1: float) -> Reference:
+        """Epochs with t0 ≤ t ≤ t1."""
+        m = (self.t >= t0) & (self.t <= t1)
+        return replace(
+            self,
+            t=self.t[m],
+            llh=self.llh[m],
+            vel_ned=self.vel_ned[m],
+            euler=self.euler[m],
+            week=self.week[m],
+        )
+
+
+# ----------------------------------------------------------------------------------------------
+# low-level text handling
+# ----------------------------------------------------------------------------------------------
+
+
+def _open_text(path: Path, mode: str):
+    if path.suffix == ".gz":
+        return gzip.open(path, mode + "t", encoding="utf-8")
+    return open(path, mode, encoding="utf-8")
+
+
+def _is_number(tok: str) -> bool:
+    try:
+        float(tok)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_table(path: str | Path, what: str) -> tuple[list[str] | None, np.ndarray, np.ndarray]:
+    """Read a numeric text table: (header tokens or None, data (n, m), 1-based file line of each row).
+
+    Blank lines and ``#`` comments (whole-line or trailing) are skipped; a first line whose tokens are
+    not all numbers is a header. Commas or whitespace separate columns.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(2, "No such file", str(path))
+    with _open_text(path, "r") as fh:
+        raw = fh.read().splitlines()
+    rows: list[str] = []
+    lines: list[int] = []
+    header: list[str] | None = None
+    sep: str | None = None
+    for i, line in enumerate(raw, start=1):
+        s = line.split("#", 1)[0].strip()
+        if not s:
+            continue
+        if sep is None:
+            sep = "," if "," in s else ""
+        toks = [x.strip() for x in s.split(",")] if sep else s.split()
+        if not rows and header is None and not all(_is_number(x) for x in toks):
+            header = [x.lower() for x in toks]
+            continue
+        rows.append(" ".join(toks) if sep else s)
+        lines.append(i)
+    if not rows:
+        raise DataError(f"{what} file {path} has no data rows")
+    line_no = np.asarray(lines, dtype=np.int64)
+    ncols = np.fromiter((len(r.split()) for r in rows), dtype=np.int64, count=len(rows))
+    bad = np.flatnonzero(ncols != ncols[0])
+    if bad.size:
+        k = bad[0]
+        raise DataError(
+            f"{what} file {path}, line {line_no[k]}: {ncols[k]} columns where the first row has {ncols[0]}; "
+            "fix or remove the malformed line"
+        )
+    try:
+        data = np.array(" ".join(rows).split(), dtype=float).reshape(len(rows), int(ncols[0]))
+    except ValueError as exc:
+        for k, r in enumerate(rows):
+            if not all(_is_number(x) for x in r.split()):
+                raise DataError(f"{what} file {path}, line {line_no[k]}: non-numeric value in {r!r}") from exc
+        raise DataError(f"{what} file {path}: cannot parse numbers ({exc})") from exc
+    return header, data, line_no
+
+
+def _check_finite(data: np.ndarray, lines: np.ndarray, path: Path, what: str, cols: Sequence[int]) -> None:
+    bad = ~np.isfinite(data[:, list(cols)]).all(axis=1)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise DataError(
+            f"{what} file {path}, line {lines[k]} (data row {k + 1}): NaN or Inf value "
+            f"({int(bad.sum())} such rows); remove or repair these rows"
+        )
+
+
+def _check_time(t: np.ndarray, lines: np.ndarray, path: Path, what: str, gap_factor: float = GAP_FACTOR) -> np.ndarray:
+    """Return the mask of rows to keep; raise on backwards time; warn on duplicates and gaps."""
+    keep = np.ones(t.size, dtype=bool)
+    if t.size < 2:
+        return keep
+    d = np.diff(t)
+    back = np.flatnonzero(d < 0)
+    if back.size:
+        k = int(back[0]) + 1
+        raise DataError(
+            f"{what} file {path}, line {lines[k]}: time goes backwards ({t[k - 1]!r} -> {t[k]!r} s, "
+            f"{back.size} such steps); sort the file or remove the out-of-order rows"
+        )
+    dup = np.flatnonzero(d == 0) + 1
+    if dup.size:
+        keep[dup] = False
+        warnings.warn(
+            f"{what} file {path}: dropped {dup.size} rows with a duplicated time stamp "
+            f"(first at line {lines[dup[0]]}, t = {t[dup[0]]!r} s); the first of each duplicate was kept",
+            DataWarning,
+            stacklevel=3,
+        )
+    d = d[d > 0]
+    if d.size:
+        med = float(np.median(d))
+        gaps = d[d > gap_factor * med]
+        if gaps.size:
+            warnings.warn(
+                f"{what} file {path}: {gaps.size} time gaps longer than {gap_factor:g} × the median step "
+                f"{med:.6g} s; the largest is {gaps.max():.6g} s",
+                DataWarning,
+                stacklevel=3,
+            )
+    return keep
+
+
+# ----------------------------------------------------------------------------------------------
+# readers
+# ----------------------------------------------------------------------------------------------
+
+_RATE_COLS = ("gx", "gy", "gz", "ax", "ay", "az")
+_TIME_NAMES = ("sow", "t", "time", "timestamp", "gps_time", "tow")
+
+
+def read_imu(path: str | Path, *, time_offset: float = 0.0, gap_factor: float = GAP_FACTOR) -> ImuData:
+    """Read IMU samples as increments (body FRD, SI).
+
+    Accepts the KF-GINS increment format (7 columns, no header: ``t dθxyz [rad] dvxyz [m/s]``; extra
+    columns such as an odometer are ignored with a warning) or a
+    rate CSV with a header naming ``sow`` (or ``t``/``time``) and ``gx,gy,gz`` [rad/s], ``ax,ay,az``
+    [m/s²] in any order; rates become increments rate·Δt_k (first Δt = median), SPEC §1.
+    ``time_offset`` [s] is added to every stamp (e.g. a logging delay).
+    """
+    path = Path(path)
+    header, data, lines = _read_table(path, "IMU")
+    if header is not None:
+        cols = {name: i for i, name in enumerate(header)}
+        tcol = next((cols[n] for n in _TIME_NAMES if n in cols), None)
+        missing = [c for c in _RATE_COLS if c not in cols]
+        if tcol is None or missing:
+            raise DataError(
+                f"IMU file {path}: header {header} lacks "
+                f"{'a time column (sow/t/time) ' if tcol is None else ''}{missing or ''}; expected "
+                "'sow,gx,gy,gz,ax,ay,az' (rad/s, m/s²) or the 7-column KF-GINS increment format "
+                "without header"
+            )
+        idx = [tcol] + [cols[c] for c in _RATE_COLS]
+        _check_finite(data, lines, path, "IMU", idx)
+        data, kind = data[:, idx], "rates"
+    else:
+        if data.shape[1] < 7:
+            raise DataError(
+                f"IMU file {path}: {data.shape[1]} columns; the KF-GINS IMU format has 7 "
+                "(t dθx dθy dθz dvx dvy dvz), or give a CSV with header sow,gx,gy,gz,ax,ay,az"
+            )
+        if data.shape[1] > 7:  # e.g. KF-GINS files with an odometer column
+            warnings.warn(
+                f"IMU file {path}: {data.shape[1]} columns; using the first 7 (t dθxyz dvxyz), ignoring the rest",
+                DataWarning,
+                stacklevel=2,
+            )
+            data = data[:, :7]
+        _check_finite(data, lines, path, "IMU", range(7))
+        kind = "increments"
+    if data.shape[0] < 2:
+        raise DataError(f"IMU file {path}: need at least 2 samples, got {data.shape[0]}")
+    keep = _check_time(data[:, 0], lines, path, "IMU", gap_factor)
+    data = data[keep]
+    imu = ImuData(t=data[:, 0] + float(time_offset), dtheta=data[:, 1:4], dv=data[:, 4:7], kind=kind)
+    return imu.as_increments()
+
+
+def read_gnss(
+    path: str | Path,
+    *,
+    default_sigma: Sequence[float] = DEFAULT_GNSS_SIGMA_M,
+    sigma_floor: float = 1e-3,
+    gap_factor: float = GAP_FACTOR,
+) -> GnssData:
+    """Read GNSS fixes ``t lat[deg] lon[deg] h[m] σN σE σD [m]`` (KF-GINS; extra columns ignored).
+
+    With 4 columns the σ are ``default_sigma`` (warned). σ below ``sigma_floor`` (including 0) is raised
+    to the floor with a warning so the filter's R stays positive definite; negative σ is an error.
+    """
+    path = Path(path)
+    _, data, lines = _read_table(path, "GNSS")
+    ncol = data.shape[1]
+    if ncol == 4:
+        warnings.warn(
+            f"GNSS file {path} has no σ columns; using default σ N/E/D = {tuple(default_sigma)} m",
+            DataWarning,
+            stacklevel=2,
+        )
+        data = np.column_stack([data, np.tile(np.asarray(default_sigma, float), (data.shape[0], 1))])
+    elif ncol < 7:
+        raise DataError(f"GNSS file {path}: {ncol} columns; expected 7 (t lat lon h σN σE σD) or 4 (t lat lon h)")
+    _check_finite(data, lines, path, "GNSS", range(7))
+    sig = data[:, 4:7]
+    if (sig < 0).any():
+        k = int(np.flatnonzero((sig < 0).any(axis=1))[0])
+        raise DataError(f"GNSS file {path}, line {lines[k]}: negative σ; σ columns must be ≥ 0 m")
+    low = sig < sigma_floor
+    if low.any():
+        warnings.warn(
+            f"GNSS file {path}: {int(low.any(axis=1).sum())} epochs with σ < {sigma_floor:g} m "
+            f"(first at line {lines[int(np.flatnonzero(low.any(axis=1))[0])]}); raised to {sigma_floor:g} m",
+            DataWarning,
+            stacklevel=2,
+        )
+    keep = _check_time(data[:, 0], lines, path, "GNSS", gap_factor)
+    data = data[keep]
+    llh = np.column_stack([np.radians(data[:, 1]), np.radians(data[:, 2]), data[:, 3]])
+    return GnssData(t=data[:, 0], llh=llh, sigma_ned=np.maximum(data[:, 4:7], sigma_floor))
+
+
+def read_reference(path: str | Path, *, gap_factor: float = GAP_FACTOR) -> Reference:
+    """Read a reference/result trajectory ``week t lat lon h vN vE vD roll pitch yaw`` (degrees on disk;
+    NaN roll/pitch/yaw allowed, NaN elsewhere is an error)."""
+    path = Path(path)
+    _, data, lines = _read_table(path, "reference")
+    if data.shape[1] != 11:
+        raise DataError(
+            f"reference file {path}: {data.shape[1]} columns; expected 11 (week t lat lon h vN vE vD roll pitch yaw)"
+        )
+    _check_finite(data, lines, path, "reference", range(8))
+    if np.isinf(data[:, 8:11]).any():
+        _check_finite(data, lines, path, "reference", range(8, 11))
+    keep = _check_time(data[:, 1], lines, path, "reference", gap_factor)
+    data = data[keep]
+    llh = np.column_stack([np.radians(data[:, 2]), np.radians(data[:, 3]), data[:, 4]])
+    return Reference(
+        t=data[:, 1],
+        llh=llh,
+        vel_ned=data[:, 5:8],
+        euler=np.radians(data[:, 8:11]),
+        week=np.round(data[:, 0]).astype(int),
+    )
+
+
+def read_outages(path: str | Path) -> list[tuple[float, float]]:
+    """Outage windows ``start duration`` [s] per line, ``#`` comments allowed (SPEC §8)."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(2, "No such file", str(path))
+    out: list[tuple[float, float]] = []
+    with _open_text(path, "r") as fh:
+        for i, line in enumerate(fh, start=1):
+            s = line.split("#", 1)[0].replace(",", " ").split()
+            if not s:
+                continue
+            if len(s) != 2 or not all(_is_number(x) for x in s):
+                raise DataError(f"outage file {path}, line {i}: expected 'start duration' in s, got {line.strip()!r}")
+            start, dur = float(s[0]), float(s[1])
+            if not (np.isfinite(start) and np.isfinite(dur)) or dur <= 0:
+                raise DataError(
+                    f"outage file {path}, line {i}: need finite start and duration > 0, got {line.strip()!r}"
+                )
+            out.append((start, dur))
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# writers
+# ----------------------------------------------------------------------------------------------
+
+
+def _write_rows(path: str | Path, data: np.ndarray, fmt: Sequence[str], header: str | None = None) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    buf = io.StringIO()
+    if header:
+        buf.write("".join(f"# {h}\n" for h in header.splitlines()))
+    np.savetxt(buf, data, fmt=list(fmt), delimiter=" ")
+    text = buf.getvalue()
+    if path.suffix == ".gz":
+        # mtime=0 keeps the bytes reproducible for a given content
+        with open(path, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0, filename="") as gz:
+            gz.write(text.encode("utf-8"))
+    else:
+        path.write_text(text, encoding="utf-8")
+    return path
+
+
+def write_imu(path: str | Path, imu: ImuData) -> Path:
+    """Write KF-GINS IMU increments ``t dθxyz dvxyz`` (time to 1 ns, increments to 13 significant digits)."""
+    dth, dv = imu.increments()
+    return _write_rows(path, np.column_stack([imu.t, dth, dv]), ["%.9f"] + ["%.12e"] * 6)
+
+
+def write_gnss(path: str | Path, gnss: GnssData) -> Path:
+    """Write KF-GINS GNSS ``t lat lon [deg, 1e-12°] h σN σE σD [m, 1 µm]``."""
+    data = np.column_stack([gnss.t, np.degrees(gnss.llh[:, :2]), gnss.llh[:, 2], gnss.sigma_ned])
+    return _write_rows(path, data, ["%.9f", "%.12f", "%.12f", "%.6f", "%.6f", "%.6f", "%.6f"])
+
+
+def write_reference(path: str | Path, ref: Reference) -> Path:
+    """Write KF-GINS reference/result ``week t lat lon h vN vE vD roll pitch yaw`` (degrees)."""
+    data = np.column_stack(
+        [ref.week, ref.t, np.degrees(ref.llh[:, :2]), ref.llh[:, 2], ref.vel_ned, np.degrees(ref.euler)]
+    )
+    fmt = ["%d", "%.9f", "%.12f", "%.12f", "%.6f", "%.9f", "%.9f", "%.9f", "%.9f", "%.9f", "%.9f"]
+    return _write_rows(path, data, fmt)
+
+
+def write_outages(path: str | Path, windows: Iterable[tuple[float, float]], comment: str | None = None) -> Path:
+    """Write outage windows ``start duration`` [s], one per line."""
+    rows = np.asarray(list(windows), dtype=float).reshape(-1, 2)
+    return _write_rows(path, rows, ["%.6f", "%.6f"], header=comment or "start_s duration_s")
