@@ -47,6 +47,14 @@ CONTINUOUS_UNITS = {
     "q_c": "u²/s",
 }
 
+def unit_text(template: str, unit: str) -> str:
+    """Put the data unit into a unit template: 'u²' with 'rad/s' gives '(rad/s)²', not 'rad/s²'."""
+    compound = any(ch in unit for ch in "/·* ")
+    if compound:
+        template = template.replace("u²", "(u)²").replace("u·", "(u)·")
+    return template.replace("u", unit) if template != "1" else "1"
+
+
 _LOG_LO, _LOG_HI = -120.0, 40.0  # normalised log-variance bounds (e^-120: indistinguishable from 0)
 _V_LO, _V_HI = -32.0, 4.0  # log(−ln φ): φ from 1 − 1.3e-14 down to e^-55
 _B_LO, _B_HI = -30.0, 4.0  # log spacing between successive AR1 correlation scales
@@ -482,6 +490,15 @@ def _guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed:
 # ----------------------------------------------------------------------------------------------
 # Result
 # ----------------------------------------------------------------------------------------------
+def _ci_text(ci: tuple[float, float] | None) -> str:
+    if ci is None or not all(math.isfinite(c) for c in ci):
+        return f"{'(not identified)':^29}"
+    lo, hi = ci
+    if lo > 0 and hi / lo > 1e6:
+        return f"{'(not identified)':^29}"
+    return f"[{lo:>12.5g}, {hi:>12.5g}]"
+
+
 @dataclass
 class GMWMFit:
     """Result of :func:`gmwm` (SPEC §4). ``objective`` is the paper's GOF (Eq. 8)."""
@@ -529,10 +546,10 @@ class GMWMFit:
         return self.model.continuous(self.freq)
 
     def param_units(self) -> dict[str, str]:
-        return {n: PARAM_UNITS[n.split(".")[1]].replace("u", self.unit) for n in self.model.param_names}
+        return {n: unit_text(PARAM_UNITS[n.split(".")[1]], self.unit) for n in self.model.param_names}
 
     def continuous_units(self) -> dict[str, str]:
-        return {k: CONTINUOUS_UNITS[k.split(".")[1]].replace("u", self.unit) for k in self.continuous()}
+        return {k: unit_text(CONTINUOUS_UNITS[k.split(".")[1]], self.unit) for k in self.continuous()}
 
     # -- confidence intervals (delta method in the unconstrained parametrisation) -------------------------
     def _u(self) -> np.ndarray:
@@ -556,8 +573,11 @@ class GMWMFit:
         is taken on a log scale (log(−ln φ) for φ) and mapped back, so it stays in its valid range.
         """
         names = self.model.param_names + list(self.continuous())
-        if self.param_cov_u is None or not np.all(np.isfinite(self.param_cov_u)):
+        if self.param_cov_u is None or np.any(np.isnan(self.param_cov_u)):
             return {n: (math.nan, math.nan) for n in names}
+        cov = self.param_cov_u
+        free = np.isinf(np.diag(cov))  # not identified (see _param_cov)
+        cov_id = np.where(np.isinf(cov), 0.0, cov)
         z = float(norm.ppf(0.5 + level / 2))
         u0 = self._u()
         base = self._link_values(u0)
@@ -573,7 +593,11 @@ class GMWMFit:
         values = {**self.params, **self.continuous()}
         out = {}
         for n in names:
-            se = math.sqrt(max(float(grads[n] @ self.param_cov_u @ grads[n]), 0.0))
+            g = grads[n]
+            if np.any(np.abs(g[free]) > 1e-9):
+                out[n] = (math.nan, math.nan)
+                continue
+            se = math.sqrt(max(float(g @ cov_id @ g), 0.0))
             lo, hi = base[n] - z * se, base[n] + z * se
             if n.endswith(".phi"):
                 out[n] = (math.exp(-math.exp(hi)), math.exp(-math.exp(lo)))
@@ -599,13 +623,11 @@ class GMWMFit:
         ]
         units = self.param_units()
         for n, v in self.params.items():
-            lo, hi = ci.get(n, (math.nan, math.nan))
-            lines.append(f"  {n:<40}{v:>14.6g}  [{lo:>12.5g}, {hi:>12.5g}]  {units[n]}")
+            lines.append(f"  {n:<40}{v:>14.6g}  {_ci_text(ci.get(n))}  {units[n]}")
         lines += ["", f"  {'continuous-time equivalents':<40}{'value':>14}  {pct:^29}  unit"]
         cunits = self.continuous_units()
         for n, v in self.continuous().items():
-            lo, hi = ci.get(n, (math.nan, math.nan))
-            lines.append(f"  {n:<40}{v:>14.6g}  [{lo:>12.5g}, {hi:>12.5g}]  {cunits[n]}")
+            lines.append(f"  {n:<40}{v:>14.6g}  {_ci_text(ci.get(n))}  {cunits[n]}")
         return "\n".join(lines)
 
     def __str__(self) -> str:
@@ -683,15 +705,26 @@ def _param_cov(problem: GMWMProblem, model: Model) -> np.ndarray | None:
     _eval(u, kinds, problem.tau, nu, jac)
     G = jac * problem.scale  # ∂ν/∂u on the original scale
     Om = problem.omega
-    A = G.T @ Om @ G
-    try:
-        Ainv = linalg.pinvh(A)
-    except (linalg.LinAlgError, ValueError):
-        return None
-    B = G.T @ Om @ problem.cov @ Om @ G
-    C = Ainv @ B @ Ainv
-    C = 0.5 * (C + C.T)
-    return C if np.all(np.isfinite(C)) else None
+    # A parameter pinned at its bound (e.g. WN absorbed by a sub-sample AR1) or with no influence on the
+    # weighted WV is not identified: it gets an infinite variance instead of a misleading zero-width CI.
+    lo, hi = _bounds(kinds)
+    u1 = _theta_to_u(model.vector, kinds, 1.0)
+    lo1, hi1 = lo + (u1 - u), hi + (u1 - u)  # same bounds expressed on the unit scale of u1
+    influence = np.linalg.norm(problem.W @ G, axis=0)
+    ident = (u1 > lo1 + 1e-3) & (u1 < hi1 - 1e-3) & (influence > 1e-8 * max(influence.max(), 1e-300))
+    C = np.zeros((P, P))
+    np.fill_diagonal(C, np.inf)
+    if ident.any():
+        Gi = G[:, ident]
+        A = Gi.T @ Om @ Gi
+        try:
+            Ainv = linalg.pinvh(A)
+        except (linalg.LinAlgError, ValueError):
+            return None
+        B = Gi.T @ Om @ problem.cov @ Om @ Gi
+        Ci = Ainv @ B @ Ainv
+        C[np.ix_(ident, ident)] = 0.5 * (Ci + Ci.T)
+    return C if not np.any(np.isnan(C)) else None
 
 
 def fit_problem(

@@ -26,7 +26,9 @@ def _wv_axes(ax, wv: WaveletVariance, unit: str, label: str = "empirical WV") ->
     ax.fill_between(x, wv.ci_low, wv.ci_high, color="0.8", alpha=0.8, label=f"{100 * (1 - wv.alpha):.0f}% CI")
     ax.loglog(x, wv.variance, "o-", color="k", ms=3.5, lw=1, label=label)
     ax.set_xlabel("scale τ [s]")
-    ax.set_ylabel(f"wavelet variance ν² [{unit}²]")
+    from imunoise.gmwm import unit_text
+
+    ax.set_ylabel(f"wavelet variance ν² [{unit_text('u²', unit)}]")
     ax.grid(True, which="both", alpha=0.3)
     return x
 

@@ -1,0 +1,23 @@
+"""Simulator (SPEC §10): urban drives with known truth and long static recordings.
+
+``simulate_drive(DriveConfig(...), imu_models, seed)`` returns a :class:`SimulatedDrive` (IMU with and
+without errors, GNSS, reference, truth, static mask) whose ``write(dir)`` produces the KF-GINS files and
+a ``dataset.json`` manifest; ``simulate_static(models, duration_s, rate_hz, seed)`` a static recording.
+"""
+
+from imunoise.sim.drive import DriveConfig, SimulatedDrive, plan_drive, simulate_drive
+from imunoise.sim.imu_errors import AXES, PRESETS, preset_model, resolve_imu_models
+from imunoise.sim.static import StaticRecording, simulate_static
+
+__all__ = [
+    "AXES",
+    "PRESETS",
+    "DriveConfig",
+    "SimulatedDrive",
+    "StaticRecording",
+    "plan_drive",
+    "preset_model",
+    "resolve_imu_models",
+    "simulate_drive",
+    "simulate_static",
+]
