@@ -1,0 +1,314 @@
+"""`imunoise nav`: loosely coupled INS/GNSS EKF over recorded files, with metrics and plots (SPEC §8, §12)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from imunoise.errors import DataError, ImunoiseError
+
+EXAMPLES = """examples:
+  imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --out out/nav_full
+  imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --outage-runs --out out/nav_out
+  imunoise nav --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --model model.json --out out/
+  imunoise nav --data sim/ --outages sim/outages.txt --default --out out/sim
+
+Writes DIR/trajectory.nav (KF-GINS result format: week, SOW, lat, lon [deg], h [m], vN, vE, vD [m/s],
+roll, pitch, yaw [deg]; the IMU point), DIR/metrics.json (SPEC §8 keys: errors at the reference epochs of
+the GNSS antenna, in m and m/s), DIR/trajectory.png, DIR/errors.png and DIR/biases.png. With
+--outage-runs every window of --outages is run separately from the same start (DIR/outage_<k>/...) and
+metrics.json lists the drift at the end of each window; without it all windows are removed in one run.
+Initialisation: position from GNSS, roll/pitch from static levelling over --static-duration s of the
+IMU file's beginning, yaw from the first GNSS course faster than 3 m/s propagated back (or --yaw),
+gyro bias = static mean."""
+
+log = logging.getLogger("imunoise.nav")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "nav",
+        help="loosely coupled INS/GNSS EKF with augmented IMU error states",
+        description="Run the loosely coupled error-state EKF (SPEC §8) on IMU + GNSS files.",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12)")
+    p.add_argument("--imu", help="IMU file (KF-GINS increments or rate CSV, body FRD, SI)")
+    p.add_argument("--gnss", help="GNSS file (KF-GINS: SOW lat lon h σN σE σD)")
+    p.add_argument("--ref", help="reference trajectory (KF-GINS result format) for metrics")
+    p.add_argument(
+        "--lever-arm",
+        nargs=3,
+        type=float,
+        metavar=("X", "Y", "Z"),
+        help="GNSS antenna position in the body frame FRD from the IMU [m]",
+    )
+    p.add_argument("--imu-time-offset", type=float, help="seconds added to every IMU time stamp")
+    m = p.add_mutually_exclusive_group()
+    m.add_argument("--model", help="model JSON: {'gyro': fit, 'accel': fit} or per axis (from `imunoise fit`)")
+    m.add_argument("--default", action="store_true", help="plain default model WN+RW+GM (the default)")
+    m.add_argument("--kfgins", action="store_true", help="KF-GINS' loose settings of the shared drive (WN+GM)")
+    p.add_argument("--outages", help="outage file: 'start duration' per line [s]")
+    p.add_argument("--outage-runs", action="store_true", help="run each outage window separately")
+    p.add_argument("--start", type=float, help="start time [s, data time base]; default: first GNSS epoch")
+    p.add_argument("--end", type=float, help="end time [s]; default: end of the IMU data")
+    p.add_argument(
+        "--static-duration",
+        type=float,
+        default=30.0,
+        help="seconds of still data at the IMU file start for levelling and gyro bias (default 30)",
+    )
+    p.add_argument("--yaw", type=float, help="initial yaw [deg] instead of the GNSS course")
+    p.add_argument("--cov-every", type=int, help="covariance propagation every N IMU samples (default 5)")
+    p.add_argument(
+        "--zupt",
+        action="store_true",
+        help="zero-velocity updates at stops found by the SPEC §7 static detector (λ0 learned from the static window)",
+    )
+    p.add_argument("--no-gate", action="store_true", help="disable the χ² innovation gate")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    p.add_argument("--out", required=True, help="output folder")
+    p.set_defaults(func=run)
+
+
+def _inputs(args: argparse.Namespace):
+    from imunoise.io.dataset import read_dataset
+
+    ds = read_dataset(args.data) if args.data else None
+    imu = args.imu or (str(ds.imu) if ds else None)
+    gnss = args.gnss or (str(ds.gnss) if ds else None)
+    if not imu or not gnss:
+        raise ImunoiseError("give --imu and --gnss, or --data DIR with a dataset.json")
+    ref = args.ref or (str(ds.ref) if ds and ds.ref else None)
+    outages = args.outages or (str(ds.outages) if ds and ds.outages and args.outage_runs else None)
+    lever = args.lever_arm if args.lever_arm is not None else (list(ds.lever_arm_m) if ds else [0.0, 0.0, 0.0])
+    offset = args.imu_time_offset if args.imu_time_offset is not None else (ds.imu_time_offset_s if ds else 0.0)
+    return imu, gnss, ref, outages, np.asarray(lever, dtype=float), float(offset)
+
+
+def run(args: argparse.Namespace) -> int:
+    from imunoise.io.kfgins import Reference, read_gnss, read_imu, read_outages, read_reference
+    from imunoise.nav.align import coarse_align
+    from imunoise.nav.defaults import EkfConfig, default_axis_models, kfgins_loose, load_axis_models
+    from imunoise.nav.ekf import run_ekf
+    from imunoise.nav.metrics import nav_errors, summarize
+
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    imu_p, gnss_p, ref_p, out_p, lever, offset = _inputs(args)
+    if args.outage_runs and not out_p:
+        raise ImunoiseError("--outage-runs needs --outages F (or a dataset.json with 'outages')")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        imu = read_imu(imu_p, time_offset=offset)
+        gnss = read_gnss(gnss_p)
+        ref = read_reference(ref_p) if ref_p else None
+    for w in caught:
+        log.warning("%s", w.message)
+    windows = read_outages(out_p) if out_p else []
+    rate = imu.rate_hz
+    if args.model:
+        models = load_axis_models(args.model, rate)
+        model_name = args.model
+    elif args.kfgins:
+        models, model_name = default_axis_models(rate, kfgins_loose()), "kfgins_loose"
+    else:
+        models, model_name = default_axis_models(rate), "plain_default"
+    kw = {"lever_arm": tuple(lever)}
+    if args.cov_every:
+        kw["cov_every"] = int(args.cov_every)
+    if args.no_gate:
+        kw["chi2_gate"] = 0.0
+    config = EkfConfig(**kw)
+
+    t0 = args.start if args.start is not None else max(float(imu.t[0]), float(gnss.t[0]))
+    if not (imu.t[0] <= t0 < imu.t[-1]):
+        raise DataError(f"--start {t0:.3f} is outside the IMU data [{imu.t[0]:.3f}, {imu.t[-1]:.3f}]")
+    if args.end is not None and args.end <= t0:
+        raise DataError(f"--end {args.end} must be after the start {t0:.3f}")
+    yaw = None if args.yaw is None else math.radians(args.yaw)
+    init = coarse_align(imu, gnss, t0, static_duration=args.static_duration, yaw=yaw, lever_arm=lever)
+    log.info(
+        "start %.3f: roll %.2f° pitch %.2f° yaw %.2f°; gyro bias %s °/h",
+        t0,
+        *np.degrees(init.euler),
+        np.round(np.degrees(init.gyro_bias) * 3600, 1),
+    )
+
+    zupt = _zupt_mask(imu, args.static_duration) if args.zupt else None
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    base_gnss = gnss if args.outage_runs else gnss.without(windows)
+    res = run_ekf(imu, base_gnss, init, config, models, t_end=args.end, zupt=zupt)
+    duration = float(res.t[-1] - res.t[0])
+    week = int(ref.week[0]) if ref is not None and ref.week.size else 0
+    _write_traj(out / "trajectory.nav", res, week, Reference)
+    metrics: dict = {"model": model_name, "start": float(res.t[0]), "duration_s": duration, "zupt": bool(args.zupt)}
+    err = None
+    if ref is not None:
+        err = nav_errors(res.t, res.antenna_llh(lever), res.vel_ned, res.euler, ref)
+        metrics.update(
+            summarize(err, outages=[] if args.outage_runs else windows, elapsed_s=res.elapsed_s, duration_s=duration)
+        )
+    else:
+        metrics.update({"elapsed_s": res.elapsed_s, "realtime_factor": duration / res.elapsed_s, "outages": []})
+    metrics["gnss_rejected"] = int(np.sum(res.gnss_status == 0))
+    metrics["gnss_forced"] = int(np.sum(res.gnss_status == 2))
+
+    runs = []
+    if args.outage_runs and windows:
+        from tqdm import tqdm
+
+        outs = []
+        for k, w in enumerate(tqdm(windows, desc="outage runs", disable=not sys.stderr.isatty())):
+            r = run_ekf(imu, gnss.without([w]), init, config, models, t_end=args.end, zupt=zupt)
+            sub = out / f"outage_{k + 1}"
+            sub.mkdir(exist_ok=True)
+            _write_traj(sub / "trajectory.nav", r, week, Reference)
+            if ref is not None:
+                e = nav_errors(r.t, r.antenna_llh(lever), r.vel_ned, r.euler, ref)
+                mk = summarize(e, outages=[w], elapsed_s=r.elapsed_s, duration_s=duration)
+                (sub / "metrics.json").write_text(json.dumps(mk, indent=1))
+                outs.append(mk["outages"][0])
+                runs.append((w, e))
+        metrics["outages"] = outs
+        ends = [o["end_horizontal_m"] for o in outs if o["end_horizontal_m"] is not None]
+        metrics["mean_outage_end_horizontal_m"] = float(np.mean(ends)) if ends else None
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
+    if not args.no_plots:
+        _plots(out, res, ref, err, windows, runs, lever)
+    _print_summary(metrics)
+    print(
+        f"wrote {out / 'trajectory.nav'}, {out / 'metrics.json'}" + ("" if args.no_plots else " and plots"),
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _zupt_mask(imu, static_duration: float) -> np.ndarray:
+    from imunoise.detect import DetectorConfig, detect_static, learn_lambda0
+
+    gyro, accel = imu.rates()
+    m = imu.t < imu.t[0] + static_duration
+    lam = learn_lambda0(accel[m])
+    det = detect_static(imu.t, accel, gyro, DetectorConfig(lambda0=lam))
+    log.info(
+        "ZUPT: λ0 = %.3f m/s², %d stops: %s",
+        lam,
+        len(det.segments),
+        ", ".join(f"{s.t0:.1f}+{s.duration:.1f}s" for s in det.segments),
+    )
+    return det.static
+
+
+def _write_traj(path: Path, res, week: int, Reference) -> None:
+    from imunoise.io.kfgins import write_reference
+
+    write_reference(
+        path, Reference(t=res.t, llh=res.llh, vel_ned=res.vel_ned, euler=res.euler, week=np.full(res.t.size, week))
+    )
+
+
+def _print_summary(m: dict) -> None:
+    if "horizontal_rms_m" in m:
+        print(
+            f"horizontal RMS / p95 / max: {m['horizontal_rms_m']:.3f} / {m['horizontal_p95_m']:.3f} / "
+            f"{m['horizontal_max_m']:.3f} m; vertical RMS {m['vertical_rms_m']:.3f} m"
+        )
+        v = m["velocity_rms_mps"]
+        print(f"velocity RMS N/E/D: {v[0]:.3f} / {v[1]:.3f} / {v[2]:.3f} m/s")
+    for o in m.get("outages", []):
+        if o["end_horizontal_m"] is not None:
+            print(
+                f"outage {o['start']:.1f} + {o['duration']:.0f} s: end drift horizontal "
+                f"{o['end_horizontal_m']:.1f} m, vertical {o['end_vertical_m']:.1f} m"
+            )
+    if m.get("mean_outage_end_horizontal_m") is not None:
+        print(f"mean end-of-outage horizontal drift: {m['mean_outage_end_horizontal_m']:.1f} m")
+    print(f"filter time {m['elapsed_s']:.3f} s ({m['realtime_factor']:.0f}× real time)")
+
+
+def _plots(out: Path, res, ref, err, windows, runs, lever) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from imunoise.nav.earth import llh_to_ned
+
+    origin = res.llh[0]
+    est = llh_to_ned(res.antenna_llh(lever), origin)
+    fig, ax = plt.subplots(figsize=(7, 7))
+    if ref is not None:
+        rn = llh_to_ned(ref.llh, origin)
+        ax.plot(rn[:, 1], rn[:, 0], "-", color="0.6", lw=3, label="reference")
+        for k, (s, d) in enumerate(windows):
+            mw = (ref.t >= s) & (ref.t < s + d)
+            ax.plot(
+                rn[mw, 1],
+                rn[mw, 0],
+                "-",
+                color="tab:orange",
+                lw=4,
+                alpha=0.6,
+                label="outage windows" if k == 0 else None,
+            )
+    ax.plot(est[:, 1], est[:, 0], "-", color="tab:blue", lw=1, label="EKF")
+    for k, ((s, d), _) in enumerate(runs):
+        sub = out / f"outage_{k + 1}" / "trajectory.nav"
+        if sub.exists():
+            from imunoise.io.kfgins import read_reference
+
+            r = read_reference(sub)
+            mw = (r.t >= s) & (r.t < s + d)
+            rr = llh_to_ned(r.llh[mw], origin)
+            ax.plot(rr[:, 1], rr[:, 0], "-", color="tab:red", lw=1, label="EKF in outage" if k == 0 else None)
+    ax.set_xlabel("east [m]")
+    ax.set_ylabel("north [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    ax.set_title("trajectory (GNSS antenna)")
+    fig.tight_layout()
+    fig.savefig(out / "trajectory.png", dpi=120)
+    plt.close(fig)
+
+    if err is not None:
+        fig, axs = plt.subplots(3, 1, figsize=(10, 7), sharex=True)
+        for i, lab in enumerate(("north", "east", "down")):
+            axs[i].plot(err.t - err.t[0], err.ned[:, i], lw=0.8, label="full run")
+            for (s, d), e in runs:
+                mw = (e.t >= s) & (e.t < s + d)
+                axs[i].plot(e.t[mw] - err.t[0], e.ned[mw, i], lw=0.8, color="tab:red")
+            for s, d in windows:
+                axs[i].axvspan(s - err.t[0], s + d - err.t[0], color="tab:orange", alpha=0.15)
+            axs[i].set_ylabel(f"{lab} error [m]")
+            axs[i].grid(alpha=0.3)
+        axs[-1].set_xlabel(f"time since {err.t[0]:.1f} s [s]")
+        axs[0].set_title("position error vs reference (shaded: outage windows; red: per-window runs)")
+        fig.tight_layout()
+        fig.savefig(out / "errors.png", dpi=120)
+        plt.close(fig)
+
+    fig, axs = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    tt = res.t - res.t[0]
+    for i, lab in enumerate("xyz"):
+        axs[0].plot(tt, np.degrees(res.gyro_error[:, i]) * 3600, lw=0.8, label=f"gyro {lab}")
+        axs[1].plot(tt, res.accel_error[:, i] / 1e-5, lw=0.8, label=f"accel {lab}")
+    axs[0].set_ylabel("gyro error estimate [°/h]")
+    axs[1].set_ylabel("accel error estimate [mGal]")
+    axs[1].set_xlabel(f"time since {res.t[0]:.1f} s [s]")
+    for a in axs:
+        a.grid(alpha=0.3)
+        a.legend(ncol=3)
+    axs[0].set_title("estimated sensor errors (bias + augmented states)")
+    fig.tight_layout()
+    fig.savefig(out / "biases.png", dpi=120)
+    plt.close(fig)

@@ -1,0 +1,228 @@
+"""Default IMU error models and the EKF configuration (SPEC §8, issue 4).
+
+The "plain loosely coupled" default, used when nothing is known about the IMU, is per axis
+``WN + RW + AR1`` (one first-order Gauss–Markov bias) built from datasheet-like continuous values:
+
+* WN:  σ²_WN = N²·f            (N noise density, unit/√Hz; SPEC §2 table)
+* RW:  γ² = K²/f               (K rate random walk, unit/s/√Hz)
+* AR1: φ = exp(−1/(f·T_c)), σ² = σ²_GM(1 − φ²)   (T_c correlation time, σ_GM stationary σ)
+
+Parameters are per sample at the IMU rate ``f`` (SPEC §1), so the result plugs into
+``Model.state_space`` like a GMWM fit. The numbers of :func:`kfgins_loose` are those of the KF-GINS
+reference run on the shared drive (its README): ARW 0.5 °/√h, VRW 0.5 m/s/√h, gyro bias σ 100 °/h,
+accel bias σ 5000 mGal, correlation time 1 h.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from imunoise.model import Model
+from imunoise.processes import AR1, RW, WN
+
+DEG = math.pi / 180.0
+DEG_PER_H = DEG / 3600.0  # °/h → rad/s
+ARW_UNIT = DEG / 60.0  # °/√h → rad/s/√Hz
+VRW_UNIT = 1.0 / 60.0  # m/s/√h → m/s²/√Hz
+MGAL = 1e-5  # mGal → m/s²
+
+__all__ = [
+    "ImuSpec",
+    "EkfConfig",
+    "plain_default",
+    "kfgins_loose",
+    "default_axis_models",
+    "load_axis_models",
+    "DEG",
+    "DEG_PER_H",
+    "ARW_UNIT",
+    "VRW_UNIT",
+    "MGAL",
+]
+
+
+@dataclass(frozen=True)
+class ImuSpec:
+    """Datasheet-like continuous IMU error values in SI units (per sensor type, same on all axes).
+
+    gyro: ``gyro_n`` noise density (rad/s/√Hz), ``gyro_k`` rate random walk (rad/s²/√Hz), ``gyro_sigma_gm``
+    bias instability as Gauss–Markov σ (rad/s) with correlation time ``gyro_tau_s``; accel the same in
+    m/s² units.
+    """
+
+    gyro_n: float = 0.5 * ARW_UNIT
+    gyro_k: float = 0.5 * DEG_PER_H  # per √s: 0.5 °/h/√s, ~20 % of the GM's short-term K_eq
+    gyro_sigma_gm: float = 100.0 * DEG_PER_H
+    gyro_tau_s: float = 3600.0
+    accel_n: float = 0.5 * VRW_UNIT
+    accel_k: float = 2.5e-4
+    accel_sigma_gm: float = 5000.0 * MGAL
+    accel_tau_s: float = 3600.0
+
+    def models(self, freq: float) -> tuple[Model, Model]:
+        """(gyro model, accel model) with per-sample parameters at ``freq`` Hz (module docstring)."""
+        return (
+            _wn_rw_gm(self.gyro_n, self.gyro_k, self.gyro_sigma_gm, self.gyro_tau_s, freq),
+            _wn_rw_gm(self.accel_n, self.accel_k, self.accel_sigma_gm, self.accel_tau_s, freq),
+        )
+
+
+def _wn_rw_gm(n: float, k: float, sigma_gm: float, tau: float, freq: float) -> Model:
+    """WN + RW + AR1 per sample at ``freq`` from continuous values (module docstring); zero terms dropped."""
+    parts = []
+    if sigma_gm > 0 and tau > 0:
+        phi = math.exp(-1.0 / (freq * tau))
+        parts.append(AR1(phi=phi, sigma2=sigma_gm**2 * (1.0 - phi * phi)))
+    if n > 0:
+        parts.append(WN(sigma2=n * n * freq))
+    if k > 0:
+        parts.append(RW(gamma2=k * k / freq))
+    model = parts[0]
+    for p in parts[1:]:
+        model = model + p
+    return model if isinstance(model, Model) else Model([model])
+
+
+def plain_default() -> ImuSpec:
+    """The plain-LC default: KF-GINS' loose values plus a small rate random walk (WN + RW + GM)."""
+    return ImuSpec()
+
+
+def kfgins_loose() -> ImuSpec:
+    """Exactly the KF-GINS reference settings of the shared drive (WN + GM, no RW)."""
+    return ImuSpec(gyro_k=0.0, accel_k=0.0)
+
+
+def default_axis_models(freq: float, spec: ImuSpec | None = None) -> list[tuple[Model, float]]:
+    """Six (model, freq) pairs, gyro x/y/z then accel x/y/z, from ``spec`` (default :func:`plain_default`)."""
+    g, a = (spec or plain_default()).models(freq)
+    return [(g, freq)] * 3 + [(a, freq)] * 3
+
+
+@dataclass(frozen=True)
+class EkfConfig:
+    """Settings of the loosely coupled EKF (SPEC §8). SI units; angles in rad.
+
+    ``cov_every``: propagate the covariance every this many IMU samples (always also right before a
+    measurement update) with Φ = I + FT + ½(FT)² over the accumulated interval T; 1 reproduces KF-GINS'
+    per-sample propagation. ``chi2_gate``: innovation NIS threshold (3 dof; 0 disables); after
+    ``gate_max_reject`` consecutive rejections the next fix is accepted anyway, so the filter cannot lock
+    itself out after a long outage; ``gate_abs_m`` is added (squared) to the innovation covariance of the
+    gate test only, so innovations of that size are never called outliers. ``gate_q_scale`` and
+    ``fallback`` define the conservative noise used while the SPEC §7 angular-rate gate is open.
+    ``zupt_sigma`` (m/s) and ``zupt_every`` (samples) set the zero-velocity updates of the batch run when
+    a static mask is given.
+    """
+
+    lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    sigma_pos0: tuple[float, float, float] = (0.05, 0.05, 0.05)
+    sigma_vel0: tuple[float, float, float] = (0.05, 0.05, 0.05)
+    sigma_att0: tuple[float, float, float] = (0.5 * DEG, 0.5 * DEG, 3.0 * DEG)
+    sigma_gyro_bias0: float = 50.0 * DEG_PER_H
+    sigma_accel_bias0: float = 2500.0 * MGAL
+    sigma_gyro_drift0: float = 1.0 * DEG_PER_H / 60.0
+    sigma_accel_drift0: float = 1e-4
+    cov_every: int = 5
+    chi2_gate: float = 21.1  # χ²(3) at 99.99 %
+    gate_abs_m: float = 0.5
+    gate_max_reject: int = 4
+    gnss_sigma_floor: float = 0.002
+    gnss_sigma_nan: float = 10.0
+    gate_q_scale: float = 10.0
+    zupt_sigma: float = 0.02
+    zupt_every: int = 10
+    fallback: ImuSpec = field(default_factory=plain_default)
+
+    def with_(self, **kw) -> EkfConfig:
+        """Copy with some fields replaced (lever arm as any 3-sequence)."""
+        if "lever_arm" in kw:
+            kw["lever_arm"] = tuple(float(x) for x in np.asarray(kw["lever_arm"], dtype=float).ravel())
+        return replace(self, **kw)
+
+
+_AXIS_KEYS = {
+    "gyro_x": 0,
+    "gyro_y": 1,
+    "gyro_z": 2,
+    "accel_x": 3,
+    "accel_y": 4,
+    "accel_z": 5,
+    "gx": 0,
+    "gy": 1,
+    "gz": 2,
+    "ax": 3,
+    "ay": 4,
+    "az": 5,
+}
+_SI_UNITS = {"gyro": ("rad/s", "rad s^-1", "rad/s/sample"), "accel": ("m/s^2", "m/s²", "m/s2", "m s^-2")}
+
+
+def _model_from_entry(entry: dict, sensor: str, where: str, freq_default: float) -> tuple[Model, float]:
+    from imunoise.errors import ModelError, UnitError
+
+    if not isinstance(entry, dict) or "model" not in entry:
+        raise ModelError(f"{where}: expected a fit object with 'model' and 'params', got {type(entry).__name__}")
+    unit = entry.get("unit")
+    if isinstance(unit, str) and unit not in ("", "u", "unknown") and unit not in _SI_UNITS[sensor]:
+        raise UnitError(
+            f"{where}: parameters are in {unit!r}; the EKF needs SI ({_SI_UNITS[sensor][0]}). "
+            "Refit with --units so the data are converted to SI"
+        )
+    model = Model.from_dict(entry)
+    if not model.known:
+        raise ModelError(f"{where}: model {model} has no parameter values")
+    freq = entry.get("freq_hz", entry.get("rate_hz", freq_default))
+    return model, float(freq)
+
+
+def load_axis_models(src, freq_default: float) -> list[tuple[Model, float]]:
+    """Six (model, freq) pairs from a model JSON (path or parsed dict).
+
+    Accepted layouts: ``{"gyro": FIT, "accel": FIT}`` (one model per sensor), ``{"gyro": {"x": FIT, "y":
+    FIT, "z": FIT}, ...}``, or per-axis keys ``gyro_x``…``accel_z`` / ``gx``…``az`` (the simulator's truth
+    JSON). FIT is what ``imunoise fit`` writes (``model``, ``params``, ``freq_hz``, ``unit``); parameters
+    per sample at ``freq_hz`` in SI units. A sensor that is missing gets the plain default (logged).
+    """
+    import json
+    import logging
+    from pathlib import Path
+
+    from imunoise.errors import ModelError
+
+    where = "model JSON"
+    if not isinstance(src, dict):
+        where = str(src)
+        try:
+            src = json.loads(Path(src).read_text(encoding="utf-8"))
+        except json.JSONDecodeError as exc:
+            raise ModelError(f"{where}: not valid JSON ({exc})") from exc
+    if "imu_models" in src and isinstance(src["imu_models"], dict):
+        src = src["imu_models"]
+    out: list[tuple[Model, float] | None] = [None] * 6
+    for key, val in src.items():
+        k = key.lower()
+        if k in ("gyro", "accel"):
+            base = 0 if k == "gyro" else 3
+            if isinstance(val, dict) and "model" not in val:
+                for j, ax in enumerate("xyz"):
+                    if ax not in val:
+                        raise ModelError(f"{where}: '{key}' needs 'x', 'y', 'z' entries or one fit object")
+                    out[base + j] = _model_from_entry(val[ax], k, f"{where}[{key}][{ax}]", freq_default)
+            else:
+                m = _model_from_entry(val, k, f"{where}[{key}]", freq_default)
+                for j in range(3):
+                    out[base + j] = m
+        elif k in _AXIS_KEYS:
+            a = _AXIS_KEYS[k]
+            out[a] = _model_from_entry(val, "gyro" if a < 3 else "accel", f"{where}[{key}]", freq_default)
+    if all(o is None for o in out):
+        raise ModelError(f"{where}: no IMU axis models found; expected keys 'gyro'/'accel' or gyro_x..accel_z")
+    default = default_axis_models(freq_default)
+    for a in range(6):
+        if out[a] is None:
+            logging.getLogger(__name__).warning("%s: no model for axis %d: using the plain default", where, a)
+            out[a] = default[a]
+    return out  # type: ignore[return-value]

@@ -1,0 +1,39 @@
+"""dataset.json manifests (SPEC §12)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from imunoise.errors import DataError
+from imunoise.io.dataset import read_dataset
+
+
+def test_shared_drive_manifest(shared_data):
+    ds = read_dataset(shared_data("rtklibexplorer_drive0708"))
+    assert ds.imu.name == "imu_body_inc.txt.gz" and ds.imu.exists()
+    assert ds.ref is not None and ds.outages is not None
+    assert ds.lever_arm_m == (0.0, -0.05, 0.0)
+    assert ds.imu_time_offset_s == 0.0
+    assert ds.extra["imu_rate_hz"] == 100.0
+
+
+def test_manifest_validation(tmp_path):
+    (tmp_path / "imu.txt").write_text("0 0 0 0 0 0 0\n")
+    (tmp_path / "gnss.txt").write_text("0 0 0 0 1 1 1\n")
+    good = {"name": "x", "imu": "imu.txt", "gnss": "gnss.txt", "lever_arm_m": [0.1, 0, -0.2]}
+    (tmp_path / "dataset.json").write_text(json.dumps(good))
+    ds = read_dataset(tmp_path / "dataset.json")
+    assert ds.root == tmp_path.resolve() and ds.lever_arm_m == (0.1, 0.0, -0.2) and ds.ref is None
+    for bad, msg in [
+        ({**good, "ref": "missing.nav"}, "does not exist"),
+        ({**good, "lever_arm_m": [0, 1]}, "lever_arm_m"),
+        ({**good, "imu_kind": "counts"}, "imu_kind"),
+        ({"name": "x", "imu": "imu.txt"}, "gnss"),
+    ]:
+        (tmp_path / "dataset.json").write_text(json.dumps(bad))
+        with pytest.raises(DataError, match=msg):
+            read_dataset(tmp_path)
+    with pytest.raises(DataError, match="no dataset.json"):
+        read_dataset(tmp_path / "nowhere")
