@@ -37,3 +37,22 @@ def test_manifest_validation(tmp_path):
             read_dataset(tmp_path)
     with pytest.raises(DataError, match="no dataset.json"):
         read_dataset(tmp_path / "nowhere")
+
+
+def test_load_axis_models_reads_the_multi_axis_model_file(tmp_path):
+    """The file written by `imunoise fit --columns ...` feeds `imunoise nav --model` axis by axis."""
+    from imunoise import AR1, WN
+    from imunoise.gmwm import gmwm
+    from imunoise.imu_model import ImuModel
+    from imunoise.nav.defaults import load_axis_models
+
+    fits = {}
+    for i, axis in enumerate(("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")):
+        truth = AR1(phi=0.99, sigma2=1e-8 * (i + 1)) + WN(sigma2=1e-6 * (i + 1))
+        fits[axis] = gmwm(truth.unknown(), truth.simulate(8192, seed=i), freq=100.0, unit="rad/s" if i < 3 else "m/s²")
+    path = ImuModel.from_fits(fits).save(tmp_path / "imu_model.json")
+    models = load_axis_models(str(path), 100.0)
+    assert len(models) == 6
+    for (model, freq), axis in zip(models, fits):
+        assert freq == 100.0
+        assert model == fits[axis].model

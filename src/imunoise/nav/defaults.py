@@ -181,7 +181,8 @@ def _model_from_entry(entry: dict, sensor: str, where: str, freq_default: float)
 def load_axis_models(src, freq_default: float) -> list[tuple[Model, float]]:
     """Six (model, freq) pairs from a model JSON (path or parsed dict).
 
-    Accepted layouts: ``{"gyro": FIT, "accel": FIT}`` (one model per sensor), ``{"gyro": {"x": FIT, "y":
+    Accepted layouts: the multi-axis model file (``kind: imunoise.imu_model`` with ``axes``),
+    ``{"gyro": FIT, "accel": FIT}`` (one model per sensor), ``{"gyro": {"x": FIT, "y":
     FIT, "z": FIT}, ...}``, or per-axis keys ``gyro_x``…``accel_z`` / ``gx``…``az`` (the simulator's truth
     JSON). FIT is what ``imunoise fit`` writes (``model``, ``params``, ``freq_hz``, ``unit``); parameters
     per sample at ``freq_hz`` in SI units. A sensor that is missing gets the plain default (logged).
@@ -201,6 +202,8 @@ def load_axis_models(src, freq_default: float) -> list[tuple[Model, float]]:
             raise ModelError(f"{where}: not valid JSON ({exc})") from exc
     if "imu_models" in src and isinstance(src["imu_models"], dict):
         src = src["imu_models"]
+    if src.get("kind") == "imunoise.imu_model" and isinstance(src.get("axes"), dict):
+        src = src["axes"]  # the multi-axis file of `imunoise fit --columns` / imunoise.imu_model
     out: list[tuple[Model, float] | None] = [None] * 6
     for key, val in src.items():
         k = key.lower()

@@ -1,0 +1,272 @@
+"""Fleets of static logs on Dask (SPEC §12): one model per file and axis, one table, one model JSON per file.
+
+Each file is one task (read -> fit every axis -> write ``<name>.model.json``); tasks run on a
+``dask.distributed`` cluster — a :class:`~dask.distributed.LocalCluster` of worker *processes* by default
+(the fits are numba/NumPy code that holds the GIL between kernels), or any scheduler address. A file
+that fails becomes a row with ``status = "error"`` and the one-line reason; the others go on.
+
+The table has one row per file and axis: the model, the continuous-time white-noise density N and
+bias random walk K_eq (SPEC §2, as exported by :mod:`imunoise.export`), their units, the GOF, the fit
+time and the handled data problems (``notes``: sorted or duplicated stamps, gaps). With a remote
+scheduler the workers must see the input files and the output folder at the same paths. The table is
+written as CSV, and also as Parquet when ``pyarrow`` is installed (optional).
+"""
+
+from __future__ import annotations
+
+import csv
+import glob
+import hashlib
+import os
+import time
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from imunoise.errors import DataError
+
+__all__ = ["BatchResult", "TABLE_FIELDS", "expand_paths", "process_file", "run_batch", "run_sequential", "write_table"]
+
+TABLE_FIELDS = [
+    "file",
+    "axis",
+    "status",
+    "error",
+    "model",
+    "n_samples",
+    "freq_hz",
+    "unit",
+    "noise_density",
+    "noise_density_unit",
+    "random_walk_eq",
+    "random_walk",
+    "random_walk_unit",
+    "objective",
+    "converged",
+    "fit_s",
+    "notes",
+    "model_json",
+]
+
+
+@dataclass
+class BatchResult:
+    """Rows of the table (dicts with :data:`TABLE_FIELDS`), files written, wall time [s]."""
+
+    rows: list[dict[str, Any]]
+    wall_s: float
+    tables: list[Path] = field(default_factory=list)
+    scheduler: str = "sequential"
+
+    @property
+    def failed(self) -> list[str]:
+        return sorted({r["file"] for r in self.rows if r["status"] != "ok"})
+
+    @property
+    def n_files(self) -> int:
+        return len({r["file"] for r in self.rows})
+
+
+def expand_paths(patterns: str | Sequence[str]) -> list[str]:
+    """Files matching the glob pattern(s) (``**`` recursive), sorted, without duplicates."""
+    pats = [patterns] if isinstance(patterns, str) else list(patterns)
+    out: list[str] = []
+    for p in pats:
+        hits = sorted(glob.glob(p, recursive=True)) or ([p] if Path(p).exists() else [])
+        out += [h for h in hits if h not in out]
+    if not out:
+        raise DataError(f"no files match {', '.join(pats)}")
+    return out
+
+
+def _names(paths: Sequence[str]) -> list[str]:
+    """Output names: the file stem, with a short hash of the full path where stems collide."""
+    stems = [Path(p).name.split(".")[0] for p in paths]
+    out = []
+    for p, s in zip(paths, stems):
+        if stems.count(s) > 1:
+            s = f"{s}_{hashlib.sha1(str(Path(p).resolve()).encode()).hexdigest()[:6]}"
+        out.append(s)
+    return out
+
+
+def process_file(path: str, cfg: dict[str, Any], out_dir: str, name: str) -> list[dict[str, Any]]:
+    """Fit every axis of one file; never raises — a failure becomes one ``status = "error"`` row.
+
+    ``cfg`` keys: ``freq`` (Hz, or None to take it from the stamps), ``model`` or ``auto``, ``criterion``,
+    ``columns``, ``units``, ``time_column``, ``time_unit``, ``topic``, ``weights``, ``robust``, ``seed``,
+    ``decimate``.
+    """
+    from imunoise.export import axis_noise, density_units
+    from imunoise.imu_model import ImuModel, fit_axis
+    from imunoise.io.imu_input import read_imu_source, sensor_of
+
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            series = read_imu_source(
+                path,
+                topic=cfg.get("topic"),
+                columns=cfg.get("columns"),
+                units=cfg.get("units"),
+                time_column=cfg.get("time_column"),
+                time_unit=cfg.get("time_unit") or "s",
+                freq=cfg.get("freq"),
+                decimate_by=int(cfg.get("decimate") or 1),
+            )
+        notes = " | ".join(str(w.message) for w in caught)
+        fits = {}
+        rows = []
+        for axis, values in series.data.items():
+            t0 = time.perf_counter()
+            fit, _ = fit_axis(
+                values,
+                freq=series.freq,
+                model=cfg.get("model"),
+                auto=bool(cfg.get("auto")),
+                criterion=cfg.get("criterion", "wvic"),
+                weights=cfg.get("weights", "efficient"),
+                robust=bool(cfg.get("robust")),
+                unit=series.unit[axis],
+                seed=int(cfg.get("seed", 0)),
+            )
+            fit.extra.update({"source": path, "column": axis, "source_unit": series.source_unit[axis]})
+            fits[axis] = fit
+            an = axis_noise(fit, axis)
+            n_unit, k_unit = density_units(sensor_of(axis, fit.unit) or "gyro")
+            if fit.unit not in ("rad/s", "m/s²"):
+                n_unit, k_unit = f"{fit.unit}/sqrt(Hz)", f"{fit.unit}/s/sqrt(Hz)"
+            rows.append(
+                {
+                    "file": path,
+                    "axis": axis,
+                    "status": "ok",
+                    "error": "",
+                    "model": str(fit.model),
+                    "n_samples": int(values.size),
+                    "freq_hz": series.freq,
+                    "unit": fit.unit,
+                    "noise_density": an.N,
+                    "noise_density_unit": n_unit,
+                    "random_walk_eq": an.K_eq,
+                    "random_walk": an.K_rw,
+                    "random_walk_unit": k_unit,
+                    "objective": fit.objective,
+                    "converged": bool(fit.converged),
+                    "fit_s": time.perf_counter() - t0,
+                    "notes": notes,
+                }
+            )
+        source = {"file": path, **{k: v for k, v in series.meta.items() if isinstance(v, (str, int, float))}}
+        out = Path(out_dir) / f"{name}.model.json"
+        ImuModel.from_fits(fits, source=source).save(out)
+        for r in rows:
+            r["model_json"] = str(out)
+        return rows
+    except Exception as exc:  # noqa: BLE001 - a broken file must not stop the fleet
+        reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        return [{**{k: "" for k in TABLE_FIELDS}, "file": path, "status": "error", "error": reason}]
+
+
+def write_table(rows: Iterable[dict[str, Any]], out_dir: str | Path, stem: str = "batch") -> list[Path]:
+    """``<stem>.csv`` always; ``<stem>.parquet`` too when pyarrow is importable."""
+    rows = list(rows)
+    out_dir = Path(out_dir)
+    paths = [out_dir / f"{stem}.csv"]
+    with open(paths[0], "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=TABLE_FIELDS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: r.get(k, "") for k in TABLE_FIELDS})
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        return paths
+    cols = {k: [None if r.get(k, "") == "" else r.get(k) for r in rows] for k in TABLE_FIELDS}
+    pq.write_table(pa.table(cols), out_dir / f"{stem}.parquet")
+    paths.append(out_dir / f"{stem}.parquet")
+    return paths
+
+
+def _sort_rows(rows: list[dict[str, Any]], paths: Sequence[str]) -> list[dict[str, Any]]:
+    order = {p: i for i, p in enumerate(paths)}
+    return sorted(rows, key=lambda r: order.get(r["file"], len(order)))
+
+
+def run_sequential(
+    paths: Sequence[str], cfg: dict[str, Any], out_dir: str | Path, *, progress: bool = False
+) -> BatchResult:
+    """The plain loop (the baseline of the benchmark), same outputs as :func:`run_batch`."""
+    from tqdm import tqdm
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    rows = []
+    for p, n in tqdm(list(zip(paths, _names(paths))), desc="files", disable=not progress, unit="file"):
+        rows += process_file(p, cfg, str(out_dir), n)
+    wall = time.perf_counter() - t0
+    return BatchResult(rows, wall, write_table(rows, out_dir), "sequential")
+
+
+def run_batch(
+    paths: Sequence[str],
+    cfg: dict[str, Any],
+    out_dir: str | Path,
+    *,
+    scheduler: str = "local",
+    n_workers: int | None = None,
+    progress: bool = True,
+) -> BatchResult:
+    """Run :func:`process_file` for every path on Dask and write the table.
+
+    ``scheduler``: ``"local"`` (a LocalCluster of ``n_workers`` single-threaded processes, default one per
+    core), ``"threads"`` (in-process, for debugging) or a ``dask.distributed`` scheduler address
+    (``tcp://host:8786``). ``wall_s`` includes the cluster start-up.
+    """
+    from dask.distributed import Client, LocalCluster, as_completed
+    from tqdm import tqdm
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    cluster = None
+    if scheduler in ("local", "threads"):
+        cluster = LocalCluster(
+            n_workers=n_workers or os.cpu_count() or 1,
+            threads_per_worker=1,
+            processes=scheduler == "local",
+            dashboard_address=None,
+            silence_logs=40,
+        )
+        client = Client(cluster)
+    else:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except OSError as exc:
+            raise DataError(f"cannot reach the Dask scheduler {scheduler!r}: {exc}") from exc
+    rows: list[dict[str, Any]] = []
+    try:
+        names = _names(paths)
+        futures = {
+            client.submit(process_file, p, cfg, str(out_dir.resolve()), n, pure=False): p for p, n in zip(paths, names)
+        }
+        bar = tqdm(total=len(futures), desc="files", disable=not progress, unit="file")
+        for fut in as_completed(list(futures)):
+            try:
+                rows += fut.result()
+            except Exception as exc:  # noqa: BLE001 - a worker crash on one file is reported, not fatal
+                blank = {k: "" for k in TABLE_FIELDS}
+                rows.append({**blank, "file": futures[fut], "status": "error", "error": f"worker: {exc}"})
+            bar.update(1)
+        bar.close()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    rows = _sort_rows(rows, paths)
+    wall = time.perf_counter() - t0
+    return BatchResult(rows, wall, write_table(rows, out_dir), scheduler)
