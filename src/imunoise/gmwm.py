@@ -344,7 +344,7 @@ def prepare(
         wv = data
     else:
         if not freq > 0:
-            raise DataError(f"--freq must be > 0 Hz, got {freq}")
+            raise DataError(f"the sample rate freq must be > 0 Hz, got {freq}")
         wv = wavelet_variance(data, robust=robust, freq=freq)
     if len(wv.variance) < 2:
         raise DataError(f"only {len(wv.variance)} wavelet level(s): need more data to fit a model")

@@ -1,0 +1,406 @@
+"""EM baseline: constrained expectation–maximisation on the state-space form (Stebler et al. 2011; SPEC §6).
+
+Stebler, Guerrier, Skaloud & Victoria-Feser (2011), "Constrained expectation-maximization algorithm for
+stochastic inertial error modeling: study of feasibility", Meas. Sci. Technol. 22, 085204.
+
+Model of one sensor axis (per sample, data de-meaned): y_t = Σ_i x_{i,t} + b_t + ω(t − t̄) + v_t with
+AR1 states x_{i,t} = φ_i x_{i,t−1} + e_{i,t} (Var e = σ²_i), an RW state b_t = b_{t−1} + η_t (Var η = γ²),
+WN v_t (Var σ²_WN) as the observation noise and an optional deterministic drift ω. QN is not a
+state-space process here (it is not Markov of order one in this form) and is rejected.
+
+E-step: Kalman filter and Rauch–Tung–Striebel smoother with the lag-one covariance
+Cov(x_{t+1}, x_t | Y) = P_{t+1|n} J_tᵀ (numba, scalar observation). The model is time invariant, so the
+filter and smoother covariances reach a steady state; once the relative change of the predicted
+covariance is below 1e-12 it is frozen (and the backward one likewise inside the frozen stretch), which
+makes an iteration O(n·k²) and keeps memory O(n·k) for long series.
+M-step (closed form, conditional on the first state): φ_i = S10/S00, σ²_i = (S11 − φ_i S10)/(n − 1),
+γ² = (S11 − 2S10 + S00)/(n − 1), σ²_WN = mean E[(y_t − Hx_t − ω(t − t̄))²], ω = Σ(t − t̄)(y_t − Hx̂_t)/Σ(t − t̄)².
+Constraints by projection: φ ∈ [1e-6, 1 − 1e-10], variances ≥ 1e-14·Var(y) (a structural zero would
+freeze EM there), AR1s re-sorted by φ. The initial AR1 state has its stationary variance, the RW state
+a diffuse variance Var(y)·100.
+Stopping: relative change of the log-likelihood below ``tol`` (default 1e-8) or ``max_iter``. A
+non-finite or decreasing likelihood is flagged (``extra["diverged"]``, ``extra["decreases"]``) and the
+best iterate is kept. The default start is the AV result (:func:`imunoise.allan.allan_fit`), as in the
+paper; ``init=`` accepts any fit or model.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from imunoise.errors import DataError, FitError, ModelError
+from imunoise.gmwm import GMWMFit, prepare
+from imunoise.model import Model
+from imunoise.processes import AR1, DR, RW, WN
+
+__all__ = ["em_fit", "kalman_loglik"]
+
+_PHI_LO, _PHI_HI = 1e-6, 1.0 - 1e-10
+_FREEZE_RTOL = 1e-12
+
+
+@njit(cache=True)
+def _estep(y, tt, omega, phi, q, r, p0):  # pragma: no cover - compiled
+    """Kalman filter + RTS smoother for y_t = Σ x_t + ω tt_t + v_t, x_{t} = diag(φ) x_{t−1} + e_t.
+
+    Returns loglik, S00, S11, S10 (per state), sum of E[(y − Hx − ω tt)²], Σ tt (y − Hx̂).
+    """
+    n = y.shape[0]
+    k = phi.shape[0]
+    xp = np.zeros((n, k))
+    xf = np.zeros((n, k))
+    cap = min(n, 1 << 17)
+    Pp = np.zeros((cap, k, k))
+    Pf = np.zeros((cap, k, k))
+    P = np.zeros((k, k))
+    for i in range(k):
+        P[i, i] = p0[i]
+    x = np.zeros(k)
+    ll = 0.0
+    frozen = -1  # first index whose covariances equal the steady state
+    Pcur = P.copy()
+    Pfc = np.zeros((k, k))
+    Kg = np.zeros(k)
+    F = 0.0
+    for t in range(n):
+        if t > 0:
+            for i in range(k):
+                x[i] = phi[i] * xf[t - 1, i]
+        xp[t] = x
+        if frozen < 0:
+            if t > 0:
+                # P_p = Φ P_f Φᵀ + Q with diagonal Φ
+                for i in range(k):
+                    for j in range(k):
+                        Pcur[i, j] = phi[i] * Pfc[i, j] * phi[j]
+                    Pcur[i, i] += q[i]
+            F = r
+            for i in range(k):
+                s = 0.0
+                for j in range(k):
+                    s += Pcur[i, j]
+                Kg[i] = s
+                F += s
+            for i in range(k):
+                Kg[i] /= F
+            for i in range(k):
+                for j in range(k):
+                    Pfc[i, j] = Pcur[i, j] - Kg[i] * F * Kg[j]
+            if t < cap:
+                Pp[t] = Pcur
+                Pf[t] = Pfc
+            if t > 0 and t < cap:
+                num = 0.0
+                den = 0.0
+                for i in range(k):
+                    for j in range(k):
+                        d = Pcur[i, j] - Pp[t - 1, i, j]
+                        num += d * d
+                        den += Pcur[i, j] * Pcur[i, j]
+                if num <= (_FREEZE_RTOL * _FREEZE_RTOL) * den or t == cap - 1:
+                    frozen = t
+        hx = 0.0
+        for i in range(k):
+            hx += x[i]
+        v = y[t] - omega * tt[t] - hx
+        ll += -0.5 * (math.log(2.0 * math.pi * F) + v * v / F)
+        for i in range(k):
+            xf[t, i] = x[i] + Kg[i] * v
+    # backward pass
+    xs = xf[n - 1].copy()
+    Ps = Pf[min(n - 1, cap - 1)].copy() if frozen < 0 or n - 1 < frozen else Pf[frozen].copy()
+    S00 = np.zeros(k)
+    S11 = np.zeros(k)
+    S10 = np.zeros(k)
+    e2 = 0.0
+    ty = 0.0
+    # t = n-1 contributions
+    hx = 0.0
+    hph = 0.0
+    for i in range(k):
+        hx += xs[i]
+        for j in range(k):
+            hph += Ps[i, j]
+    e = y[n - 1] - omega * tt[n - 1] - hx
+    e2 += e * e + hph
+    ty += tt[n - 1] * (y[n - 1] - hx)
+    Jm = np.zeros((k, k))
+    Pnew = np.zeros((k, k))
+    tmp = np.zeros((k, k))
+    xnew = np.zeros(k)
+    ps_frozen = False
+    j_const = False  # J is constant where both P_f[t] and P_p[t+1] are the frozen steady state
+    for t in range(n - 2, -1, -1):
+        steady = frozen >= 0 and t >= frozen
+        a = t if not steady else frozen
+        b = t + 1 if (frozen < 0 or t + 1 < frozen) else frozen
+        Pft = Pf[a]
+        Ppt1 = Pp[b]
+        if not (steady and j_const):
+            # J = P_f Φᵀ P_p⁻¹
+            inv = np.linalg.inv(Ppt1)
+            for i in range(k):
+                for j in range(k):
+                    s = 0.0
+                    for m in range(k):
+                        s += Pft[i, m] * phi[m] * inv[m, j]
+                    Jm[i, j] = s
+            j_const = steady
+        # pair (t+1, t): Cov(x_{t+1}, x_t | Y) = P_s[t+1] Jᵀ, with Ps = P_s[t+1], xs = x_s[t+1]
+        for i in range(k):
+            c = 0.0
+            for m in range(k):
+                c += Ps[i, m] * Jm[i, m]
+            S10[i] += c
+            S11[i] += Ps[i, i] + xs[i] * xs[i]
+        for i in range(k):
+            s = 0.0
+            for j in range(k):
+                s += Jm[i, j] * (xs[j] - xp[t + 1, j])
+            xnew[i] = xf[t, i] + s
+        for i in range(k):
+            S10[i] += xs[i] * xnew[i]
+        if not (steady and ps_frozen):
+            for i in range(k):
+                for j in range(k):
+                    s = 0.0
+                    for m in range(k):
+                        s += Jm[i, m] * (Ps[m, j] - Ppt1[m, j])
+                    tmp[i, j] = s
+            num = 0.0
+            den = 0.0
+            for i in range(k):
+                for j in range(k):
+                    s = 0.0
+                    for m in range(k):
+                        s += tmp[i, m] * Jm[j, m]
+                    Pnew[i, j] = Pft[i, j] + s
+                    d = Pnew[i, j] - Ps[i, j]
+                    num += d * d
+                    den += Pnew[i, j] * Pnew[i, j]
+            ps_frozen = steady and t > frozen and num <= (_FREEZE_RTOL * _FREEZE_RTOL) * den
+            for i in range(k):
+                for j in range(k):
+                    Ps[i, j] = Pnew[i, j]
+        for i in range(k):
+            xs[i] = xnew[i]
+        hx = 0.0
+        hph = 0.0
+        for i in range(k):
+            S00[i] += Ps[i, i] + xs[i] * xs[i]
+            hx += xs[i]
+            for j in range(k):
+                hph += Ps[i, j]
+        e = y[t] - omega * tt[t] - hx
+        e2 += e * e + hph
+        ty += tt[t] * (y[t] - hx)
+    return ll, S00, S11, S10, e2, ty
+
+
+def kalman_loglik(y: np.ndarray, model: Model) -> float:
+    """Exact Gaussian log-likelihood of de-meaned ``y`` under a state-space model (AR1s, RW, WN, DR)."""
+    y = np.ascontiguousarray(np.asarray(y, dtype=float) - np.mean(y))
+    phi, q, r, p0, omega, _ = _to_state(model, float(np.var(y)))
+    tt = np.arange(y.size, dtype=float) - (y.size - 1) / 2.0
+    return float(_estep(y, tt, omega, phi, q, r, p0)[0])
+
+
+def _to_state(model: Model, var_y: float) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, float, list[str]]:
+    phis, qs, p0s, labels = [], [], [], []
+    r = 0.0
+    omega = 0.0
+    has_wn = False
+    for name, c in zip(model.component_names(), model.components):
+        if c.kind == "AR1":
+            phi, s2 = c.values
+            phis.append(phi)
+            qs.append(s2)
+            p0s.append(s2 / (1.0 - phi * phi))
+            labels.append(name)
+        elif c.kind == "RW":
+            phis.append(1.0)
+            qs.append(c.values[0])
+            p0s.append(100.0 * var_y)
+            labels.append("RW")
+        elif c.kind == "WN":
+            r = c.values[0]
+            has_wn = True
+        elif c.kind == "DR":
+            omega = c.values[0]
+        else:
+            raise ModelError(
+                f"the EM baseline handles AR1, RW, WN and DR; {c.kind} has no state-space form here "
+                "(drop it from --model)"
+            )
+    if not has_wn:
+        raise ModelError("the EM state-space form needs WN as its observation noise; add WN to the model")
+    return np.array(phis), np.array(qs), r, np.array(p0s), omega, labels
+
+
+def _start_model(structure: Model, init: Model | None, var_y: float) -> Model:
+    """Parameters for ``structure`` from ``init`` (matching processes), defaults for the rest."""
+    comps = []
+    init_ar = [c for c in init.components if c.kind == "AR1"] if init is not None else []
+    n_ar = structure.n_ar1
+    default_phis = np.exp(-1.0 / np.geomspace(1e4, 10.0, max(n_ar, 1)))
+    for i in range(n_ar):
+        if i < len(init_ar):
+            phi, s2 = init_ar[i].values
+        else:
+            phi = float(default_phis[i])
+            s2 = 0.01 * var_y * (1.0 - phi * phi)
+        comps.append(AR1(phi=float(np.clip(phi, _PHI_LO, _PHI_HI)), sigma2=max(s2, 1e-14 * var_y)))
+    for kind, proc, default in (
+        ("WN", WN, 0.5 * var_y),
+        ("RW", RW, 1e-8 * var_y),
+        ("DR", DR, 0.0),
+    ):
+        if structure.has(kind):
+            val = None
+            if init is not None and init.has(kind):
+                val = next(c.values[0] for c in init.components if c.kind == kind)
+            v = default if val is None else val
+            if kind != "DR":
+                v = max(v, 1e-14 * var_y)
+            comps.append(proc(**{proc.param_names[0]: v}))
+    if structure.has("QN"):
+        raise ModelError("the EM baseline has no QN (not a first-order state-space process); remove QN")
+    return Model(comps)
+
+
+def em_fit(
+    data: Any,
+    *,
+    freq: float = 1.0,
+    model: Model | str | None = None,
+    init: GMWMFit | Model | str | None = "av",
+    max_iter: int = 500,
+    tol: float = 1e-8,
+    unit: str = "u",
+    weights: str = "efficient",
+) -> GMWMFit:
+    """Constrained EM estimate of a state-space error model (module docstring; SPEC §6).
+
+    ``data``: one 1-D array (segments are joined after removing each one's mean; EM needs one
+    time line). ``model``: the structure (default: the structure of the start). ``init``: ``"av"``
+    (the AV baseline, default), a fit or a model with parameters. The result is a :class:`GMWMFit` with
+    ``method="em"``, ``objective`` = the GMWM objective (Eq. 8) of the EM model on the data's WV and Ω,
+    and ``extra`` with iterations, log-likelihood (history too), time, convergence and divergence flags.
+    """
+    t0 = time.perf_counter()
+    if isinstance(data, (list, tuple)):
+        y = np.concatenate([np.asarray(s, dtype=float) - np.mean(s) for s in data])
+    else:
+        y = np.asarray(data, dtype=float).reshape(-1)
+    if y.size < 32:
+        raise DataError(f"only {y.size} samples; the EM baseline needs at least 32")
+    if not np.all(np.isfinite(y)):
+        raise DataError("the data contain NaN or Inf; remove or interpolate them before EM")
+    y = np.ascontiguousarray(y - y.mean())
+    var_y = float(np.var(y))
+    if not var_y > 0:
+        raise DataError("the data are constant; EM cannot estimate a noise model")
+    if isinstance(model, str):
+        model = Model.parse(model)
+    if isinstance(init, str):
+        if init != "av":
+            init = Model.parse(init)
+        else:
+            from imunoise.allan import allan_fit
+
+            init = allan_fit(y, freq=freq, unit=unit).model
+    init_model = init.model if isinstance(init, GMWMFit) else init
+    if init_model is not None and not init_model.known:
+        init_model = None
+    structure = model if model is not None else init_model
+    if structure is None:
+        raise ModelError("give the EM a model structure (model=) or a starting fit (init=)")
+    structure = structure.unknown()
+    current = _start_model(structure, init_model, var_y)
+    n = y.size
+    tt = np.arange(n, dtype=float) - (n - 1) / 2.0
+    stt = float(tt @ tt)
+    has_dr = structure.has("DR")
+    floor = 1e-14 * var_y
+    history: list[float] = []
+    best = (-math.inf, current)
+    diverged = False
+    decreases = 0
+    converged = False
+    it = 0
+    while it < max_iter:
+        it += 1
+        phi, q, r, p0, omega, labels = _to_state(current, var_y)
+        ll, S00, S11, S10, e2, ty = _estep(y, tt, omega, phi, q, r, p0)
+        if not math.isfinite(ll):
+            diverged = True
+            break
+        history.append(ll)
+        if ll > best[0]:
+            best = (ll, current)
+        if len(history) >= 2:
+            change = history[-1] - history[-2]
+            if change < -1e-9 * abs(history[-2]):
+                decreases += 1
+            if abs(change) <= tol * abs(history[-1]):
+                converged = True
+                break
+        # M-step with projection onto the constraints
+        new_ar, new = [], {}
+        for i, lab in enumerate(labels):
+            if lab == "RW":
+                new["RW"] = max((S11[i] - 2.0 * S10[i] + S00[i]) / (n - 1), floor)
+            else:
+                ph = float(np.clip(S10[i] / max(S00[i], 1e-300), _PHI_LO, _PHI_HI))
+                s2 = max((S11[i] - 2.0 * ph * S10[i] + ph * ph * S00[i]) / (n - 1), floor)
+                new_ar.append(AR1(phi=ph, sigma2=s2))
+        comps: list = list(new_ar)
+        if has_dr:
+            comps.append(DR(omega=ty / stt))
+        # σ²_WN from the residual of the updated drift: E[(y − Hx − ωtt)²] = e2 + (ω_old − ω_new)-terms;
+        # with the drift re-estimated on the same smoothed states the exact update is e2 + Δω²·stt
+        # − 2Δω·Σtt·e, and Σtt·e = ty − ω_old·stt
+        if has_dr:
+            d_om = ty / stt - omega
+            e2_new = e2 - 2.0 * d_om * (ty - omega * stt) + d_om * d_om * stt
+        else:
+            e2_new = e2
+        comps.append(WN(sigma2=max(e2_new / n, floor)))
+        if "RW" in new:
+            comps.append(RW(gamma2=new["RW"]))
+        current = Model(comps)
+    if diverged and best[0] == -math.inf:
+        raise FitError("EM: the log-likelihood is not finite at the start; check the data and the start model")
+    ll_best, final = best
+    problem = prepare(y, freq=freq, weights=weights)
+    fit = GMWMFit(
+        model=final,
+        objective=problem.objective(final),
+        wv=problem.wv,
+        weights=problem.weights,
+        omega_sqrt=problem.W,
+        converged=converged and not diverged,
+        elapsed_s=0.0,
+        freq=float(freq),
+        unit=unit,
+        iterations=it,
+        method="em",
+        extra={
+            "loglik": ll_best,
+            "loglik_history": history,
+            "iterations": it,
+            "converged": converged,
+            "diverged": diverged,
+            "decreases": decreases,
+            "start": str(init_model.params) if init_model is not None else "default",
+            "data_span": {"n_samples": int(n), "n_segments": 1, "duration_s": n / float(freq)},
+        },
+    )
+    fit.elapsed_s = time.perf_counter() - t0
+    fit.extra["time_s"] = fit.elapsed_s
+    return fit
