@@ -190,3 +190,21 @@ def test_cli_select(tmp_path, capsys):
     assert d["kind"] == "imunoise.fit" and d["freq_hz"] == 125.0
     assert (out / "wv_top.png").stat().st_size > 0 and (out / "ranking.csv").exists()
     assert cli_main(["select", str(data), "--freq", "-1"]) == 2
+
+
+def test_select_and_allan_read_one_axis_of_a_ros_bag(tmp_path):
+    """The analysis commands share the readers of `imunoise fit`: bags work, the rate comes from stamps."""
+    from imunoise import AR1, WN
+    from imunoise.io.rosbag import write_imu_bag
+
+    n, f = 2**13, 100.0
+    truth = AR1(phi=0.99, sigma2=1e-8) + WN(sigma2=1e-6)
+    x = np.column_stack([truth.simulate(n, seed=i) for i in range(6)])
+    stamps = 1_700_000_000_000_000_000 + np.arange(n, dtype=np.int64) * 10_000_000
+    bag = write_imu_bag(tmp_path / "imu.bag", stamps, x[:, :3], x[:, 3:], topic="/imu0")
+    assert cli_main(["select", str(bag), "--column", "gyro_x", "--out", str(tmp_path / "sel")]) == 0
+    best = json.loads((tmp_path / "sel" / "model.json").read_text())
+    assert best["freq_hz"] == pytest.approx(f)
+    assert best["unit"] == "rad/s"
+    assert cli_main(["allan", str(bag), "--column", "accel_z", "--out", str(tmp_path / "av")]) == 0
+    assert cli_main(["select", str(bag), "--out", str(tmp_path / "x")]) == 2  # six axes: must choose one

@@ -23,22 +23,48 @@ and DIR/wv_top.png (empirical WV with CI and the top fits). Parameters are per s
 
 
 def add_data_options(p: argparse.ArgumentParser) -> None:
-    """Options shared by select, allan, em and compare."""
-    p.add_argument("data", help="CSV/TXT (header optional, .gz ok) or .npy/.npz file with static data")
-    p.add_argument("--freq", type=float, required=True, help="sample rate in Hz")
-    p.add_argument("--column", help="column name or 0-based index (needed when the file has several)")
+    """Options shared by select, allan, em and compare: one static axis from a table or a ROS bag."""
+    p.add_argument("data", help="CSV/TXT (header optional, .gz ok), .npy/.npz, or a ROS bag (.bag/.db3/.mcap)")
+    p.add_argument("--freq", type=float, help="sample rate in Hz (needed unless the data have time stamps)")
+    p.add_argument("--column", help="column name or 0-based index; for a bag gyro_x..accel_z")
     p.add_argument(
         "--units",
         help="unit of the data column: rad/s, deg/s, deg/h, m/s2, g, mg (converted to SI); default: as is",
     )
+    p.add_argument("--topic", help="ROS bag: the sensor_msgs/Imu topic (listed when missing or wrong)")
+    p.add_argument("--time-column", help="table: time column (name or index); the rate is inferred from it")
+    p.add_argument("--time-unit", default="s", choices=["s", "ms", "us", "ns"], help="unit of --time-column")
 
 
 def load_series(args: argparse.Namespace) -> Any:
-    from imunoise.io.tabular import read_series
+    """Read the one axis the options name, in SI; sets ``args.freq`` from the stamps when not given."""
+    from imunoise.io.imu_input import read_imu_source
+    from imunoise.io.rosbag import is_bag
+    from imunoise.io.tabular import Series
 
-    if not args.freq > 0:
+    if args.freq is not None and not args.freq > 0:
         raise ImunoiseError(f"--freq must be a positive rate in Hz, got {args.freq}")
-    return read_series(args.data, column=args.column, units=args.units)
+    bag = is_bag(args.data)
+    if bag and args.column is None:
+        raise ImunoiseError("a bag holds six axes: choose one with --column gyro_x|gyro_y|gyro_z|accel_x|...")
+    if not bag and args.freq is None and args.time_column is None:
+        raise ImunoiseError("give the sample rate with --freq HZ (or a time column with --time-column)")
+    series = read_imu_source(
+        args.data,
+        topic=args.topic,
+        columns=[args.column] if args.column is not None else None,
+        units=args.units,
+        time_column=args.time_column,
+        time_unit=args.time_unit,
+        freq=args.freq,
+    )
+    if len(series.data) != 1:
+        raise ImunoiseError(
+            f"{args.data} has {len(series.data)} data columns ({', '.join(series.data)}); choose one with --column"
+        )
+    (axis,) = series.data
+    args.freq = series.freq
+    return Series(series.data[axis], series.unit[axis], axis, series.source_unit[axis])
 
 
 def out_dir(args: argparse.Namespace, suffix: str) -> Path:
@@ -56,7 +82,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_data_options(p)
-    p.add_argument("--criterion", choices=["gof", "wvic"], default="gof", help="ranking criterion (default gof)")
+    p.add_argument(
+        "--criterion",
+        choices=["gof", "wvic"],
+        default="wvic",
+        help="ranking criterion (default wvic; gof = paper Eq. 8, which always favours the largest nested model)",
+    )
     p.add_argument("--top", type=int, default=3, help="fits drawn in the plot and given CIs (default 3)")
     p.add_argument("--complete", default="4*AR1+DR+WN+QN+RW", help="complete model (default the paper's)")
     p.add_argument(
