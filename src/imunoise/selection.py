@@ -168,7 +168,8 @@ def _process_spectrum(model: Model, f: np.ndarray) -> np.ndarray:
             S += c.values[0] / (4.0 * s2)  # pseudo-spectrum; the Haar gain removes the pole
         elif c.kind == "AR1":
             phi, sig2 = c.values
-            S += sig2 / (1.0 - 2.0 * phi * np.cos(2.0 * np.pi * f) + phi * phi)
+            # 1 − 2φcos(2πf) + φ² written without cancellation (near φ → 1, f → 0 it is tiny, not 0)
+            S += sig2 / ((1.0 - phi) ** 2 + 4.0 * phi * s2)
     return S
 
 
