@@ -1,0 +1,199 @@
+"""`imunoise online`: the online GMWM INS/GNSS navigator over recorded files (SPEC §9, §12)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from imunoise.errors import DataError, ImunoiseError
+
+EXAMPLES = """examples:
+  imunoise online --data data/drive_0708 --out out/online
+  imunoise online --data data/drive_0708 --outages data/drive_0708/outages_60s.txt --outage-runs --out out/on
+  imunoise online --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --zupt --out out/on
+  imunoise online --data sim/ --criterion wvic --latency 0 --out out/sim_online
+
+Writes DIR/trajectory.nav (KF-GINS result format, IMU point), DIR/metrics.json (SPEC §8 keys, errors of
+the GNSS antenna at the reference epochs, m and m/s; plus the modelling timing), DIR/events.jsonl (stops,
+identification per axis with structure/GOF/time, refits, model swaps, gate open/close, rejected fits) and
+DIR/model.json (the last GMWM fit of every axis, per-sample SI parameters and continuous equivalents).
+The static detector learns λ0 from the first --learn-from s of the IMU file, which must be a stop."""
+
+log = logging.getLogger("imunoise.online")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "online",
+        help="online GMWM: detect stops, model the IMU while driving, hot-swap the model into the EKF",
+        description="Run the online GMWM navigator (SPEC §9) on IMU + GNSS files.",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12)")
+    p.add_argument("--imu", help="IMU file (KF-GINS increments, body FRD, SI)")
+    p.add_argument("--gnss", help="GNSS file (KF-GINS: SOW lat lon h σN σE σD)")
+    p.add_argument("--ref", help="reference trajectory (KF-GINS result format) for metrics")
+    p.add_argument("--lever-arm", nargs=3, type=float, metavar=("X", "Y", "Z"),
+                   help="GNSS antenna in the body frame FRD from the IMU [m]")
+    p.add_argument("--imu-time-offset", type=float, help="seconds added to every IMU time stamp")
+    p.add_argument("--model", help="initial model JSON (default: the plain default WN+RW+GM)")
+    p.add_argument("--outages", help="outage file: 'start duration' per line [s]")
+    p.add_argument("--outage-runs", action="store_true", help="run each outage window separately")
+    p.add_argument("--start", type=float, help="start time [s]; default: manifest start_sow or first GNSS epoch")
+    p.add_argument("--static-duration", type=float, default=30.0,
+                   help="seconds of still data at the start for levelling and gyro bias (default 30)")
+    p.add_argument("--criterion", choices=("gof", "wvic"), default="gof",
+                   help="model ranking: gof (the paper's Eq. 8, default) or wvic")
+    p.add_argument("--min-static", type=float, default=20.0,
+                   help="static data [s] before the structure identification (default 20)")
+    p.add_argument("--latency", type=float, help="fixed delay [s] stop end → model in the filter "
+                   "(default: the measured compute time)")
+    p.add_argument("--worker", choices=("inline", "thread"), default="inline",
+                   help="inline = deterministic replay (default); thread = background thread, never blocks")
+    p.add_argument("--zupt", action="store_true", help="ZUPT/ZARU updates during detected stops")
+    p.add_argument("--no-gate", action="store_true", help="do not use the 30 °/s angular-rate gate")
+    p.add_argument("--no-floor", action="store_true", help="no plain-default floor on the filter noise")
+    p.add_argument("--learn-from", type=float, default=10.0, help="seconds of the first stop to learn λ0 (default 10)")
+    p.add_argument("--lambda0", type=float, help="fixed detector λ0 [m/s²] instead of learning it")
+    p.add_argument("--out", required=True, help="output folder")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from imunoise.detect import DetectorConfig
+    from imunoise.io.dataset import read_dataset
+    from imunoise.io.kfgins import Reference, read_gnss, read_imu, read_outages, read_reference, write_reference
+    from imunoise.nav.align import coarse_align
+    from imunoise.nav.defaults import EkfConfig, load_axis_models
+    from imunoise.nav.metrics import nav_errors, summarize
+    from imunoise.online import OnlineConfig, OnlineNavigator
+
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    ds = read_dataset(args.data) if args.data else None
+    imu_p = args.imu or (str(ds.imu) if ds else None)
+    gnss_p = args.gnss or (str(ds.gnss) if ds else None)
+    if not imu_p or not gnss_p:
+        raise ImunoiseError("give --imu and --gnss, or --data DIR with a dataset.json")
+    ref_p = args.ref or (str(ds.ref) if ds and ds.ref else None)
+    out_p = args.outages or (str(ds.outages) if ds and ds.outages and args.outage_runs else None)
+    lever = np.asarray(args.lever_arm if args.lever_arm is not None else (ds.lever_arm_m if ds else (0, 0, 0)),
+                       dtype=float)
+    offset = args.imu_time_offset if args.imu_time_offset is not None else (ds.imu_time_offset_s if ds else 0.0)
+    if args.outage_runs and not out_p:
+        raise ImunoiseError("--outage-runs needs --outages F (or a dataset.json with 'outages')")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        imu = read_imu(imu_p, time_offset=float(offset))
+        gnss = read_gnss(gnss_p)
+        ref = read_reference(ref_p) if ref_p else None
+    for w in caught:
+        log.warning("%s", w.message)
+    windows = read_outages(out_p) if out_p else []
+    t0 = args.start if args.start is not None else (ds.extra.get("start_sow") if ds else None)
+    if t0 is None:
+        t0 = max(float(imu.t[0]), float(gnss.t[0]))
+    t0 = float(t0)
+    if not (imu.t[0] <= t0 < imu.t[-1]):
+        raise DataError(f"--start {t0:.3f} is outside the IMU data [{imu.t[0]:.3f}, {imu.t[-1]:.3f}]")
+    init = coarse_align(imu, gnss, t0, static_duration=args.static_duration, lever_arm=lever)
+    rate = imu.rate_hz
+    models = load_axis_models(args.model, rate) if args.model else None
+    detector = DetectorConfig(lambda0=args.lambda0) if args.lambda0 else None
+    config = OnlineConfig(
+        ekf=EkfConfig(lever_arm=tuple(lever)), detector=detector, learn_lambda0_s=args.learn_from,
+        min_static_s=args.min_static, criterion=args.criterion, latency=args.latency, worker=args.worker,
+        gate=not args.no_gate, zupt=args.zupt, floor="none" if args.no_floor else "default",
+    )
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    duration = float(imu.t[-1] - t0)
+
+    def one(g, desc):
+        bar = tqdm(total=len(imu.t), desc=desc, unit="sample", unit_scale=True, disable=not sys.stderr.isatty(),
+                   leave=False)
+
+        def prog(k, n):
+            bar.n = k
+            bar.refresh()
+
+        nav = OnlineNavigator(config, init, imu_rate_hz=rate, initial_models=models)
+        r = nav.run(imu, g, progress=prog)
+        bar.close()
+        return r
+
+    base = gnss if args.outage_runs else gnss.without(windows)
+    res = one(base, "online")
+    week = int(ref.week[0]) if ref is not None and ref.week.size else 0
+    write_reference(out / "trajectory.nav", Reference(t=res.t, llh=res.llh, vel_ned=res.vel_ned, euler=res.euler,
+                                                      week=np.full(res.t.size, week)))
+    res.write_events(out / "events.jsonl")
+    metrics: dict = {"start": float(res.t[0]) if res.t.size else t0, "duration_s": duration,
+                     "lambda0_m_s2": res.lambda0, "static_s": float(sum(s.duration for s in res.segments)),
+                     "timing": res.timing, "config": {"criterion": config.criterion, "zupt": config.zupt,
+                                                       "floor": config.floor, "latency": config.latency}}
+    if ref is not None:
+        err = nav_errors(res.t, res.antenna_llh(lever), res.vel_ned, res.euler, ref)
+        metrics.update(summarize(err, outages=[] if args.outage_runs else windows, elapsed_s=res.elapsed_s,
+                                 duration_s=duration))
+    else:
+        metrics.update({"elapsed_s": res.elapsed_s, "realtime_factor": duration / max(res.elapsed_s, 1e-9),
+                        "outages": []})
+    if args.outage_runs and windows:
+        outs = []
+        for k, w in enumerate(windows):
+            r = one(gnss.without([w]), f"outage {k + 1}/{len(windows)}")
+            if ref is not None:
+                e = nav_errors(r.t, r.antenna_llh(lever), r.vel_ned, r.euler, ref)
+                outs.append(summarize(e, outages=[w])["outages"][0])
+        metrics["outages"] = outs
+        ends = [o["end_horizontal_m"] for o in outs if o["end_horizontal_m"] is not None]
+        metrics["mean_outage_end_horizontal_m"] = float(np.mean(ends)) if ends else None
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=1, default=_default))
+    fits = {ax: f.to_dict() for ax, f in zip(("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"),
+                                             res.fits) if f is not None}
+    if fits:
+        (out / "model.json").write_text(json.dumps({"kind": "imunoise.imu_model", "freq_hz": rate, "axes": fits},
+                                                   indent=1, default=_default))
+    _print(metrics, res)
+    print(f"wrote {out / 'trajectory.nav'}, {out / 'metrics.json'}, {out / 'events.jsonl'}", file=sys.stderr)
+    return 0
+
+
+def _default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    return str(o)
+
+
+def _print(m: dict, res) -> None:
+    for e in res.events:
+        if e["event"] in ("identified", "refit"):
+            axes = "; ".join(f"{a}: {v['structure']}" for a, v in e.get("axes", {}).items())
+            print(f"{e['event']} at {e['t']:.1f} s with {e['static_total_s']:.1f} s static data in "
+                  f"{e['elapsed_s']:.3f} s: {axes}")
+        elif e["event"] == "rejected":
+            print(f"rejected at {e['t']:.1f} s: {e.get('axis', '')} {e['reason']}")
+    if "horizontal_rms_m" in m:
+        print(f"horizontal RMS / p95 / max: {m['horizontal_rms_m']:.3f} / {m['horizontal_p95_m']:.3f} / "
+              f"{m['horizontal_max_m']:.3f} m; vertical RMS {m['vertical_rms_m']:.3f} m")
+    for o in m.get("outages", []):
+        if o.get("end_horizontal_m") is not None:
+            print(f"outage {o['start']:.1f} + {o['duration']:.0f} s: end drift horizontal "
+                  f"{o['end_horizontal_m']:.1f} m, vertical {o['end_vertical_m']:.1f} m")
+    if m.get("mean_outage_end_horizontal_m") is not None:
+        print(f"mean end-of-outage horizontal drift: {m['mean_outage_end_horizontal_m']:.1f} m")
+    print(f"online run {m['elapsed_s']:.2f} s ({m['realtime_factor']:.0f}× real time)")

@@ -1,0 +1,304 @@
+"""Shared pieces of the paper's experiments (SPEC §11): scenarios, baselines, filter runs, metrics, CIs.
+
+A :class:`Scenario` is one drive with a reference: the real drive (a dataset folder with a manifest,
+SPEC §12) or a simulated one (SPEC §10). Every method is run through :class:`imunoise.online.OnlineNavigator`
+(fixed-model baselines with ``modelling=False``), so methods differ only in their error models.
+All static-derived models (AV, EM, GMWM) pass through the same fit → filter mapping
+(:func:`imunoise.online.ekf_axis_model`, floor = the plain default), so the comparison is about the
+models, not about the mapping.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from imunoise.detect import DetectorConfig, detect_static, learn_lambda0, segment_data
+from imunoise.errors import DataError, ImunoiseError
+from imunoise.nav.defaults import EkfConfig
+from imunoise.nav.ekf import InitialState
+from imunoise.nav.metrics import nav_errors, summarize
+from imunoise.online import OnlineConfig, OnlineNavigator, OnlineResult, ekf_axis_model
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "Scenario", "load_real", "simulate_scenario", "static_segments", "baseline_fits", "filter_models",
+    "run_filter", "evaluate", "evaluate_full", "evaluate_outages", "combine",
+    "paired_ci", "METHOD_LABELS", "SIM_IMU", "repo_data_dir",
+]
+
+AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
+SIM_IMU = "3*AR1 + WN + RW"  # the simulator's "mems" preset values (paper Table 4 structure)
+KFGINS_DRIVE0708 = [335.5, 520.9, 42.7, 398.6, 310.8]  # m, README of the shared drive
+
+METHOD_LABELS = {
+    "plain": "plain LC (default model)",
+    "plain_zupt": "plain LC + ZUPT/ZARU",
+    "av": "AV-based (all static data)",
+    "em": "EM-based (all static data, AV start)",
+    "gmwm": "online GMWM (GOF, paper)",
+    "gmwm_wvic": "online GMWM (WVIC)",
+    "gmwm_raw": "online GMWM (no floor)",
+    "gmwm_qndrop": "online GMWM (QN not in the filter)",
+    "gmwm_zupt": "online GMWM + ZUPT/ZARU",
+    "gmwm_top3": "GMWM 3rd by GOF",
+    "gmwm_top2": "GMWM 2nd by GOF",
+}
+
+
+def repo_data_dir() -> Path:
+    """``data/drive_0708`` of the source tree (the demo's data), found relative to this file."""
+    here = Path(__file__).resolve()
+    for parent in here.parents:
+        cand = parent / "data" / "drive_0708"
+        if (cand / "dataset.json").exists():
+            return cand
+    raise DataError("data/drive_0708 not found next to the source tree; pass --data DIR")
+
+
+@dataclass(eq=False)
+class Scenario:
+    """One drive: IMU (increments), GNSS, reference, lever arm, initial state, outage windows.
+
+    ``outage_runs``: run every window separately from the same start (the real drive's protocol) or all
+    windows in one run (simulator: windows are far apart). ``static_truth`` (per IMU sample) when known.
+    """
+
+    name: str
+    imu: Any
+    gnss: Any
+    ref: Any
+    lever: np.ndarray
+    init: InitialState
+    windows: list[tuple[float, float]]
+    outage_runs: bool
+    static_truth: np.ndarray | None = None
+    truth_models: dict | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def rate(self) -> float:
+        return float(self.imu.rate_hz)
+
+    @property
+    def duration(self) -> float:
+        return float(self.imu.t[-1] - self.init.t)
+
+    def ekf_config(self) -> EkfConfig:
+        return EkfConfig(lever_arm=tuple(float(x) for x in self.lever))
+
+
+def load_real(data_dir: str | Path, *, start: float | None = None, static_duration: float = 30.0) -> Scenario:
+    """The real drive in a dataset folder (SPEC §12). Start time: ``start``, else the manifest's
+    ``start_sow``, else the first GNSS epoch; alignment from the first ``static_duration`` s (a stop)."""
+    from imunoise.io.dataset import read_dataset
+    from imunoise.io.kfgins import read_gnss, read_imu, read_outages, read_reference
+    from imunoise.nav.align import coarse_align
+
+    ds = read_dataset(data_dir)
+    imu = read_imu(ds.imu, time_offset=ds.imu_time_offset_s)
+    gnss = read_gnss(ds.gnss)
+    if ds.ref is None:
+        raise DataError(f"{ds.root}: the experiments need a reference ('ref' in dataset.json)")
+    ref = read_reference(ds.ref)
+    windows = read_outages(ds.outages) if ds.outages else []
+    t0 = start if start is not None else ds.extra.get("start_sow")
+    if t0 is None:
+        t0 = max(float(imu.t[0]), float(gnss.t[0]))
+    lever = np.asarray(ds.lever_arm_m, dtype=float)
+    init = coarse_align(imu, gnss, float(t0), static_duration=static_duration, lever_arm=lever)
+    static_truth = None
+    try:
+        from imunoise.detect import static_truth_from_speed
+
+        static_truth = static_truth_from_speed(imu.t, ref.t, ref.vel_ned, 0.2)
+    except ImunoiseError:
+        pass
+    return Scenario(ds.name, imu, gnss, ref, lever, init, windows, outage_runs=True, static_truth=static_truth,
+                    extra={"root": str(ds.root), "license": ds.license})
+
+
+def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4, n_outages: int = 4,
+                      imu_models: Any = SIM_IMU, outage_s: float = 60.0, **drive_kw: Any) -> Scenario:
+    """A simulated urban drive (SPEC §10) with ``n_outages`` windows of ``outage_s`` (all in one run)."""
+    from imunoise.nav.align import coarse_align
+    from imunoise.sim import DriveConfig, simulate_drive
+
+    cfg = DriveConfig(duration_s=duration_s, n_stops=n_stops, seed=seed, **drive_kw)
+    drive = simulate_drive(cfg, imu_models, seed=seed)
+    windows = drive.outage_windows(n_outages, outage_s) if n_outages else []
+    a, b = drive.truth["static_intervals"][0]
+    t_start = float(drive.imu.t[0]) + 1.0
+    init = coarse_align(drive.imu, drive.gnss, t_start, static_window=(a, b), lever_arm=cfg.lever_arm_m)
+    return Scenario(f"simulated drive (seed {seed})", drive.imu, drive.gnss, drive.reference,
+                    np.asarray(cfg.lever_arm_m, dtype=float), init, windows, outage_runs=False,
+                    static_truth=drive.static_mask, truth_models=drive.imu_models,
+                    extra={"stops": drive.truth["stops"], "seed": seed})
+
+
+# --------------------------------------------------------------------------------------------------
+# static data and baselines
+# --------------------------------------------------------------------------------------------------
+def static_segments(sc: Scenario, learn_s: float = 10.0) -> tuple[list[np.ndarray], Any]:
+    """All static segments of the whole record (hindsight; the AV/EM baselines' data), bias removed,
+    columns gyro x,y,z, accel x,y,z (SI), with the online detector's settings (λ_0 learned from the
+    first ``learn_s`` seconds)."""
+    gyro, accel = sc.imu.rates()
+    t = sc.imu.t
+    lam = learn_lambda0(accel[t < t[0] + learn_s])
+    det = detect_static(t, accel, gyro, DetectorConfig(lambda0=lam))
+    if not det.segments:
+        raise DataError("no static segment detected; the AV/EM baselines need static data")
+    return segment_data(det, np.column_stack([gyro, accel])), det
+
+
+def baseline_fits(segments: list[np.ndarray], freq: float, which: str) -> list:
+    """Six fits (gyro x..accel z) of the AV (``"av"``) or EM (``"em"``) baseline on static segments."""
+    from imunoise.allan import allan_fit
+
+    out = []
+    for a in range(6):
+        unit = "rad/s" if a < 3 else "m/s²"
+        data = [s[:, a] for s in segments]
+        av = allan_fit(data, freq=freq, unit=unit)
+        if which == "av":
+            out.append(av)
+            continue
+        from imunoise.em import em_fit
+        from imunoise.model import Model
+
+        start = av.model
+        if start.has("QN") or start.has("DR"):
+            # EM has no QN state (SPEC §6); start from the rest, or from white noise of the data's variance
+            from imunoise.processes import RW, WN
+
+            rest = [c for c in start.components if c.kind not in ("QN", "DR")]
+            v = float(np.var(np.concatenate(data)))
+            if not any(c.kind == "WN" for c in rest):  # EM's observation noise
+                rest.append(WN(sigma2=0.5 * v))
+            if len(rest) == 1:
+                rest.append(RW(gamma2=1e-6 * v))
+            start = Model(rest)
+        try:
+            out.append(em_fit(data, freq=freq, init=start, unit=unit, max_iter=200))
+        except ImunoiseError as exc:
+            log.warning("EM baseline failed on %s (%s): using the AV model", AXES[a], exc)
+            out.append(av)
+    return out
+
+
+def filter_models(fits: list, freq: float, config: OnlineConfig | None = None) -> list:
+    """The six filter models of fixed fits, through the same mapping as the online engine."""
+    from imunoise.nav.defaults import default_axis_models
+
+    config = config or OnlineConfig()
+    floor = [m for m, _ in default_axis_models(freq, config.ekf.fallback)]
+    out = []
+    for a, f in enumerate(fits):
+        model = f.model if hasattr(f, "model") else f
+        fl = floor[a] if config.floor == "default" else None
+        out.append((ekf_axis_model(model, freq, fl, fold_tau_s=config.fold_tau_s, keep_dr=config.keep_dr,
+                                   qn=config.qn), freq))
+    return out
+
+
+# --------------------------------------------------------------------------------------------------
+# runs and metrics
+# --------------------------------------------------------------------------------------------------
+def run_filter(sc: Scenario, config: OnlineConfig, *, initial_models=None, windows=None) -> OnlineResult:
+    """One online run with GNSS removed inside ``windows`` (default none). Modelling jobs are shared between
+    the runs of one scenario (``sc.extra["job_cache"]``): the static data do not depend on GNSS."""
+    gnss = sc.gnss.without(windows) if windows else sc.gnss
+    cache = sc.extra.setdefault("job_cache", {})
+    nav = OnlineNavigator(config, sc.init, imu_rate_hz=sc.rate, initial_models=initial_models, job_cache=cache)
+    return nav.run(sc.imu, gnss)
+
+
+def evaluate_full(sc: Scenario, config: OnlineConfig, *, initial_models=None, keep: bool = False) -> dict:
+    """The full-GNSS run of one method: position RMS (m), timing; ``_full``/``_err`` when ``keep``."""
+    full = run_filter(sc, config, initial_models=initial_models)
+    err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
+    m = summarize(err, elapsed_s=full.elapsed_s, duration_s=sc.duration)
+    out: dict[str, Any] = {
+        "horizontal_rms_m": m["horizontal_rms_m"],
+        "vertical_rms_m": m["vertical_rms_m"],
+        "ecef_rms_m": m["ecef_rms_m"],
+        "horizontal_max_m": m["horizontal_max_m"],
+        "elapsed_s": full.elapsed_s,
+        "realtime_factor": m["realtime_factor"],
+        "timing": full.timing,
+        "n_updates": len(full.updates),
+    }
+    if keep:
+        out["_full"] = full
+        out["_err"] = err
+    return out
+
+
+def evaluate_outages(sc: Scenario, config: OnlineConfig, windows, *, initial_models=None,
+                     keep: bool = False) -> dict:
+    """One run without GNSS in ``windows``: horizontal/vertical error at each window's end (m)."""
+    r = run_filter(sc, config, initial_models=initial_models, windows=windows)
+    e = nav_errors(r.t, r.antenna_llh(sc.lever), r.vel_ned, r.euler, sc.ref)
+    outs = summarize(e, outages=windows)["outages"]
+    out: dict[str, Any] = {"ends": [o["end_horizontal_m"] for o in outs], "ends_v": [o["end_vertical_m"] for o in outs]}
+    if keep:
+        out["_run"] = (windows[0] if len(windows) == 1 and sc.outage_runs else None, r, e)
+    return out
+
+
+def combine(full: dict, outage_parts: list[dict]) -> dict:
+    """Merge a full-run result and the outage runs (in window order) into the SPEC §11 method entry."""
+    out = dict(full)
+    ends = [x for p in outage_parts for x in p["ends"]]
+    out["outage_end_horizontal_m"] = ends
+    out["outage_end_vertical_m"] = [x for p in outage_parts for x in p["ends_v"]]
+    good = [x for x in ends if x is not None]
+    out["mean_outage_end_horizontal_m"] = float(np.mean(good)) if good else None
+    runs = [p["_run"] for p in outage_parts if "_run" in p]
+    if runs:
+        out["_runs"] = runs
+    return out
+
+
+def evaluate(sc: Scenario, config: OnlineConfig, *, initial_models=None, keep: bool = False) -> dict:
+    """Full-GNSS run + outage run(s) of one method (one per window when ``sc.outage_runs``)."""
+    full = evaluate_full(sc, config, initial_models=initial_models, keep=keep)
+    parts = []
+    if sc.windows:
+        groups = [[w] for w in sc.windows] if sc.outage_runs else [list(sc.windows)]
+        parts = [evaluate_outages(sc, config, g, initial_models=initial_models, keep=keep) for g in groups]
+    return combine(full, parts)
+
+
+def paired_ci(a: np.ndarray, b: np.ndarray, level: float = 0.95) -> dict:
+    """Mean of the paired differences a − b with a Student-t CI, and the relative change of the means
+    100·(mean a / mean b − 1) % with a CI from the delta method on the paired means."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    ok = np.isfinite(a) & np.isfinite(b)
+    a, b = a[ok], b[ok]
+    n = a.size
+    if n < 2:
+        return {"n": int(n), "mean_diff": math.nan, "ci": [math.nan, math.nan], "rel_pct": math.nan,
+                "rel_ci_pct": [math.nan, math.nan], "excludes_zero": False}
+    d = a - b
+    tq = float(stats.t.ppf(0.5 + level / 2, n - 1))
+    se = float(np.std(d, ddof=1) / math.sqrt(n))
+    md = float(d.mean())
+    ma, mb = float(a.mean()), float(b.mean())
+    # ratio of means R = ma/mb; Var(R) ≈ Var(a − R b)/(n mb²)
+    r = ma / mb
+    se_r = float(np.std(a - r * b, ddof=1) / (math.sqrt(n) * abs(mb)))
+    return {
+        "n": int(n), "mean_diff": md, "ci": [md - tq * se, md + tq * se],
+        "rel_pct": 100 * (r - 1), "rel_ci_pct": [100 * (r - tq * se_r - 1), 100 * (r + tq * se_r - 1)],
+        "excludes_zero": bool(md - tq * se > 0 or md + tq * se < 0),
+    }

@@ -1,0 +1,222 @@
+"""Figures of the experiments (SPEC §11): detection (paper Fig. 8), trajectories and errors (Figs. 10–11),
+event timeline, WV fits per axis (Figs. 5/9), AV plots, Monte Carlo distributions. Matplotlib, Agg."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from imunoise.experiments.common import METHOD_LABELS  # noqa: E402
+
+__all__ = ["detection_figure", "trajectory_figure", "error_figure", "timeline_figure", "wv_figures",
+           "av_figures", "mc_figure"]
+
+AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
+_COLORS = {"plain": "tab:gray", "plain_zupt": "tab:brown", "av": "tab:orange", "em": "tab:purple",
+           "gmwm": "tab:blue", "gmwm_wvic": "tab:cyan", "gmwm_raw": "tab:olive", "gmwm_zupt": "tab:green",
+           "gmwm_top2": "tab:red", "gmwm_top3": "tab:olive"}
+
+
+def _color(name: str) -> str:
+    return _COLORS.get(name, "tab:red")
+
+
+def detection_figure(t: np.ndarray, det: Any, path: Path, *, ref=None, static_truth=None) -> Path:
+    """Eq. 9 statistic (accel x, y), adaptive threshold, detected static epochs, reference speed."""
+    fig, axs = plt.subplots(2, 1, figsize=(11, 6), sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    x = t - t[0]
+    ax = axs[0]
+    ax.semilogy(x, det.statistic[:, 0], lw=0.6, label="T (accel x)")
+    ax.semilogy(x, det.statistic[:, 1], lw=0.6, label="T (accel y)")
+    ax.semilogy(x, det.threshold, lw=1.0, color="darkred", label="adaptive threshold λ")
+    for k, s in enumerate(det.segments):
+        ax.axvspan(s.t0 - t[0], s.t1 - t[0], color="tab:red", alpha=0.15, label="detected static" if k == 0 else None)
+    ax.set_ylabel("moving std [m/s²]")
+    ax.legend(fontsize=8, loc="upper right")
+    ax.grid(alpha=0.3, which="both")
+    ax.set_title("static detection (paper Eq. 9 with the adaptive threshold of SPEC §7)")
+    ax = axs[1]
+    if ref is not None:
+        sp = np.linalg.norm(ref.vel_ned, axis=1)
+        ax.plot(ref.t - t[0], sp, color="k", lw=0.8, label="reference speed")
+    if static_truth is not None:
+        ax.fill_between(x, 0, np.where(static_truth, 1.0, 0.0), color="tab:green", alpha=0.2, step="mid",
+                        label="reference static")
+    ax.plot(x, np.where(det.static, 0.5, np.nan), color="tab:red", lw=3, label="detected static")
+    ax.set_ylabel("speed [m/s]")
+    ax.set_xlabel(f"time since {t[0]:.1f} s [s]")
+    ax.legend(fontsize=8, loc="upper right")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def trajectory_figure(sc: Any, objects: dict[str, dict], path: Path, methods: Sequence[str],
+                      labels: dict | None = None) -> Path:
+    """Reference (antenna) with the outage windows and every method's trajectory inside the windows."""
+    from imunoise.nav.earth import llh_to_ned
+
+    origin = sc.ref.llh[0]
+    rn = llh_to_ned(sc.ref.llh, origin)
+    fig, ax = plt.subplots(figsize=(8, 8))
+    ax.plot(rn[:, 1], rn[:, 0], "-", color="0.7", lw=3, label="reference")
+    for k, (s, d) in enumerate(sc.windows):
+        m = (sc.ref.t >= s) & (sc.ref.t < s + d)
+        ax.plot(rn[m, 1], rn[m, 0], "-", color="gold", lw=5, alpha=0.6, label="outage windows" if k == 0 else None)
+    for name in methods:
+        if name not in objects or "_runs" not in objects[name]:
+            continue
+        first = True
+        for w, r, _ in objects[name]["_runs"]:
+            wins = [w] if w is not None else sc.windows
+            ant = r.antenna_llh(sc.lever)
+            for s, d in wins:
+                m = (r.t >= s) & (r.t < s + d)
+                e = llh_to_ned(ant[m], origin)
+                ax.plot(e[:, 1], e[:, 0], "-", color=_color(name), lw=1.2,
+                        label=(labels or METHOD_LABELS).get(name, name) if first else None)
+                first = False
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("east [m]")
+    ax.set_ylabel("north [m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("trajectories in the GNSS outages (one run per window)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def error_figure(sc: Any, objects: dict[str, dict], path: Path, methods: Sequence[str],
+                 labels: dict | None = None) -> Path:
+    """Horizontal error vs time: outage runs (top, log scale) and full-GNSS runs (ECEF X/Y/Z residuals)."""
+    fig, axs = plt.subplots(4, 1, figsize=(11, 10), sharex=True)
+    t0 = sc.init.t
+    for name in methods:
+        if name not in objects:
+            continue
+        o = objects[name]
+        for k, (w, _, e) in enumerate(o.get("_runs", [])):
+            wins = [w] if w is not None else sc.windows
+            for s, d in wins:
+                m = (e.t >= s - 5) & (e.t < s + d)
+                axs[0].semilogy(e.t[m] - t0, np.maximum(e.horizontal[m], 1e-3), color=_color(name), lw=1,
+                                label=(labels or METHOD_LABELS).get(name, name)
+                                if k == 0 and s == wins[0][0] else None)
+        e = o.get("_err")
+        if e is not None:
+            for i, lab in enumerate("XYZ"):
+                axs[1 + i].plot(e.t - t0, e.ecef[:, i], color=_color(name), lw=0.7)
+                axs[1 + i].set_ylabel(f"ECEF {lab} error [m]")
+    for s, d in sc.windows:
+        for ax in axs:
+            ax.axvspan(s - t0, s + d - t0, color="gold", alpha=0.15)
+    axs[0].set_ylabel("horizontal error in outages [m]")
+    axs[0].legend(fontsize=7, ncol=2)
+    axs[1].set_title("full GNSS: position residuals (ECEF)", fontsize=9)
+    axs[-1].set_xlabel(f"time since start {t0:.1f} s [s]")
+    for ax in axs:
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def timeline_figure(full: Any, path: Path, t0: float) -> Path:
+    """Static segments, angular-rate gate, model identification/refits (stop end → model in use)."""
+    fig, ax = plt.subplots(figsize=(11, 2.8))
+    for k, s in enumerate(full.segments):
+        ax.barh(2, s.t1 - s.t0, left=s.t0 - t0, height=0.6, color="tab:red", alpha=0.6,
+                label="static segment" if k == 0 else None)
+    if full.gate_open.size and full.sample_t.size == full.gate_open.size:
+        tt, m = full.sample_t, full.gate_open
+        ax.fill_between(tt - t0, 0.7, 1.3, where=m, color="tab:purple", alpha=0.5, step="mid", label="gate open")
+    for k, u in enumerate(full.updates):
+        if u.t_effect is None:
+            ax.plot(u.t_stop - t0, 0, "x", color="k")
+            continue
+        ax.annotate("", xy=(u.t_effect - t0, 0), xytext=(u.t_stop - t0, 0),
+                    arrowprops={"arrowstyle": "->", "color": "tab:blue"})
+        ax.plot(u.t_effect - t0, 0, "o", color="tab:blue" if u.kind == "identify" else "tab:cyan",
+                label=("identification" if u.kind == "identify" else "refit") if k < 2 else None)
+        ax.text(u.t_effect - t0, -0.45, f"{sum(u.elapsed_s):.2g} s", fontsize=7, ha="center")
+    ax.set_yticks([0, 1, 2], ["model", "gate", "static"])
+    ax.set_ylim(-0.8, 2.6)
+    ax.set_xlabel(f"time since {t0:.1f} s [s]")
+    ax.legend(fontsize=7, loc="upper right", ncol=4)
+    ax.grid(alpha=0.3, axis="x")
+    ax.set_title("online timeline: stops → modelling → model in the filter (labels: compute time)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def wv_figures(fits: Sequence[Any], folder: Path, stem: str = "wv") -> list[Path]:
+    """One WV figure per axis with the fitted model and a dashed curve per process."""
+    from imunoise.plots import plot_wv_fit
+
+    out = []
+    for a, f in enumerate(fits):
+        if f is None:
+            continue
+        p = folder / f"{stem}_{AXES[a]}.png"
+        plot_wv_fit(f, p, title=f"{AXES[a]}: {f.model}  (GOF {f.objective:.3g})")
+        out.append(p)
+    return out
+
+
+def av_figures(av_fits: Sequence[Any], other: Sequence[Any] | None, folder: Path) -> Path:
+    """Allan deviation of each axis with the AV model's and (optionally) the GMWM model's implied AD."""
+    fig, axs = plt.subplots(2, 3, figsize=(14, 8))
+    for a, f in enumerate(av_fits):
+        ax = axs[a // 3, a % 3]
+        tau = f.wv.scales / 2.0 / f.freq
+        ad = np.sqrt(2.0 * f.wv.variance)
+        ax.fill_between(tau, np.sqrt(2 * f.wv.ci_low), np.sqrt(2 * f.wv.ci_high), color="0.85")
+        ax.loglog(tau, ad, "o-", color="k", ms=3, lw=1, label="overlapping AD")
+        ax.loglog(tau, np.sqrt(2 * f.model.wv(f.wv.scales)), "-", color="tab:orange", lw=1.8,
+                  label=f"AV model: {f.model}")
+        if other is not None and other[a] is not None:
+            g = other[a]
+            ax.loglog(tau, np.sqrt(2 * g.model.wv(f.wv.scales)), "--", color="tab:blue", lw=1.5,
+                      label=f"GMWM: {g.model}")
+        ax.set_title(AXES[a], fontsize=9)
+        ax.set_xlabel("τ [s]")
+        ax.set_ylabel("AD [" + ("rad/s" if a < 3 else "m/s²") + "]")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=6)
+    fig.suptitle("Allan deviation of the static data with the AV and GMWM models")
+    fig.tight_layout()
+    p = folder / "allan.png"
+    fig.savefig(p, dpi=100)
+    plt.close(fig)
+    return p
+
+
+def mc_figure(results: dict, path: Path, methods: Sequence[str]) -> Path:
+    """Per-seed distributions of the mean outage-end drift and the horizontal RMS."""
+    fig, axs = plt.subplots(1, 2, figsize=(12, 4.5))
+    for ax, key, lab in ((axs[0], "mean_outage_end_horizontal_m", "mean end-of-outage drift [m]"),
+                         (axs[1], "horizontal_rms_m", "horizontal RMS, full GNSS [m]")):
+        data = [[r[key] for r in results["per_seed"][m] if r.get(key) is not None] for m in methods]
+        ax.boxplot(data, showmeans=True)
+        ax.set_xticks(range(1, len(methods) + 1), methods, rotation=30, fontsize=8)
+        ax.set_ylabel(lab)
+        ax.grid(alpha=0.3, axis="y")
+    fig.suptitle(f"Monte Carlo over {len(results['seeds'])} simulated drives")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
