@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 import pytest
 
@@ -46,7 +48,8 @@ def _mc_check(model: Model, seed: int) -> None:
     ids=["WN", "QN", "RW", "AR1-0.95", "AR1-0.5", "AR1-0.995", "sum"],
 )
 def test_closed_form_matches_monte_carlo(model):
-    _mc_check(model, seed=hash(str(model.params)) % 2**31)
+    # zlib.crc32, not hash(): str hashing is randomised per process, and the test must be reproducible
+    _mc_check(model, seed=zlib.crc32(repr(model).encode()))
 
 
 def test_drift_wv_is_exact():
