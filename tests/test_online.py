@@ -292,3 +292,18 @@ def test_collapsed_components_are_dropped():
     m = AR1(phi=0.999, sigma2=1e-60) + AR1(phi=0.99, sigma2=1e-9) + WN(sigma2=1e-6) + RW(gamma2=1e-58)
     out = ekf_axis_model(m, 100.0, None, fold_tau_s=0.5)
     assert str(out) == "AR1 + WN" and out.params["AR1_1.phi"] == 0.99
+
+
+def test_cli_online_on_the_shipped_drive(tmp_path):
+    """`imunoise online --data` resolves its inputs like `imunoise nav` and writes the SPEC §8 metrics."""
+    import json
+    from pathlib import Path
+
+    from imunoise.cli import main
+
+    data = Path(__file__).resolve().parents[1] / "data" / "drive_0708"
+    assert main(["online", "--data", str(data), "--out", str(tmp_path)]) == 0
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["horizontal_rms_m"] < 0.05  # residual against the RTK that aids the filter
+    assert (tmp_path / "events.jsonl").read_text().count("\n") >= 3
+    assert main(["online", "--imu", str(data / "imu_body_inc.txt.gz"), "--out", str(tmp_path / "x")]) == 2

@@ -40,24 +40,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12)")
-    p.add_argument("--imu", help="IMU file (KF-GINS increments or rate CSV, body FRD, SI)")
-    p.add_argument("--gnss", help="GNSS file (KF-GINS: SOW lat lon h σN σE σD)")
-    p.add_argument("--ref", help="reference trajectory (KF-GINS result format) for metrics")
-    p.add_argument(
-        "--lever-arm",
-        nargs=3,
-        type=float,
-        metavar=("X", "Y", "Z"),
-        help="GNSS antenna position in the body frame FRD from the IMU [m]",
-    )
-    p.add_argument("--imu-time-offset", type=float, help="seconds added to every IMU time stamp")
+    add_input_options(p)
     m = p.add_mutually_exclusive_group()
     m.add_argument("--model", help="model JSON: {'gyro': fit, 'accel': fit} or per axis (from `imunoise fit`)")
     m.add_argument("--default", action="store_true", help="plain default model WN+RW+GM (the default)")
     m.add_argument("--kfgins", action="store_true", help="KF-GINS' loose settings of the shared drive (WN+GM)")
-    p.add_argument("--outages", help="outage file: 'start duration' per line [s]")
-    p.add_argument("--outage-runs", action="store_true", help="run each outage window separately")
     p.add_argument("--start", type=float, help="start time [s, data time base]; default: first GNSS epoch")
     p.add_argument("--end", type=float, help="end time [s]; default: end of the IMU data")
     p.add_argument(
@@ -79,7 +66,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _inputs(args: argparse.Namespace):
+def add_input_options(p: argparse.ArgumentParser) -> None:
+    """The input options every navigation command shares (SPEC §12); resolve them with :func:`resolve_inputs`."""
+    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12)")
+    p.add_argument("--imu", help="IMU file (KF-GINS increments or rate CSV, body FRD, SI)")
+    p.add_argument("--gnss", help="GNSS file (KF-GINS: SOW lat lon h σN σE σD)")
+    p.add_argument("--ref", help="reference trajectory (KF-GINS result format) for metrics")
+    p.add_argument(
+        "--lever-arm",
+        nargs=3,
+        type=float,
+        metavar=("X", "Y", "Z"),
+        help="GNSS antenna position in the body frame FRD from the IMU [m]",
+    )
+    p.add_argument("--imu-time-offset", type=float, help="seconds added to every IMU time stamp")
+    p.add_argument("--outages", help="outage file: 'start duration' per line [s]")
+    p.add_argument("--outage-runs", action="store_true", help="run each outage window separately")
+
+
+def resolve_inputs(args: argparse.Namespace):
+    """(dataset or None, imu, gnss, ref, outages, lever arm, IMU time offset); explicit options override."""
     from imunoise.io.dataset import read_dataset
 
     ds = read_dataset(args.data) if args.data else None
@@ -91,7 +97,7 @@ def _inputs(args: argparse.Namespace):
     outages = args.outages or (str(ds.outages) if ds and ds.outages and args.outage_runs else None)
     lever = args.lever_arm if args.lever_arm is not None else (list(ds.lever_arm_m) if ds else [0.0, 0.0, 0.0])
     offset = args.imu_time_offset if args.imu_time_offset is not None else (ds.imu_time_offset_s if ds else 0.0)
-    return imu, gnss, ref, outages, np.asarray(lever, dtype=float), float(offset)
+    return ds, imu, gnss, ref, outages, np.asarray(lever, dtype=float), float(offset)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -102,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.nav.metrics import nav_errors, summarize
 
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
-    imu_p, gnss_p, ref_p, out_p, lever, offset = _inputs(args)
+    _, imu_p, gnss_p, ref_p, out_p, lever, offset = resolve_inputs(args)
     if args.outage_runs and not out_p:
         raise ImunoiseError("--outage-runs needs --outages F (or a dataset.json with 'outages')")
     with warnings.catch_warnings(record=True) as caught:

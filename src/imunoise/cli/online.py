@@ -30,6 +30,8 @@ log = logging.getLogger("imunoise.online")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    from imunoise.cli.nav import add_input_options
+
     p = sub.add_parser(
         "online",
         help="online GMWM: detect stops, model the IMU while driving, hot-swap the model into the EKF",
@@ -37,16 +39,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12)")
-    p.add_argument("--imu", help="IMU file (KF-GINS increments, body FRD, SI)")
-    p.add_argument("--gnss", help="GNSS file (KF-GINS: SOW lat lon h σN σE σD)")
-    p.add_argument("--ref", help="reference trajectory (KF-GINS result format) for metrics")
-    p.add_argument("--lever-arm", nargs=3, type=float, metavar=("X", "Y", "Z"),
-                   help="GNSS antenna in the body frame FRD from the IMU [m]")
-    p.add_argument("--imu-time-offset", type=float, help="seconds added to every IMU time stamp")
+    add_input_options(p)
     p.add_argument("--model", help="initial model JSON (default: the plain default WN+RW+GM)")
-    p.add_argument("--outages", help="outage file: 'start duration' per line [s]")
-    p.add_argument("--outage-runs", action="store_true", help="run each outage window separately")
     p.add_argument("--start", type=float, help="start time [s]; default: manifest start_sow or first GNSS epoch")
     p.add_argument("--static-duration", type=float, default=30.0,
                    help="seconds of still data at the start for levelling and gyro bias (default 30)")
@@ -70,8 +64,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
+    from imunoise.cli.nav import resolve_inputs
     from imunoise.detect import DetectorConfig
-    from imunoise.io.dataset import read_dataset
     from imunoise.io.kfgins import Reference, read_gnss, read_imu, read_outages, read_reference, write_reference
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig, load_axis_models
@@ -79,16 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.online import OnlineConfig, OnlineNavigator
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    ds = read_dataset(args.data) if args.data else None
-    imu_p = args.imu or (str(ds.imu) if ds else None)
-    gnss_p = args.gnss or (str(ds.gnss) if ds else None)
-    if not imu_p or not gnss_p:
-        raise ImunoiseError("give --imu and --gnss, or --data DIR with a dataset.json")
-    ref_p = args.ref or (str(ds.ref) if ds and ds.ref else None)
-    out_p = args.outages or (str(ds.outages) if ds and ds.outages and args.outage_runs else None)
-    lever = np.asarray(args.lever_arm if args.lever_arm is not None else (ds.lever_arm_m if ds else (0, 0, 0)),
-                       dtype=float)
-    offset = args.imu_time_offset if args.imu_time_offset is not None else (ds.imu_time_offset_s if ds else 0.0)
+    ds, imu_p, gnss_p, ref_p, out_p, lever, offset = resolve_inputs(args)
     if args.outage_runs and not out_p:
         raise ImunoiseError("--outage-runs needs --outages F (or a dataset.json with 'outages')")
     with warnings.catch_warnings(record=True) as caught:
