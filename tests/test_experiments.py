@@ -67,6 +67,25 @@ def test_sim_monte_carlo_results(mc, tmp_path):
         assert (tmp_path / f).exists()
 
 
+def test_oracle_is_the_true_model_and_sim_only(real):
+    """The oracle method filters with the simulator's true models (same mapping, no floor); real data has none."""
+    from imunoise.experiments.common import filter_models, simulate_scenario
+
+    sc = simulate_scenario(0, **SIM)
+    cfg, models = online_exp.method_config("oracle", sc)
+    assert not cfg.modelling
+    truth = [sc.truth_models[ax] for ax in ("gx", "gy", "gz", "ax", "ay", "az")]
+    want = filter_models(truth, sc.rate, cfg.with_(floor="none"))
+    assert [str(m) for m, _ in models] == [str(m) for m, _ in want]
+    assert all(m.params == pytest.approx(w.params) for (m, _), (w, _) in zip(models, want))
+    # the paper preset's gyro x RW (K = 4.0e-5 rad/s/√s) reaches the filter unchanged
+    assert models[0][0].continuous(sc.rate)["RW.random_walk"] == pytest.approx(3.994e-5, rel=1e-3)
+    # the filter's initial bias σ is the simulated turn-on σ (5 mg)
+    assert cfg.ekf.sigma_accel_bias0 == pytest.approx(0.05)
+    with pytest.raises(ValueError, match="simulated"):
+        online_exp.method_config("oracle", real[1])
+
+
 def test_denial_sim_models_and_keys():
     res = denial.run_sim([0], methods=("plain", "av", "gmwm", "gmwm_top3"), workers=1, static_recording_s=600.0,
                          complete="2*AR1 + WN + RW", **SIM)

@@ -287,6 +287,25 @@ def test_swap_preserving_keeps_learned_states(scenario):
     assert np.array_equal(ekf.xm, x1) and np.array_equal(ekf.P, P1)
 
 
+def test_drift_maps_to_the_random_walk_with_the_same_wv_at_the_horizon():
+    """DR → RW (dr="rw"): ν²_DR(τ_J) = ν²_RW(τ_J) exactly at the data's longest scale τ_J (SPEC §2 closed forms)."""
+    from imunoise.online import dr_equivalent_rw
+    from imunoise.processes import DR
+
+    omega, tau = 2e-6, 4096.0
+    g2 = dr_equivalent_rw(omega, tau)
+    assert RW(gamma2=g2).wv(np.array([tau]))[0] == pytest.approx(DR(omega=omega).wv(np.array([tau]))[0], rel=1e-12)
+    m = AR1(phi=0.999, sigma2=1e-8) + WN(sigma2=1e-6) + RW(gamma2=1e-12) + DR(omega=omega)
+    out = ekf_axis_model(m, 100.0, None, horizon=tau)
+    assert str(out) == "AR1 + WN + RW" and out.params["RW.gamma2"] == pytest.approx(1e-12 + g2)
+    assert ekf_axis_model(m, 100.0, None, dr="drop").params["RW.gamma2"] == pytest.approx(1e-12)
+    assert ekf_axis_model(m, 100.0, None, dr="state").has("DR")
+    with pytest.raises(ImunoiseError, match="horizon"):
+        ekf_axis_model(m, 100.0, None)
+    with pytest.raises(ImunoiseError, match="dr must"):
+        OnlineConfig(dr="ramp")
+
+
 def test_collapsed_components_are_dropped():
     """A GOF-selected component at the parameter bound (σ² ~ 1e-57) is not made a filter state."""
     m = AR1(phi=0.999, sigma2=1e-60) + AR1(phi=0.99, sigma2=1e-9) + WN(sigma2=1e-6) + RW(gamma2=1e-58)

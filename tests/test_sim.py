@@ -312,6 +312,37 @@ def test_outage_windows_fall_in_motion(clean_drive):
     assert starts[0] >= d.truth["static_intervals"][0][1] and starts[-1] + 60 <= d.truth["static_intervals"][-1][0]
     with pytest.raises(ImunoiseError, match="cannot fit"):
         d.outage_windows(10, 60.0)
+    # a lead keeps the first window that long after the static start, and the rest still fit
+    led = d.outage_windows(4, 60.0, lead_s=120.0)
+    assert led[0][0] >= d.truth["static_intervals"][0][1] + 120.0
+    assert np.all(np.diff([w[0] for w in led]) >= 60.0)
+    with pytest.raises(ImunoiseError, match="lead"):
+        d.outage_windows(5, 60.0, lead_s=1e4)
+    with pytest.raises(ImunoiseError, match="lead_s"):
+        d.outage_windows(2, 60.0, lead_s=-1.0)
+
+
+def test_paper_preset_is_table4():
+    """The "paper" preset reproduces paper Table 4 exactly at 125 Hz and keeps its continuous values at 100 Hz."""
+    from imunoise.sim.imu_errors import PAPER_TABLE4_GYRO, paper_models, preset_model
+
+    m125 = resolve_imu_models("paper", 125.0)
+    for ax, (ars, wn, rw) in PAPER_TABLE4_GYRO.items():
+        p = m125[ax].params
+        assert str(m125[ax]) == "3*AR1 + WN + RW"
+        got = sorted((p[f"AR1_{i}.sigma2"], p[f"AR1_{i}.phi"]) for i in (1, 2, 3))
+        assert np.allclose(got, sorted(ars), rtol=1e-12, atol=0)
+        assert p["WN.sigma2"] == pytest.approx(wn, rel=1e-12) and p["RW.gamma2"] == pytest.approx(rw, rel=1e-12)
+    m100 = paper_models(100.0)
+    for ax in ("gx", "gy", "gz"):
+        c125, c100 = m125[ax].continuous(125.0), m100[ax].continuous(100.0)
+        for k in c125:
+            if not k.endswith("q_c"):
+                assert c100[k] == pytest.approx(c125[k], rel=1e-9), k
+    acc = preset_model("mems", "accel", "3*AR1+WN+RW", 100.0)
+    assert m100["az"].params == pytest.approx(acc.params)
+    # the RW of Table 4 gyro z is K = 5.6e-5 rad/s/√s (11.5 °/h/√s), 23× the plain default's
+    assert m100["gz"].continuous(100.0)["RW.random_walk"] == pytest.approx(5.597e-5, rel=1e-3)
 
 
 def test_correlated_gnss_noise():

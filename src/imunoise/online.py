@@ -27,8 +27,11 @@ EKF needs a model of the error that drives the navigation states while driving. 
   vibration (2.4 °/s per sample on gyro y of the shared drive), and while driving the vibration is larger
   still. Measured on the shared drive (five 60 s outages): mean end drift 338 m plain, 337 m with QN
   dropped, 226 m with QN as white; the simulator (no QN in the truth) is indifferent.
-* DR → dropped (a ramp fitted on seconds of data is not a stable filter state; the RW floor absorbs slow
-  drifts); RW → bias random walk.
+* DR → the random walk with the same Haar WV at the longest scale of the static data (``dr="rw"``, the
+  default; :func:`dr_equivalent_rw`). On seconds-long stops a rate random walk and a ramp are two readings
+  of the same rising WV (GOF often picks DR where the truth is RW); a ramp state would extrapolate one
+  fitted slope, and dropping it (``dr="drop"``, the earlier behaviour) throws away the evidence that the
+  bias wanders. RW → bias random walk.
 * ``floor="default"`` (the default): white density, RW and the slow Gauss–Markov bias of the plain
   default model (``EkfConfig.fallback``) are lower bounds. The static model never makes the filter more
   confident than the plain filter about the low-frequency error it cannot see in seconds-long stops,
@@ -92,6 +95,7 @@ __all__ = [
     "OnlineResult",
     "ModelUpdate",
     "ekf_axis_model",
+    "dr_equivalent_rw",
     "swap_preserving",
     "run_online",
 ]
@@ -120,7 +124,7 @@ class OnlineConfig:
     off) is skipped and logged once per stop (``zupt_rejected``). Measured: a 21.1 gate rejects the valid
     ZUPTs of an overconfident filter at stops inside outages (drive_0708 plain + ZUPT 247 → 342 m) and does
     not cure the false static detections of a noisy IMU, so it is off. ``floor``/``fold_tau_s``/
-    ``keep_dr``/``qn``: the mapping of a fit to filter noise (module docstring).
+    ``dr``/``qn``: the mapping of a fit to filter noise (module docstring).
     """
 
     ekf: EkfConfig = field(default_factory=EkfConfig)
@@ -144,7 +148,7 @@ class OnlineConfig:
     zaru_sigma_w: float = 1e-3
     floor: str = "default"
     fold_tau_s: float = 1.0
-    keep_dr: bool = False
+    dr: str = "rw"
     qn: str = "white"
     swap: str = "preserve"
     store: bool = True
@@ -158,6 +162,8 @@ class OnlineConfig:
             raise ImunoiseError(f"swap must be 'preserve' or 'reset', got {self.swap!r}")
         if self.qn not in ("drop", "white"):
             raise ImunoiseError(f"qn must be 'drop' or 'white', got {self.qn!r}")
+        if self.dr not in ("rw", "drop", "state"):
+            raise ImunoiseError(f"dr must be 'rw', 'drop' or 'state', got {self.dr!r}")
         if self.floor not in ("default", "none"):
             raise ImunoiseError(f"floor must be 'default' or 'none', got {self.floor!r}")
         if self.latency is not None and not (math.isfinite(self.latency) and self.latency >= 0):
@@ -172,11 +178,26 @@ class OnlineConfig:
 # --------------------------------------------------------------------------------------------------
 # fit → filter model
 # --------------------------------------------------------------------------------------------------
+def dr_equivalent_rw(omega: float, horizon: float) -> float:
+    """γ² (per sample) of the random walk with the same Haar WV as a drift ω at scale τ = ``horizon`` samples:
+    ω²τ²/16 = γ²(τ² + 2)/(12τ) (SPEC §2), so γ² = 3ω²τ³/(4(τ² + 2)).
+
+    Over the scales a static record covers, a ramp and a random walk are two readings of the same rising
+    WV; a ramp state in the filter would extrapolate one fitted slope over the whole drive, while the
+    random walk lets the filter track a bias that keeps wandering at the rate the data showed.
+    """
+    tau = float(horizon)
+    return 3.0 * omega * omega * tau**3 / (4.0 * (tau * tau + 2.0))
+
+
 def ekf_axis_model(model: Model, freq: float, floor: Model | None = None, *, fold_tau_s: float = 1.0,
-                   keep_dr: bool = False, qn: str = "white") -> Model:
+                   dr: str = "rw", horizon: float | None = None, qn: str = "white") -> Model:
     """Filter model of one axis from a static GMWM model (module docstring: WN, slow AR1s, RW kept; fast
     AR1s folded into WN with the density σ²/(1 − φ)² per sample; QN as white (2Q² per sample) or dropped
-    (``qn="drop"``); DR dropped unless ``keep_dr``).
+    (``qn="drop"``); DR as the equivalent random walk at ``horizon`` (``dr="rw"``, :func:`dr_equivalent_rw`),
+    dropped (``dr="drop"``) or kept as a ramp state (``dr="state"``)). ``horizon``: the longest Haar
+    scale of the data the model was fitted on, in samples (required when the model has a DR and
+    ``dr="rw"``).
 
     ``floor`` (a WN + RW + AR1 model with known parameters, per sample at ``freq``) bounds the white
     variance and γ² from below and contributes its AR1 (the slow bias instability) when the model has no
@@ -185,7 +206,7 @@ def ekf_axis_model(model: Model, freq: float, floor: Model | None = None, *, fol
     white = 0.0
     gamma2 = 0.0
     ar1: list[tuple[float, float]] = []
-    dr = None
+    ramp = None
     phi_fold = math.exp(-1.0 / (fold_tau_s * freq)) if fold_tau_s > 0 else 0.0
     for c in model.components:
         if c.kind == "WN":
@@ -198,8 +219,13 @@ def ekf_axis_model(model: Model, freq: float, floor: Model | None = None, *, fol
                 ar1.append((phi, s2))
             else:
                 white += s2 / (1.0 - phi) ** 2
-        elif c.kind == "DR" and keep_dr:
-            dr = c.values[0]
+        elif c.kind == "DR" and dr == "state":
+            ramp = c.values[0]
+        elif c.kind == "DR" and dr == "rw":
+            if horizon is None or not horizon >= 2:
+                raise ImunoiseError("ekf_axis_model: a DR maps to a random walk at the data's longest scale; "
+                                    "pass horizon (samples, ≥ 2) or dr='drop'/'state'")
+            gamma2 += dr_equivalent_rw(c.values[0], horizon)
         elif c.kind == "QN" and qn == "white":
             white += 2.0 * c.values[0]
     if floor is not None:
@@ -222,10 +248,10 @@ def ekf_axis_model(model: Model, freq: float, floor: Model | None = None, *, fol
         comps.append(WN(sigma2=white))
     if gamma2 > NEGLIGIBLE * max(total, 1e-300):
         comps.append(RW(gamma2=gamma2))
-    if dr is not None:
+    if ramp is not None:
         from imunoise.processes import DR
 
-        comps.append(DR(omega=dr))
+        comps.append(DR(omega=ramp))
     if not comps:
         comps.append(WN(sigma2=1e-30))
     return Model(comps)
@@ -882,7 +908,8 @@ class OnlineNavigator:
                 out.append((self._floor[a], self.rate))
             else:
                 out.append((ekf_axis_model(f.model, f.freq, floor, fold_tau_s=self.config.fold_tau_s,
-                                           keep_dr=self.config.keep_dr, qn=self.config.qn), self.rate))
+                                           dr=self.config.dr, horizon=float(f.wv.scales[-1]), qn=self.config.qn),
+                            self.rate))
         return out
 
     def _swap(self, t: float, upd: ModelUpdate) -> None:

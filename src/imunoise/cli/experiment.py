@@ -40,8 +40,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--stops", type=int, default=4, help="simulator: traffic-light stops (default 4)")
     p.add_argument("--outages", type=int, default=4, help="simulator: 60 s outages per drive (default 4)")
     p.add_argument("--imu", default=None,
-                   help="simulator: IMU error models: preset (mems, tactical), structure, or model JSON "
-                   "(imunoise.sim.resolve_imu_models; default: mems preset, 3*AR1+WN+RW per axis)")
+                   help="simulator: IMU error models: preset (paper, mems, tactical), structure, or model JSON "
+                   "(imunoise.sim.resolve_imu_models; default: paper = gyros of paper Table 4 and mems "
+                   "accelerometers, 3*AR1+WN+RW per axis)")
     p.add_argument("--static-hours", type=float, default=2.0, help="denial --sim: static recording [h] (default 2)")
     p.add_argument("--methods", help="comma-separated subset of the methods")
     p.add_argument("--start", type=float, help="real data: navigation start [s, data time base]")

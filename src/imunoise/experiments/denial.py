@@ -109,7 +109,8 @@ def _sim_job(args: tuple) -> dict:
     from imunoise.sim import simulate_static
 
     imu_models = scen_kw.get("imu_models", SIM_IMU)
-    rec = simulate_static(imu_models, duration_s=static_s, rate_hz=100.0, seed=10_000 + seed)
+    rec = simulate_static(imu_models, duration_s=static_s, rate_hz=float(scen_kw.get("imu_rate_hz", 100.0)),
+                          seed=10_000 + seed)
     data = rec.errors - rec.errors.mean(axis=0)
     models = static_models([data], 100.0, complete=complete)
     sc = simulate_scenario(seed, **scen_kw)

@@ -4,9 +4,10 @@ Methods (``METHODS``): ``plain`` (default model), ``av`` and ``em`` (fixed model
 the record, in hindsight, as the paper's Table 5 baselines), ``gmwm`` (online, the paper's GOF criterion), ``gmwm_wvic``
 (online, WVIC), ``gmwm_raw`` (online without the plain-default floor), ``gmwm_qndrop`` (QN not
 used as filter noise, see :mod:`imunoise.online`), ``gmwm_zupt`` and
-``plain_zupt`` (with ZUPT/ZARU while static). Each method gets a full-GNSS run (position RMS, ECEF and
-horizontal/vertical; the real drive's RTK reference is the aiding GNSS itself, so those are residuals)
-and the outage runs (end-of-outage drift). Monte Carlo over simulator seeds runs seeds in parallel
+``plain_zupt`` (with ZUPT/ZARU while static), and on the simulator ``oracle`` (the true IMU model in the
+filter: the ceiling of what any error model can gain against ``plain``). Each method gets a full-GNSS run
+(position RMS, ECEF and horizontal/vertical; the real drive's RTK reference is the aiding GNSS itself, so
+those are residuals) and the outage runs (end-of-outage drift). Monte Carlo over simulator seeds runs seeds in parallel
 processes; the differences to ``plain`` and ``av`` get paired 95 % CIs.
 """
 
@@ -40,7 +41,7 @@ log = logging.getLogger(__name__)
 __all__ = ["METHODS", "MC_METHODS", "DEMO_METHODS", "method_config", "run_real", "run_sim", "summarize_seeds"]
 
 METHODS = ("plain", "av", "em", "gmwm", "gmwm_wvic", "gmwm_raw", "gmwm_qndrop", "gmwm_zupt", "plain_zupt")
-MC_METHODS = ("plain", "av", "em", "gmwm", "gmwm_wvic", "gmwm_zupt", "plain_zupt")
+MC_METHODS = ("plain", "av", "em", "gmwm", "gmwm_wvic", "gmwm_zupt", "plain_zupt", "oracle")
 DEMO_METHODS = ("plain", "av", "em", "gmwm", "gmwm_zupt")
 METRIC_KEYS = ("horizontal_rms_m", "vertical_rms_m", "mean_outage_end_horizontal_m")
 
@@ -63,6 +64,17 @@ def method_config(name: str, sc: Scenario, base: OnlineConfig | None = None,
         return base.with_(qn="drop"), None
     if name == "gmwm_zupt":
         return base.with_(zupt=True), None
+    if name == "oracle":
+        # the simulator's true per-axis models through the same fit → filter mapping, without the floor:
+        # the best any static-data model can do, the ceiling of every method here
+        if not sc.truth_models:
+            raise ValueError("the oracle method needs a simulated scenario (true IMU models)")
+        from imunoise.model import Model
+        from imunoise.processes import WN
+
+        none = Model([WN(sigma2=1e-30)])  # an axis the simulator left without errors
+        truth = [sc.truth_models.get(ax, none) for ax in ("gx", "gy", "gz", "ax", "ay", "az")]
+        return base.with_(modelling=False), filter_models(truth, sc.rate, base.with_(floor="none"))
     if name in ("av", "em"):
         cache = fits_cache if fits_cache is not None else {}
         if "segments" not in cache:

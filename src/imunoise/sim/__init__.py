@@ -6,7 +6,7 @@ a ``dataset.json`` manifest; ``simulate_static(models, duration_s, rate_hz, seed
 """
 
 from imunoise.sim.drive import DriveConfig, SimulatedDrive, plan_drive, simulate_drive
-from imunoise.sim.imu_errors import AXES, PRESETS, preset_model, resolve_imu_models
+from imunoise.sim.imu_errors import AXES, PRESETS, paper_models, preset_model, resolve_imu_models
 from imunoise.sim.static import StaticRecording, simulate_static
 
 __all__ = [
@@ -16,6 +16,7 @@ __all__ = [
     "SimulatedDrive",
     "StaticRecording",
     "plan_drive",
+    "paper_models",
     "preset_model",
     "resolve_imu_models",
     "simulate_drive",

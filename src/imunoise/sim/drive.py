@@ -298,16 +298,21 @@ class SimulatedDrive:
         b = np.concatenate([self.truth["turn_on_bias"]["gyro_rad_s"], self.truth["turn_on_bias"]["accel_m_s2"]])
         return self.model_errors + b
 
-    def outage_windows(self, n: int, length_s: float, *, min_speed: float = 2.0) -> list[tuple[float, float]]:
+    def outage_windows(self, n: int, length_s: float, *, min_speed: float = 2.0,
+                       lead_s: float = 0.0) -> list[tuple[float, float]]:
         """``n`` non-overlapping GNSS outage windows (start SOW, length) spread over the drive: the span
-        from the end of the static start to the final stop is cut into ``n`` equal sections and each
-        window starts at the first epoch of its section with speed ≥ ``min_speed`` that leaves it room
-        (if there is none, where the window covers the most road)."""
-        a = self.truth["static_intervals"][0][1]
+        from ``lead_s`` after the end of the static start to the final stop is cut into ``n`` equal sections
+        and each window starts at the first epoch of its section with speed ≥ ``min_speed`` that leaves it
+        room (if there is none, where the window covers the most road). ``lead_s``: GNSS-aided driving
+        before the first window can start."""
+        if not lead_s >= 0:
+            raise ImunoiseError(f"lead_s must be ≥ 0 s, got {lead_s}")
+        a = self.truth["static_intervals"][0][1] + lead_s
         b = self.truth["static_intervals"][-1][0]
         if n < 1 or (b - a) / n < length_s:
             raise ImunoiseError(
-                f"cannot fit {n} outages of {length_s:g} s in the {b - a:.0f} s of driving; shorten them"
+                f"cannot fit {n} outages of {length_s:g} s in the {max(b - a, 0.0):.0f} s of driving after the "
+                f"{lead_s:g} s lead; shorten them, use fewer or a longer drive"
             )
         r = self.reference_full
         speed = np.linalg.norm(r.vel_ned, axis=1)

@@ -30,6 +30,8 @@ __all__ = [
     "ACCEL_AXES",
     "PRESETS",
     "preset_model",
+    "paper_models",
+    "PAPER_TABLE4_GYRO",
     "resolve_imu_models",
     "models_to_json",
 ]
@@ -79,6 +81,39 @@ PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     },
 }
 PRESETS["default"] = PRESETS["mems"]
+
+# Paper Table 4: the online GMWM estimates (3×AR1 + WN + RW, per sample at 125 Hz) of the three gyros of
+# the §3.2 car drive; per axis ([(σ², φ) × 3], σ²_WN, γ²_RW), in rad²/s² per sample. Table 4 prints the AR1
+# innovation variances σ_i² and φ_i = β_i as simts reports them. The paper gives no accelerometer model; the
+# "paper" preset pairs these gyros with the accelerometers of the "mems" preset.
+PAPER_TABLE4_RATE_HZ = 125.0
+PAPER_TABLE4_GYRO: dict[str, tuple[list[tuple[float, float]], float, float]] = {
+    "gx": ([(3.009e-9, 0.8574), (1.723e-9, 0.8852), (3.064e-7, 0.7512)], 4.551e-7, 1.276e-11),
+    "gy": ([(7.156e-11, 0.9979), (4.498e-11, 0.9978), (6.96e-8, 0.7611)], 6.264e-7, 4.171e-15),
+    "gz": ([(4.461e-10, 0.9298), (1.871e-10, 0.9961), (2.340e-7, 0.3866)], 1.878e-6, 2.506e-11),
+}
+
+
+def paper_models(rate_hz: float) -> dict[str, Model]:
+    """The "paper" preset at ``rate_hz``: gyros from paper Table 4 (exact at 125 Hz; at other rates through the
+    continuous equivalents: T_c and σ_GM of each AR1, noise density, rate random walk), accelerometers from
+    the "mems" preset. Per-axis 3×AR1 + WN + RW."""
+    if not rate_hz > 0:
+        raise ModelError(f"IMU rate must be > 0 Hz, got {rate_hz}")
+    f0, f = PAPER_TABLE4_RATE_HZ, float(rate_hz)
+    out: dict[str, Model] = {}
+    for ax, (ars, wn, rw) in PAPER_TABLE4_GYRO.items():
+        comps: list = []
+        for s2, phi0 in ars:
+            var = s2 / (1.0 - phi0 * phi0)  # stationary variance, rate-independent
+            phi = phi0 ** (f0 / f)  # same T_c
+            comps.append(AR1(phi=phi, sigma2=var * (1.0 - phi * phi)))
+        comps.append(WN(sigma2=wn * f / f0))  # same noise density
+        comps.append(RW(gamma2=rw * f0 / f))  # same K
+        out[ax] = Model(comps)
+    acc = preset_model("mems", "accel", DEFAULT_STRUCTURE, f)
+    out.update({ax: acc for ax in ACCEL_AXES})
+    return out
 
 DEFAULT_STRUCTURE = "3*AR1 + WN + RW"
 
@@ -135,7 +170,8 @@ def resolve_imu_models(spec: Any, rate_hz: float, *, preset: str = "mems") -> di
     """Per-axis error models ``{"gx": Model, ..., "az": Model}`` with known parameters.
 
     ``spec`` may be: ``None`` (no stochastic errors: empty dict); a preset name (``"mems"``,
-    ``"tactical"``: 3×AR1 + WN + RW on every axis); a structure string such as ``"2*AR1+WN+RW+QN"``
+    ``"tactical"``: 3×AR1 + WN + RW on every axis; ``"paper"``: :func:`paper_models`); a structure string
+    such as ``"2*AR1+WN+RW+QN"``
     (parameters taken from ``preset``); a :class:`Model` (used on all six axes as is, or its structure
     with preset values if it has no parameters); a path to a JSON file; or a mapping whose keys are axes
     (``gx``..``az``) or groups (``gyro``, ``accel``) and whose values are any of the above or a model
@@ -143,6 +179,8 @@ def resolve_imu_models(spec: Any, rate_hz: float, *, preset: str = "mems") -> di
     """
     if spec is None:
         return {}
+    if isinstance(spec, str) and spec == "paper":
+        return paper_models(rate_hz)
     if isinstance(spec, (str, Path)) and str(spec).endswith(".json"):
         path = Path(spec)
         if not path.exists():
