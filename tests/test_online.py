@@ -306,6 +306,19 @@ def test_drift_maps_to_the_random_walk_with_the_same_wv_at_the_horizon():
         OnlineConfig(dr="ramp")
 
 
+def test_ar1_slower_than_the_data_becomes_a_random_walk():
+    """An AR1 with T_c·f beyond the data's longest scale maps to RW(γ² = its innovation σ²); without a horizon,
+    or with T_c inside it, the AR1 stays a state."""
+    slow = AR1(phi=math.exp(-1.0 / (100.0 * 3e5)), sigma2=1e-12)  # T_c = 3e5 s at 100 Hz
+    m = slow + AR1(phi=0.999, sigma2=1e-8) + WN(sigma2=1e-6) + RW(gamma2=1e-13)
+    out = ekf_axis_model(m, 100.0, None, horizon=2.0**13)
+    assert str(out) == "AR1 + WN + RW"
+    assert out.params["RW.gamma2"] == pytest.approx(1e-13 + 1e-12)
+    assert out.params["AR1_1.phi"] == pytest.approx(0.999)
+    assert str(ekf_axis_model(m, 100.0, None)) == "2*AR1 + WN + RW"
+    assert str(ekf_axis_model(m, 100.0, None, horizon=2.0**40)) == "2*AR1 + WN + RW"
+
+
 def test_collapsed_components_are_dropped():
     """A GOF-selected component at the parameter bound (σ² ~ 1e-57) is not made a filter state."""
     m = AR1(phi=0.999, sigma2=1e-60) + AR1(phi=0.99, sigma2=1e-9) + WN(sigma2=1e-6) + RW(gamma2=1e-58)

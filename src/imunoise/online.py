@@ -27,6 +27,10 @@ EKF needs a model of the error that drives the navigation states while driving. 
   vibration (2.4 °/s per sample on gyro y of the shared drive), and while driving the vibration is larger
   still. Measured on the shared drive (five 60 s outages): mean end drift 338 m plain, 337 m with QN
   dropped, 226 m with QN as white; the simulator (no QN in the truth) is indifferent.
+* AR1 with T_c·f beyond the longest Haar scale of the static data → random walk with the AR1's innovation
+  variance (the same WV at every scale the data has). Kept as a state, such a fit (T_c = 3·10⁵ s, σ_GM =
+  1 °/s on a simulated gyro) entered the filter with its extrapolated stationary σ as initial uncertainty;
+  two GNSS fixes before an outage moved that bias and the outage ended 3 km off;
 * DR → the random walk with the same Haar WV at the longest scale of the static data (``dr="rw"``, the
   default; :func:`dr_equivalent_rw`). On seconds-long stops a rate random walk and a ramp are two readings
   of the same rising WV (GOF often picks DR where the truth is RW); a ramp state would extrapolate one
@@ -197,7 +201,7 @@ def ekf_axis_model(model: Model, freq: float, floor: Model | None = None, *, fol
     (``qn="drop"``); DR as the equivalent random walk at ``horizon`` (``dr="rw"``, :func:`dr_equivalent_rw`),
     dropped (``dr="drop"``) or kept as a ramp state (``dr="state"``)). ``horizon``: the longest Haar
     scale of the data the model was fitted on, in samples (required when the model has a DR and
-    ``dr="rw"``).
+    ``dr="rw"``); an AR1 whose T_c·f exceeds it becomes a random walk with its innovation variance.
 
     ``floor`` (a WN + RW + AR1 model with known parameters, per sample at ``freq``) bounds the white
     variance and γ² from below and contributes its AR1 (the slow bias instability) when the model has no
@@ -215,7 +219,12 @@ def ekf_axis_model(model: Model, freq: float, floor: Model | None = None, *, fol
             gamma2 += c.values[0]
         elif c.kind == "AR1":
             phi, s2 = c.values
-            if phi >= phi_fold:
+            if horizon is not None and phi > 0 and -1.0 / math.log(phi) > horizon:
+                # T_c beyond the longest scale of the data: its WV rises like a random walk's over every
+                # scale the data has, and its stationary σ (what a new state would start with) is an
+                # extrapolation; a random walk with the same innovation carries what the data showed
+                gamma2 += s2
+            elif phi >= phi_fold:
                 ar1.append((phi, s2))
             else:
                 white += s2 / (1.0 - phi) ** 2

@@ -19,7 +19,8 @@ EXAMPLES = """examples:
   imunoise simulate --imu-model models.json --clean --out sim/noisefree
   imunoise simulate --static --duration 7200 --imu-model mems --seed 3 --out sim/static2h
 
---imu-model accepts a preset name (mems, tactical: 3*AR1+WN+RW with consumer/tactical values), a structure
+--imu-model accepts a preset name (mems, tactical: 3*AR1+WN+RW with consumer/tactical values; paper: the gyros
+of paper Table 4 with mems accelerometers), a structure
 string (parameters from the mems preset, up to 4 AR1 plus WN, QN, RW, DR), a JSON file with per-axis
 models ({"gx": {"model": "2*AR1 + WN", "params": {...}}, ..., or "gyro"/"accel" groups}), or "none".
 Model parameters are per sample at the IMU rate (rad/s for gyros, m/s² for accelerometers).
