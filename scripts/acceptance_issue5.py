@@ -122,6 +122,20 @@ def _rel(c: dict | None) -> str:
     return f"{c['rel_pct']:+.1f} ([{c['rel_ci_pct'][0]:+.1f}, {c['rel_ci_pct'][1]:+.1f}])"
 
 
+def cached_mc(folder: Path, reuse: bool, label: str, run, title: str) -> dict:
+    """A Monte Carlo's results: read from ``folder/results.json`` with ``--reuse``, else ``run()`` and write the
+    report there."""
+    from imunoise.experiments.report import write_sim
+
+    path = folder / "results.json"
+    if reuse and path.exists():
+        return json.loads(path.read_text())
+    print(label, flush=True)
+    res = run()
+    write_sim(res, folder, title=title)
+    return res
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="out/issue5")
@@ -134,7 +148,7 @@ def main() -> int:
     out.mkdir(parents=True, exist_ok=True)
     from imunoise.experiments import denial, online_exp
     from imunoise.experiments.common import repo_data_dir
-    from imunoise.experiments.report import headline_rows, write_denial_real, write_online_real, write_sim
+    from imunoise.experiments.report import headline_rows, write_denial_real, write_online_real
     from imunoise.report import fmt
 
     md = ["# Issue 5 acceptance numbers", "", f"Measured {time.strftime('%Y-%m-%d %H:%M')} UTC with "
@@ -178,13 +192,9 @@ def main() -> int:
     md.append("")
 
     seeds = list(range(args.seeds))
-    mc_path = out / "mc_online" / "results.json"
-    if args.reuse and mc_path.exists():
-        mc = json.loads(mc_path.read_text())
-    else:
-        print(f"[2] online Monte Carlo, {len(seeds)} seeds", flush=True)
-        mc = online_exp.run_sim(seeds, workers=2)
-        write_sim(mc, out / "mc_online", title=f"imunoise: online experiment, Monte Carlo ({len(seeds)} seeds)")
+    mc = cached_mc(out / "mc_online", args.reuse, f"[2] online Monte Carlo, {len(seeds)} seeds",
+                   lambda: online_exp.run_sim(seeds, workers=2),
+                   f"imunoise: online experiment, Monte Carlo ({len(seeds)} seeds)")
     md += ["## 2. Simulator Monte Carlo, online experiment", "",
            f"{len(mc['seeds'])} seeds; means over seeds; paired differences with Student-t 95 % CIs.", "",
            "| method | horiz. RMS [m] | vert. RMS [m] | mean outage-end drift [m] |", "|---|---|---|---|"]
@@ -201,13 +211,10 @@ def main() -> int:
                           f"[{c['rel_ci_pct'][0]:+.1f}, {c['rel_ci_pct'][1]:+.1f}] | "
                           f"{'yes' if c['excludes_zero'] else 'no'} |")
     md.append("")
-    mems_path = out / "mc_online_mems" / "results.json"
-    if args.reuse and mems_path.exists():
-        mcm = json.loads(mems_path.read_text())
-    else:
-        print(f"[2c] online Monte Carlo, mems preset, {len(seeds)} seeds", flush=True)
-        mcm = online_exp.run_sim(seeds, workers=2, methods=("plain", "av", "gmwm", "oracle"), imu_models="mems")
-        write_sim(mcm, out / "mc_online_mems", title=f"imunoise: online experiment, mems preset ({len(seeds)} seeds)")
+    mcm = cached_mc(out / "mc_online_mems", args.reuse, f"[2c] online Monte Carlo, mems preset, {len(seeds)} seeds",
+                    lambda: online_exp.run_sim(seeds, workers=2, methods=("plain", "av", "gmwm", "oracle"),
+                                               imu_models="mems"),
+                    f"imunoise: online experiment, mems preset ({len(seeds)} seeds)")
     md += ["### Second scenario: the \"mems\" preset (a sensor close to the plain default)", "",
            "| method | horiz. RMS [m] | mean outage-end drift [m] | drift vs plain [%] (95 % CI) | "
            "RMS vs plain [%] (95 % CI) |", "|---|---|---|---|---|"]
@@ -217,13 +224,9 @@ def main() -> int:
         md.append(f"| {name} | {fmt(m['horizontal_rms_m'])} | {fmt(m['mean_outage_end_horizontal_m'])} | "
                   f"{_rel(cd)} | {_rel(cr)} |")
     md.append("")
-    dn_path = out / "mc_denial" / "results.json"
-    if args.reuse and dn_path.exists():
-        dn = json.loads(dn_path.read_text())
-    else:
-        print(f"[2b] denial Monte Carlo, {len(seeds)} seeds", flush=True)
-        dn = denial.run_sim(seeds, workers=2)
-        write_sim(dn, out / "mc_denial", title=f"imunoise: GNSS-denial experiment, Monte Carlo ({len(seeds)} seeds)")
+    dn = cached_mc(out / "mc_denial", args.reuse, f"[2b] denial Monte Carlo, {len(seeds)} seeds",
+                   lambda: denial.run_sim(seeds, workers=2),
+                   f"imunoise: GNSS-denial experiment, Monte Carlo ({len(seeds)} seeds)")
     md += ["### Simulator Monte Carlo, denial experiment (2 h static recording per seed)", "",
            "| method | mean outage-end drift [m] | Δ vs plain [%] (95 % CI) |", "|---|---|---|"]
     for name, m in dn["methods"].items():

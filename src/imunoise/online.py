@@ -100,6 +100,7 @@ __all__ = [
     "ModelUpdate",
     "ekf_axis_model",
     "dr_equivalent_rw",
+    "data_horizon",
     "swap_preserving",
     "run_online",
 ]
@@ -182,6 +183,13 @@ class OnlineConfig:
 # --------------------------------------------------------------------------------------------------
 # fit → filter model
 # --------------------------------------------------------------------------------------------------
+def data_horizon(fit: Any) -> float | None:
+    """The longest Haar scale (samples) of the WV a fit was made on: the ``horizon`` of :func:`ekf_axis_model`;
+    None when the fit carries no WV (e.g. an Allan-variance model built without one)."""
+    wv = getattr(fit, "wv", None)
+    return float(wv.scales[-1]) if wv is not None else None
+
+
 def dr_equivalent_rw(omega: float, horizon: float) -> float:
     """γ² (per sample) of the random walk with the same Haar WV as a drift ω at scale τ = ``horizon`` samples:
     ω²τ²/16 = γ²(τ² + 2)/(12τ) (SPEC §2), so γ² = 3ω²τ³/(4(τ² + 2)).
@@ -917,7 +925,7 @@ class OnlineNavigator:
                 out.append((self._floor[a], self.rate))
             else:
                 out.append((ekf_axis_model(f.model, f.freq, floor, fold_tau_s=self.config.fold_tau_s,
-                                           dr=self.config.dr, horizon=float(f.wv.scales[-1]), qn=self.config.qn),
+                                           dr=self.config.dr, horizon=data_horizon(f), qn=self.config.qn),
                             self.rate))
         return out
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import logging
 import math
+import multiprocessing as mp
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,14 +26,14 @@ from imunoise.errors import DataError, ImunoiseError
 from imunoise.nav.defaults import EkfConfig
 from imunoise.nav.ekf import InitialState
 from imunoise.nav.metrics import nav_errors, summarize
-from imunoise.online import OnlineConfig, OnlineNavigator, OnlineResult, ekf_axis_model
+from imunoise.online import OnlineConfig, OnlineNavigator, OnlineResult, data_horizon, ekf_axis_model
 
 log = logging.getLogger(__name__)
 
 __all__ = [
     "Scenario", "load_real", "simulate_scenario", "static_segments", "baseline_fits", "filter_models",
     "run_filter", "evaluate", "evaluate_full", "evaluate_outages", "combine",
-    "paired_ci", "METHOD_LABELS", "SIM_IMU", "repo_data_dir",
+    "paired_ci", "map_seeds", "METHOD_LABELS", "SIM_IMU", "repo_data_dir",
 ]
 
 AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
@@ -216,12 +218,11 @@ def filter_models(fits: list, freq: float, config: OnlineConfig | None = None) -
     floor = [m for m, _ in default_axis_models(freq, config.ekf.fallback)]
     out = []
     for a, f in enumerate(fits):
-        model = f.model if hasattr(f, "model") else f
+        is_fit = hasattr(f, "model")
+        model = f.model if is_fit else f
         fl = floor[a] if config.floor == "default" else None
-        wv = getattr(f, "wv", None) if hasattr(f, "model") else None  # a fit carries its data's WV
-        horizon = float(wv.scales[-1]) if wv is not None else None
-        out.append((ekf_axis_model(model, freq, fl, fold_tau_s=config.fold_tau_s, dr=config.dr, horizon=horizon,
-                                   qn=config.qn), freq))
+        out.append((ekf_axis_model(model, freq, fl, fold_tau_s=config.fold_tau_s, dr=config.dr,
+                                   horizon=data_horizon(f) if is_fit else None, qn=config.qn), freq))
     return out
 
 
@@ -292,6 +293,26 @@ def evaluate(sc: Scenario, config: OnlineConfig, *, initial_models=None, keep: b
         groups = [[w] for w in sc.windows] if sc.outage_runs else [list(sc.windows)]
         parts = [evaluate_outages(sc, config, g, initial_models=initial_models, keep=keep) for g in groups]
     return combine(full, parts)
+
+
+def map_seeds(job: Callable[[tuple], dict], jobs: Sequence[tuple], workers: int,
+              progress: Callable[[int], None] | None = None) -> list[dict]:
+    """Run one Monte Carlo ``job`` per entry of ``jobs`` (its first item is the seed) in ``workers`` forked
+    processes (inline when 1), calling ``progress(seed)`` after each; results sorted by their ``"seed"``."""
+    out: list[dict] = []
+    if workers > 1 and len(jobs) > 1:
+        with mp.get_context("fork").Pool(workers) as pool:
+            for r in pool.imap_unordered(job, jobs):
+                out.append(r)
+                if progress:
+                    progress(r["seed"])
+    else:
+        for j in jobs:
+            out.append(job(j))
+            if progress:
+                progress(j[0])
+    out.sort(key=lambda r: r["seed"])
+    return out
 
 
 def paired_ci(a: np.ndarray, b: np.ndarray, level: float = 0.95) -> dict:

@@ -12,7 +12,6 @@ improvement of the mean over plain.
 from __future__ import annotations
 
 import logging
-import multiprocessing as mp
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -26,6 +25,7 @@ from imunoise.experiments.common import (
     evaluate,
     filter_models,
     load_real,
+    map_seeds,
     simulate_scenario,
     static_segments,
 )
@@ -134,19 +134,7 @@ def run_sim(seeds: Sequence[int], *, methods: Sequence[str] = METHODS, workers: 
     """Monte Carlo of the denial experiment over simulator seeds (a ``static_recording_s`` recording of the same
     IMU model per seed; ``complete`` the selection's complete model, default the paper's)."""
     jobs = [(int(s), tuple(methods), float(static_recording_s), {**scen_kw, "_complete": complete}) for s in seeds]
-    per_seed = []
-    if workers > 1 and len(jobs) > 1:
-        with mp.get_context("fork").Pool(workers) as pool:
-            for r in pool.imap_unordered(_sim_job, jobs):
-                per_seed.append(r)
-                if progress:
-                    progress(r["seed"])
-    else:
-        for j in jobs:
-            per_seed.append(_sim_job(j))
-            if progress:
-                progress(j[0])
-    per_seed.sort(key=lambda r: r["seed"])
+    per_seed = map_seeds(_sim_job, jobs, workers, progress)
     for r in per_seed:
         r["methods"].setdefault("gmwm", r["methods"].get("gmwm"))
     res = summarize_seeds(per_seed, list(methods))

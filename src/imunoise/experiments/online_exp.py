@@ -30,6 +30,7 @@ from imunoise.experiments.common import (
     evaluate_outages,
     filter_models,
     load_real,
+    map_seeds,
     paired_ci,
     simulate_scenario,
     static_segments,
@@ -71,9 +72,10 @@ def method_config(name: str, sc: Scenario, base: OnlineConfig | None = None,
             raise ValueError("the oracle method needs a simulated scenario (true IMU models)")
         from imunoise.model import Model
         from imunoise.processes import WN
+        from imunoise.sim.imu_errors import AXES as SIM_AXES
 
         none = Model([WN(sigma2=1e-30)])  # an axis the simulator left without errors
-        truth = [sc.truth_models.get(ax, none) for ax in ("gx", "gy", "gz", "ax", "ay", "az")]
+        truth = [sc.truth_models.get(ax, none) for ax in SIM_AXES]
         return base.with_(modelling=False), filter_models(truth, sc.rate, base.with_(floor="none"))
     if name in ("av", "em"):
         cache = fits_cache if fits_cache is not None else {}
@@ -205,21 +207,7 @@ def run_sim(seeds: Sequence[int], *, methods: Sequence[str] = MC_METHODS, worker
     kw = dict(scen_kw)
     kw["_keep_seed"] = seeds[0] if len(seeds) else -1
     kw["_base"] = base
-    jobs = [(int(s), tuple(methods), kw) for s in seeds]
-    per_seed: list[dict] = []
-    if workers > 1 and len(jobs) > 1:
-        ctx = mp.get_context("fork")
-        with ctx.Pool(workers) as pool:
-            for r in pool.imap_unordered(_sim_job_kw, jobs):
-                per_seed.append(r)
-                if progress:
-                    progress(r["seed"])
-    else:
-        for j in jobs:
-            per_seed.append(_sim_job_kw(j))
-            if progress:
-                progress(j[0])
-    per_seed.sort(key=lambda r: r["seed"])
+    per_seed = map_seeds(_sim_job_kw, [(int(s), tuple(methods), kw) for s in seeds], workers, progress)
     res = summarize_seeds(per_seed, methods)
     res["experiment"] = "online"
     res["data"] = "sim"
