@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from imunoise import AR1, RW, WN
-from imunoise.gmwm import gmwm
+from imunoise.estimator import gmwm
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 

@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from imunoise.imu import AXES as AX
+
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("IMUNOISE_SHARED_DATA", REPO.parent / "shared" / "data"))
 DRIVE = SHARED / "rtklibexplorer_drive0708"
@@ -57,8 +59,6 @@ def _time(fn, reps: int = 5) -> float:
         ts.append(time.perf_counter() - t0)
     return statistics.median(ts)
 
-
-AX = ("gx", "gy", "gz", "ax", "ay", "az")
 
 
 def _nav_error(res, ref) -> np.ndarray:
@@ -244,9 +244,9 @@ def main(quick: bool | None = None) -> str:
             "60 s outage end drift per window [m] | mean [m] |",
             "|---|---|---|---|---|---|",
         ]
-        from imunoise.cli.nav import _zupt_mask
+        from imunoise.cli.nav import zupt_mask
 
-        zmask = _zupt_mask(imu, 30.0)
+        zmask = zupt_mask(imu, 30.0)
         for label, models, zupt in [
             ("plain default (WN+RW+GM)", None, None),
             ("KF-GINS loose values (WN+GM)", default_axis_models(rate, kfgins_loose()), None),

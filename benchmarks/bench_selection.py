@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from imunoise.gmwm import fit_problem, prepare
+from imunoise.estimator import fit_problem, prepare
 from imunoise.model import Model
 from imunoise.selection import candidates, refit, select_model
 

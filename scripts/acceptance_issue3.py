@@ -65,7 +65,7 @@ def part3_adis(em_max_iter: int) -> list[str]:
         best = r.best
         best_gof = min(r.fits, key=lambda f: (f.objective, f.n_params))
         av = allan_fit(x, freq=freq, unit=unit)
-        em = em_fit(x, freq=freq, model=av.model.unknown(), init=av, unit=unit, max_iter=em_max_iter)
+        em = em_fit(av.model.unknown(), x, freq=freq, init=av, unit=unit, max_iter=em_max_iter)
         a = av.extra["allan"]
         e = em.extra
         conv = "conv." if e["converged"] else "cap"
@@ -144,7 +144,7 @@ def part5_av_em(seeds: int) -> list[str]:
     for n in (40_000, 2**18):
         y = a_true.simulate(n, seed=1)
         av = allan_fit(y, freq=125.0)
-        em = em_fit(y, freq=125.0, model="AR1+WN", init=av, max_iter=5000)
+        em = em_fit("AR1+WN", y, freq=125.0, init=av, max_iter=5000)
         phi = em.params["AR1_1.phi"]
         rows.append(
             f"| AV model: {av.model} | {n:,} | {em.extra['iterations']} | {em.extra['converged']} | "

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from imunoise.cli import main
+from imunoise.estimator import gmwm
 from imunoise.export import read_export, sensor_noise
-from imunoise.gmwm import gmwm
 from imunoise.imu_model import ImuModel
 from imunoise.io.rosbag import write_imu_bag
 from imunoise.model import Model

@@ -80,7 +80,7 @@ def test_em_increases_likelihood_and_recovers_phi():
     true = Model.parse("AR1+WN").with_params({"AR1_1.phi": 0.99, "AR1_1.sigma2": 1e-4, "WN.sigma2": 1e-3})
     y = true.simulate(2**14, seed=8)
     start = Model.parse("AR1+WN").with_params({"AR1_1.phi": 0.9, "AR1_1.sigma2": 1e-3, "WN.sigma2": 5e-4})
-    fit = em_fit(y, freq=100.0, init=start, max_iter=400)
+    fit = em_fit(None, y, freq=100.0, init=start, max_iter=400)
     h = np.array(fit.extra["loglik_history"])
     assert np.all(np.diff(h) > -1e-8 * np.abs(h[1:])), "EM must not decrease the likelihood"
     assert fit.extra["decreases"] == 0 and not fit.extra["diverged"]
@@ -93,7 +93,7 @@ def test_em_increases_likelihood_and_recovers_phi():
 def test_em_with_drift_and_av_start():
     true = AR1_WN + Model.parse("DR").with_params({"DR.omega": 1e-4})
     y = true.simulate(8192, seed=2)
-    fit = em_fit(y, freq=10.0, model="AR1+WN+DR", max_iter=150)  # init="av" by default
+    fit = em_fit("AR1+WN+DR", y, freq=10.0, max_iter=150)  # init="av" by default
     assert fit.params["DR.omega"] == pytest.approx(1e-4, rel=0.2)
     assert fit.params["WN.sigma2"] == pytest.approx(1e-1, rel=0.2)
     assert np.isfinite(fit.objective)
@@ -102,11 +102,11 @@ def test_em_with_drift_and_av_start():
 def test_em_rejects_models_without_state_form():
     y = AR1_WN.simulate(512, seed=0)
     with pytest.raises(ModelError):
-        em_fit(y, model="AR1+WN+QN", init=None)
+        em_fit("AR1+WN+QN", y, init=None)
     with pytest.raises(ModelError):
-        em_fit(y, model="AR1+RW", init=None)
+        em_fit("AR1+RW", y, init=None)
     with pytest.raises(ModelError):
-        em_fit(y, model=None, init=None)
+        em_fit(None, y, init=None)
 
 
 def test_cli_em(tmp_path, capsys):

@@ -13,6 +13,7 @@ from imunoise.cli import main
 from imunoise.experiments import denial, online_exp
 from imunoise.experiments.common import paired_ci, repo_data_dir
 from imunoise.experiments.report import write_online_real, write_sim
+from imunoise.imu import AXES
 from imunoise.online import OnlineConfig
 
 FAST = OnlineConfig(complete="2*AR1 + WN + RW")
@@ -74,7 +75,7 @@ def test_oracle_is_the_true_model_and_sim_only(real):
     sc = simulate_scenario(0, **SIM)
     cfg, models = online_exp.method_config("oracle", sc)
     assert not cfg.modelling
-    truth = [sc.truth_models[ax] for ax in ("gx", "gy", "gz", "ax", "ay", "az")]
+    truth = [sc.truth_models[ax] for ax in AXES]
     want = filter_models(truth, sc.rate, cfg.with_(floor="none"))
     assert [str(m) for m, _ in models] == [str(m) for m, _ in want]
     assert all(m.params == pytest.approx(w.params) for (m, _), (w, _) in zip(models, want))

@@ -11,6 +11,7 @@ import pytest
 
 from imunoise.cli import main
 from imunoise.errors import ModelError, UnitError
+from imunoise.estimator import GMWMFit, gmwm
 from imunoise.export import (
     axis_noise,
     export_text,
@@ -20,7 +21,6 @@ from imunoise.export import (
     sensor_noise,
     write_export,
 )
-from imunoise.gmwm import GMWMFit, gmwm
 from imunoise.imu_model import ImuModel, load_model
 from imunoise.model import Model
 
@@ -56,8 +56,9 @@ def imu_model(base_fit) -> ImuModel:
     return ImuModel.from_fits(fits, source={"topic": "/imu/data"})
 
 
-def test_axis_noise_matches_spec_formulas(base_fit):
-    phi, s2, wn, g2, q2 = 0.995, 2e-8, 3e-5, 4e-12, 1e-6
+def test_axis_noise_closed_forms_where_exact(base_fit):
+    """WN, QN, RW and an AR1 faster than one update keep their exact closed forms (SPEC §2, §12)."""
+    phi, s2, wn, g2, q2 = 0.1, 2e-6, 3e-5, 4e-12, 1e-6  # T_c = 2.2 ms < Δt = 5 ms
     fit = _with(
         base_fit,
         "AR1+WN+QN+RW",
@@ -66,14 +67,32 @@ def test_axis_noise_matches_spec_formulas(base_fit):
     )
     a = axis_noise(fit, "gyro_x")
     dt = 1 / F
-    tc = -dt / math.log(phi)  # SPEC §2 AR1 row
-    s2gm = s2 / (1 - phi**2)
-    assert a.N == pytest.approx(math.sqrt((wn + 2 * q2) * dt), rel=1e-12)
-    assert a.K_rw == pytest.approx(math.sqrt(g2) / math.sqrt(dt), rel=1e-12)
-    assert a.K_eq == pytest.approx(math.sqrt(g2 * F + 2 * s2gm / tc), rel=1e-12)
-    assert a.gm[0][0] == pytest.approx(tc, rel=1e-12)
+    assert a.N == pytest.approx(math.sqrt((wn + 2 * q2 + s2 / (1 - phi) ** 2) * dt), rel=1e-12)
+    assert a.K == a.K_eq == a.K_rw == pytest.approx(math.sqrt(g2) / math.sqrt(dt), rel=1e-12)
+    assert a.worst_ratio == 1.0 and a.tau_range_s == (dt, fit.wv.scales[-1] / 2 / F)
     plain = _with(base_fit, "WN+RW", {"WN.sigma2": wn, "RW.gamma2": g2}, "rad/s")
     assert axis_noise(plain).N == pytest.approx(math.sqrt(wn) * math.sqrt(dt), rel=1e-14)  # N = σ·√Δt exactly
+
+
+def test_repro_fast_ar1_never_zero_density(base_fit):
+    """The issue's repro: a fast AR1 that absorbed the white noise (WN at the bound) goes to N, not to K."""
+    tc, sgm = 0.005, 0.006
+    phi = math.exp(-1 / (tc * F))
+    p = {"AR1_1.phi": 0.9999, "AR1_1.sigma2": 1e-12, "AR1_2.phi": phi, "AR1_2.sigma2": sgm**2 * (1 - phi**2),
+         "WN.sigma2": 1e-60, "RW.gamma2": 1e-12}  # fmt: skip
+    a = axis_noise(_with(base_fit, "2*AR1+WN+RW", p, "rad/s"), "gyro_x")
+    assert a.N == pytest.approx(sgm * math.sqrt((1 + phi) / (1 - phi) / F), rel=1e-3)
+    assert a.K >= a.K_rw > 0 and a.K < 0.1 * math.sqrt(2 * sgm**2 / tc)  # q_c = 2σ²/T_c is not added to K
+    assert [r.slot for r in a.equivalent.routes] == ["K", "N", "N", "K"]  # T_c = 50 s > horizon 5.12 s: K
+
+
+def test_unidentified_slots_never_write_zero(base_fit):
+    wn_only = _with(base_fit, "WN", {"WN.sigma2": 1e-6}, "rad/s")
+    a = axis_noise(wn_only, "gyro_x")
+    assert a.K > 0 and any("no random walk" in n for n in a.notes) and a.worst_ratio <= 1.5 + 1e-9
+    rw_only = _with(base_fit, "RW", {"RW.gamma2": 1e-10}, "rad/s")
+    with pytest.raises(ModelError, match="no white-noise-like process"):
+        axis_noise(rw_only, "gyro_x")
 
 
 def test_sensor_combination_and_inflation(imu_model):
@@ -112,7 +131,8 @@ def test_yaml_round_trip_and_comments(tmp_path, imu_model, fmt):
         if re.match(r"\s*(gyro|accel|IMU\.Noise|IMU\.\w+Walk)", line):
             assert "continuous" in line and "discrete" in line and "sqrt(Hz)" in line, line
             assert "(fit) x" in line  # inflation shown beside the value
-    assert "NOT the Allan-variance minimum" in text and "K_eq = sqrt(gamma^2*f" in text
+    assert "NOT the Allan-variance minimum" in text and "matched on tau = " in text
+    assert text.count("worst AV ratio exported/model") == 2  # beside each written pair
 
 
 def test_json_export_keeps_full_model(tmp_path, imu_model):
@@ -130,9 +150,14 @@ def test_model_file_round_trip_and_single_axis(tmp_path, imu_model, base_fit):
     assert m.axes["gyro_x"] == imu_model.fit("gyro_x").to_dict()  # per-axis dicts are GMWMFit.to_dict()
     base_fit.save(str(tmp_path / "model.json"))
     single = load_model(tmp_path / "model.json")
+    text = export_text(single, "kalibr")  # rad/s: a gyro, no --sensor needed
+    assert read_export_text(text) == read_export_text(export_text(single, "kalibr", sensor="gyro"))
+    unitless = _with(base_fit, "WN+RW", base_fit.params, "u")
     with pytest.raises(ModelError, match="--sensor"):
-        export_text(single, "kalibr")
-    text = export_text(single, "kalibr", sensor="gyro")
+        export_text(unitless, "kalibr")
+    by_name = _with(base_fit, "WN+RW", base_fit.params, "u")
+    by_name.extra["column"] = "accel_z"
+    assert "accelerometer_noise_density: " in export_text(by_name, "kalibr")
     assert "# accelerometer_noise_density: not exported" in text
     assert read_export_text(text)["gyroscope_noise_density"] == axis_noise(base_fit).N
     with pytest.raises(UnitError, match="needs m/s²"):
@@ -161,3 +186,35 @@ def test_cli_export(tmp_path, imu_model, capsys):
     assert main(["export", str(p), "--to", "orbslam3", "--out", "-"]) == 0
     assert "IMU.NoiseGyro:" in capsys.readouterr().out
     assert main(["export", str(tmp_path / "missing.json")]) == 2
+
+
+def test_cli_export_refusals_and_report(tmp_path, imu_model, capsys):
+    p = imu_model.save(tmp_path / "imu_model.json")
+    before = p.read_text()
+    capsys.readouterr()
+    assert main(["export", str(p), "--to", "json", "--out", str(p)]) == 2  # never over its own input
+    assert p.read_text() == before and "input model file" in capsys.readouterr().err
+    partial = json.loads(before)
+    del partial["axes"]["gyro_x"]["model"]
+    (tmp_path / "partial.json").write_text(json.dumps(partial))
+    assert main(["export", str(tmp_path / "partial.json"), "--out", "-"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "incomplete" in err and "'model'" in err
+    assert main(["export", str(p), "--out", str(tmp_path / "k.yaml"), "--horizon", "5"]) == 0
+    err = capsys.readouterr().err
+    assert "gyro_x: WN + RW" in err and "WN -> N" in err and "RW -> K" in err and "AR1_1 -> N+K" in err
+    assert "matched on tau = 0.005..5 s" in (tmp_path / "k.yaml").read_text()
+
+
+def test_cli_warns_when_the_pair_cannot_follow_the_model(tmp_path, base_fit, capsys):
+    """A bias-instability bump inside the range: worst AV ratio > 2 -> a warning on stderr and in the file."""
+    p = {"AR1_1.phi": math.exp(-1 / (0.5 * F)), "AR1_1.sigma2": 1e-6 * (1 - math.exp(-2 / (0.5 * F))),
+         "WN.sigma2": 1e-8, "RW.gamma2": 1e-20}  # fmt: skip
+    fit = _with(base_fit, "AR1+WN+RW", p, "rad/s")
+    fit.save(str(tmp_path / "model.json"))
+    capsys.readouterr()
+    assert main(["export", str(tmp_path / "model.json"), "--out", str(tmp_path / "imu.yaml")]) == 0
+    err = capsys.readouterr().err
+    assert "warning: gyro: the exported pair's Allan variance is" in err
+    text = (tmp_path / "imu.yaml").read_text()
+    assert "(> 2: WARNING)" in text and axis_noise(fit).worst_ratio > 2

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from imunoise import AR1, QN, RW, WN, DataError, Model, ModelError
-from imunoise.gmwm import GMWMFit, gmwm, prepare
+from imunoise.estimator import GMWMFit, gmwm, prepare
 from imunoise.wv import wavelet_variance
 
 

@@ -59,7 +59,8 @@ def test_nav_bad_start_is_a_one_line_error(sim_dir, tmp_path, capsys):
 
 def test_nav_with_model_json(sim_dir, tmp_path):
     truth = json.loads((sim_dir / "truth.json").read_text())
-    (tmp_path / "model.json").write_text(json.dumps({"gyro": truth["models"]["gx"], "accel": truth["models"]["ax"]}))
+    models = {"gyro": truth["models"]["gyro_x"], "accel": truth["models"]["accel_x"]}
+    (tmp_path / "model.json").write_text(json.dumps(models))
     rc = main(
         [
             "nav",

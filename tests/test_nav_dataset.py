@@ -42,7 +42,7 @@ def test_manifest_validation(tmp_path):
 def test_load_axis_models_reads_the_multi_axis_model_file(tmp_path):
     """The file written by `imunoise fit --columns ...` feeds `imunoise nav --model` axis by axis."""
     from imunoise import AR1, WN
-    from imunoise.gmwm import gmwm
+    from imunoise.estimator import gmwm
     from imunoise.imu_model import ImuModel
     from imunoise.nav.defaults import load_axis_models
 

@@ -10,7 +10,8 @@ import pytest
 
 from imunoise.errors import DataError, ImunoiseError
 from imunoise.experiments.common import simulate_scenario
-from imunoise.online import OnlineConfig, OnlineNavigator, _implausible, ekf_axis_model
+from imunoise.online import OnlineConfig, OnlineNavigator, ekf_axis_model
+from imunoise.online.jobs import _implausible
 from imunoise.processes import AR1, QN, RW, WN
 
 FAST = "2*AR1 + WN + RW"  # small complete model: 11 candidates, keeps the tests fast
@@ -257,7 +258,6 @@ def test_non_finite_samples_never_crash_the_filter(scenario):
 def test_swap_preserving_keeps_learned_states(scenario):
     from imunoise.nav.defaults import default_axis_models
     from imunoise.nav.ekf import LooselyCoupledEKF
-    from imunoise.online import swap_preserving
 
     sc = scenario
     ekf = LooselyCoupledEKF(sc.ekf_config(), None, sc.init, imu_rate_hz=100.0)
@@ -270,7 +270,7 @@ def test_swap_preserving_keeps_learned_states(scenario):
     # first swap: plain (bias + slow GM) → slow GM + a new AR1 per axis: the slow GM state is kept
     new = [(m + AR1(phi=0.99, sigma2=1e-8), 100.0) for m in slow]
     x0, P0 = ekf.xm.copy(), ekf.P.copy()
-    counts = swap_preserving(ekf, new, 100.0)
+    counts = ekf.swap_model(new, preserve=True, imu_rate_hz=100.0)
     assert counts == {"kept": 6, "reset": 6}
     L = ekf.layout
     for a in range(6):
@@ -283,7 +283,7 @@ def test_swap_preserving_keeps_learned_states(scenario):
     # a refit of the same structure keeps every state exactly
     x1, P1 = ekf.xm.copy(), ekf.P.copy()
     refit = [(m + AR1(phi=0.995, sigma2=2e-8), 100.0) for m in slow]
-    assert swap_preserving(ekf, refit, 100.0) == {"kept": 12, "reset": 0}
+    assert ekf.swap_model(refit, preserve=True, imu_rate_hz=100.0) == {"kept": 12, "reset": 0}
     assert np.array_equal(ekf.xm, x1) and np.array_equal(ekf.P, P1)
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from imunoise.cli import main as cli_main
 from imunoise.errors import DataError, ModelError
-from imunoise.gmwm import prepare
+from imunoise.estimator import prepare
 from imunoise.model import Model, default_complete
 from imunoise.selection import (
     Candidate,
@@ -120,13 +120,13 @@ def test_wv_deviance_and_correlation_identities():
 
 
 def test_wv_likelihood_uses_the_gaussian_variance_of_the_estimator():
-    from imunoise.selection import _haar_gain, _process_spectrum
+    from imunoise.fitting.wvic import haar_gain, process_spectrum
 
     tau = 2.0 ** np.arange(1, 12)
-    f, df, H = _haar_gain(tau)
+    f, df, H = haar_gain(tau)
     # white noise: Var(ν̂_1) = 3ν_1²/M (W_1 is MA(1) with ρ = −½), so A_1 = M Var/2 = 1.5 ν_1²
     wn = Model.parse("WN").with_params({"WN.sigma2": 2.0})
-    A = 2.0 * (H * H) @ (_process_spectrum(wn, f) ** 2 * df)
+    A = 2.0 * (H * H) @ (process_spectrum(wn, f) ** 2 * df)
     assert A[0] == pytest.approx(1.5 * (2.0 / 2.0) ** 2, rel=2e-3)
     # the likelihood prefers the generating model to a 20 % wrong one, and a drift has no spread
     x = wn.simulate(2**15, seed=3)

@@ -11,6 +11,7 @@ import pytest
 
 from imunoise.cli import main as cli_main
 from imunoise.errors import ImunoiseError, ModelError
+from imunoise.imu import AXES
 from imunoise.io.kfgins import read_gnss, read_imu, read_outages, read_reference
 from imunoise.model import Model
 from imunoise.nav.earth import OMEGA_E, gravity, llh_to_ned, radii
@@ -127,8 +128,8 @@ def test_error_injection_identities():
     # gyro WN σ² = 1e-6 at rest
     r = e[m][:, :3] - bias[:3]
     assert np.all(np.abs(r.var(axis=0) / 1e-6 - 1) < 5 * math.sqrt(2 / m.sum()))
-    assert d.truth["models"]["gx"]["model"] == "WN" and "ax" not in d.truth["models"]
-    assert d.truth["models"]["az"]["params"]["WN.sigma2"] == pytest.approx((70e-6 * 9.80665) ** 2 * 100)
+    assert d.truth["models"]["gyro_x"]["model"] == "WN" and "accel_x" not in d.truth["models"]
+    assert d.truth["models"]["accel_z"]["params"]["WN.sigma2"] == pytest.approx((70e-6 * 9.80665) ** 2 * 100)
     np.testing.assert_allclose(e[:, :3], d.bias_true[:, :3] + d.vibration[:, :3], atol=1e-12)
     # the trajectory does not depend on the IMU model (separate random streams)
     d2 = simulate_drive(cfg, None, seed=4)
@@ -173,12 +174,14 @@ def test_presets_and_model_resolution(tmp_path):
     assert [round(c[f"AR1_{i}.tau_c"]) for i in (1, 2, 3)] == [200, 20, 2]
     assert preset_model("mems", "gyro", "WN", 200.0).params["WN.sigma2"] == pytest.approx((0.0038 * DEG) ** 2 * 200)
     models = resolve_imu_models("2*AR1+WN", 100.0)
-    assert set(models) == {"gx", "gy", "gz", "ax", "ay", "az"} and str(models["ax"]) == "2*AR1 + WN"
+    assert tuple(models) == AXES and str(models["accel_x"]) == "2*AR1 + WN"
     known = AR1(phi=0.99, sigma2=1e-6) + RW(gamma2=1e-12)
     p = tmp_path / "m.json"
+    # "az": the short axis names of older truth files are still read, and come out as imu.AXES names
     p.write_text(json.dumps({"gyro": known.to_dict(), "az": {"model": "WN", "params": {"WN.sigma2": 1e-3}}}))
     models = resolve_imu_models(str(p), 100.0)
-    assert models["gy"] == known and models["az"].params == {"WN.sigma2": 1e-3} and "ax" not in models
+    assert models["gyro_y"] == known and models["accel_z"].params == {"WN.sigma2": 1e-3} and "accel_x" not in models
+    assert set(models) == {"gyro_x", "gyro_y", "gyro_z", "accel_z"}
     assert resolve_imu_models(None, 100.0) == {}
     with pytest.raises(ModelError, match="axis"):
         resolve_imu_models({"gw": "WN"}, 100.0)
@@ -252,8 +255,9 @@ def test_write_and_read_back(tmp_path):
     np.testing.assert_allclose(ref_imu.vel_ned, d.reference.vel_ned, atol=1e-6, rtol=0)
     assert read_outages(out / man["outages"]) == [(cfg.start_sow + 150.0, 20.0)]
     truth = json.loads((out / "truth.json").read_text())
-    assert len(truth["stops"]) == 1 and truth["models"]["gx"]["model"] == "3*AR1 + WN + RW"
-    assert Model.from_dict(truth["models"]["az"]) == d.imu_models["az"]
+    assert len(truth["stops"]) == 1 and truth["models"]["gyro_x"]["model"] == "3*AR1 + WN + RW"
+    assert Model.from_dict(truth["models"]["accel_z"]) == d.imu_models["accel_z"]
+    assert truth["turn_on_bias"]["axes"] == list(AXES)
 
 
 def test_cli_simulate(tmp_path, capsys):
@@ -277,7 +281,7 @@ def test_cli_simulate(tmp_path, capsys):
     assert rc == 0 and "stops" in capsys.readouterr().out
     assert len(read_gnss(tmp_path / "d" / "gnss.txt")) == 401
     truth = json.loads((tmp_path / "d" / "truth.json").read_text())
-    assert truth["models"]["gz"]["model"] == "2*AR1 + WN + RW"
+    assert truth["models"]["gyro_z"]["model"] == "2*AR1 + WN + RW"
     rc = cli_main(["simulate", "--static", "--duration", "30", "--imu-model", "mems", "--out", str(tmp_path / "s")])
     assert rc == 0
     a = read_imu(tmp_path / "s" / "imu.txt")
@@ -334,15 +338,15 @@ def test_paper_preset_is_table4():
         assert np.allclose(got, sorted(ars), rtol=1e-12, atol=0)
         assert p["WN.sigma2"] == pytest.approx(wn, rel=1e-12) and p["RW.gamma2"] == pytest.approx(rw, rel=1e-12)
     m100 = paper_models(100.0)
-    for ax in ("gx", "gy", "gz"):
+    for ax in ("gyro_x", "gyro_y", "gyro_z"):
         c125, c100 = m125[ax].continuous(125.0), m100[ax].continuous(100.0)
         for k in c125:
             if not k.endswith("q_c"):
                 assert c100[k] == pytest.approx(c125[k], rel=1e-9), k
     acc = preset_model("mems", "accel", "3*AR1+WN+RW", 100.0)
-    assert m100["az"].params == pytest.approx(acc.params)
+    assert m100["accel_z"].params == pytest.approx(acc.params)
     # the RW of Table 4 gyro z is K = 5.6e-5 rad/s/√s (11.5 °/h/√s), 23× the plain default's
-    assert m100["gz"].continuous(100.0)["RW.random_walk"] == pytest.approx(5.597e-5, rel=1e-3)
+    assert m100["gyro_z"].continuous(100.0)["RW.random_walk"] == pytest.approx(5.597e-5, rel=1e-3)
 
 
 def test_correlated_gnss_noise():

@@ -249,3 +249,22 @@ def test_accumulator_bad_input():
         acc.add(np.array([1.0, 2.0, np.nan]))
     with pytest.raises(DataError, match="pass one axis"):
         acc.add(np.zeros((4, 4)))
+
+
+def test_scale_runs_are_the_runs_of_true():
+    # the one run finder of band_departures and the Allan line readings: exact (first, last) per run
+    from imunoise.wv import scale_runs
+
+    assert scale_runs(np.array([], dtype=bool)) == []
+    assert scale_runs(np.array([False, False])) == []
+    assert scale_runs(np.array([True, True, True])) == [(0, 2)]
+    assert scale_runs(np.array([False, True, True, False, True])) == [(1, 2), (4, 4)]
+    assert scale_runs(np.array([True, False, False, True, True, False])) == [(0, 0), (3, 4)]
+    rng = np.random.default_rng(7)
+    m = rng.random(200) < 0.5
+    runs = scale_runs(m)
+    covered = np.zeros(m.size, dtype=bool)
+    for a, b in runs:
+        assert m[a : b + 1].all() and (a == 0 or not m[a - 1]) and (b == m.size - 1 or not m[b + 1])
+        covered[a : b + 1] = True
+    assert np.array_equal(covered, m)

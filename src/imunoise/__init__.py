@@ -1,18 +1,31 @@
 """imunoise: online stochastic error modelling of inertial sensors with the GMWM.
 
 Model algebra: ``2 * AR1() + WN() + RW()``; wavelet variance: :func:`wavelet_variance`;
-estimator: :func:`gmwm`. All quantities are SI; GMWM parameters are per sample (SPEC §1).
+estimators: :func:`gmwm` (GMWM), :func:`refit`, :func:`em_fit` (EM baseline), all called as
+``estimator(model, data, freq=...)``, and :func:`select_model`; :func:`warm_up` compiles (or loads from
+numba's cache) the fitting kernels ahead of the first fit. All quantities are SI; GMWM parameters
+are per sample (SPEC §1).
+
+No exported name equals a submodule's name (the estimator lives in :mod:`imunoise.estimator`): an
+exported function and a submodule of the same name share one attribute of this package, and importing
+the submodule replaces the function with the module.
+
+Layout along the data path IMU → detection → modelling → filter: :mod:`imunoise.io` reads records into SI
+arrays; :mod:`imunoise.detect` finds the static intervals; the modelling core (:mod:`~imunoise.processes`,
+:mod:`~imunoise.model`, :mod:`~imunoise.wv`, :mod:`~imunoise.estimator` on :mod:`imunoise.fitting`,
+:mod:`~imunoise.selection`, baselines :mod:`~imunoise.allan` and :mod:`~imunoise.em`) turns the data into
+error models; :mod:`imunoise.nav` filters with them, and :mod:`imunoise.online` runs the whole path while
+the data arrive. :mod:`imunoise.sim`, :mod:`imunoise.experiments` and :mod:`imunoise.cli` sit on top. A
+stage imports only earlier stages (and :mod:`imunoise.errors`, :mod:`imunoise.units`,
+:mod:`imunoise.report`), never a later one (tests/test_docs.py checks it).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from imunoise._version import __version__
 from imunoise.errors import DataError, FitError, ImunoiseError, ModelError, UnitError
-from imunoise.model import Model, StateSpace
-from imunoise.processes import AR1, DR, QN, RW, WN
-
-__version__ = "0.1.0"
 
 __all__ = [
     "AR1",
@@ -22,6 +35,7 @@ __all__ = [
     "WN",
     "Model",
     "StateSpace",
+    "as_model",
     "wavelet_variance",
     "WVAccumulator",
     "WaveletVariance",
@@ -29,6 +43,8 @@ __all__ = [
     "GMWMFit",
     "select_model",
     "refit",
+    "em_fit",
+    "warm_up",
     "ImunoiseError",
     "DataError",
     "ModelError",
@@ -37,21 +53,40 @@ __all__ = [
     "__version__",
 ]
 
+# Everything that needs numpy/scipy is imported on first use: `import imunoise` (and so `imunoise --help`,
+# which imports the package before its CLI) loads only the error classes.
 _LAZY = {
+    "AR1": "imunoise.processes",
+    "DR": "imunoise.processes",
+    "QN": "imunoise.processes",
+    "RW": "imunoise.processes",
+    "WN": "imunoise.processes",
+    "Model": "imunoise.model",
+    "StateSpace": "imunoise.model",
+    "as_model": "imunoise.model",
     "wavelet_variance": "imunoise.wv",
     "WVAccumulator": "imunoise.wv",
     "WaveletVariance": "imunoise.wv",
-    "gmwm": "imunoise.gmwm",
-    "GMWMFit": "imunoise.gmwm",
+    "gmwm": "imunoise.estimator",
+    "GMWMFit": "imunoise.estimator",
     "select_model": "imunoise.selection",
-    "refit": "imunoise.selection",
+    "refit": "imunoise.estimator",
+    "em_fit": "imunoise.em",
+    "warm_up": "imunoise.fitting.warm",
 }
 
 
 def __getattr__(name: str) -> Any:
-    # Lazy so that `import imunoise` stays fast (numba/scipy work happens on first use).
+    # Lazy so that `import imunoise` stays fast (numba/scipy work happens on first use). The value is
+    # cached as a real attribute, so later lookups do not come back here.
     if name in _LAZY:
         import importlib
 
-        return getattr(importlib.import_module(_LAZY[name]), name)
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
     raise AttributeError(f"module 'imunoise' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

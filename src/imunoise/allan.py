@@ -45,10 +45,11 @@ import numpy as np
 from numba import njit
 
 from imunoise.errors import DataError, FitError
-from imunoise.gmwm import GMWMFit, prepare
+from imunoise.fitting.problem import prepare
+from imunoise.fitting.result import GMWMFit
 from imunoise.model import Model
 from imunoise.processes import AR1, DR, QN, RW, WN
-from imunoise.wv import WaveletVariance, wavelet_variance
+from imunoise.wv import WaveletVariance, scale_runs, wavelet_variance
 
 __all__ = [
     "AllanVariance",
@@ -59,12 +60,20 @@ __all__ = [
     "reading_model",
     "allan_fit",
     "curve_from_fit",
+    "data_curve",
+    "curve_to_dict",
     "plot_allan",
     "BI_FACTOR",
+    "MIN_DOF",
+    "reliable",
+    "rw_bound",
 ]
 
 BI_FACTOR = 0.6643  # AD at the flicker floor = sqrt(2 ln2 / π)·B
 LINES = {"Q": -1.0, "N": -0.5, "B": 0.0, "K": 0.5, "R": 1.0}
+#: Equivalent degrees of freedom an Allan point needs to be read (SPEC §3, η = max(M/(2m), 1)); the one
+#: definition of a "reliable" point, shared by the reading and the data's bound on K (:func:`rw_bound`).
+MIN_DOF = 3.0
 
 
 @dataclass(frozen=True)
@@ -220,18 +229,25 @@ def _local_slopes(logt: np.ndarray, logad: np.ndarray, half_width: float) -> np.
     return out
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    runs, i = [], 0
-    while i < mask.size:
-        if mask[i]:
-            j = i
-            while j + 1 < mask.size and mask[j + 1]:
-                j += 1
-            runs.append((i, j))
-            i = j + 1
-        else:
-            i += 1
-    return runs
+def reliable(av: AllanVariance, min_dof: float = MIN_DOF) -> np.ndarray:
+    """The points an Allan reading may use: η ≥ ``min_dof`` equivalent degrees of freedom and AVAR > 0."""
+    return (av.dof >= min_dof) & (av.avar > 0)
+
+
+def rw_bound(av: AllanVariance, min_dof: float = MIN_DOF) -> tuple[float, float]:
+    """The data's Allan bound on a random-walk density: (K_data, τ at the minimum [s]).
+
+    K_data = min_τ √(3·AVAR(τ)/τ) = min_τ AD(τ)·√(3/τ) over the :func:`reliable` points — the largest K
+    whose +½ line AD = K·√(τ/3) stays at or below the Allan deviation wherever it can be read (an IEEE
+    reading never draws a line above the curve). ``min_dof=0``: over every point, including the 1-dof
+    tail. (NaN, NaN) when no point qualifies.
+    """
+    ok = reliable(av, min_dof)
+    if not np.any(ok):
+        return math.nan, math.nan
+    k = np.sqrt(3.0 * av.avar[ok] / av.tau[ok])
+    i = int(np.argmin(k))
+    return float(k[i]), float(av.tau[ok][i])
 
 
 def read_allan(
@@ -239,11 +255,34 @@ def read_allan(
     *,
     slope_tol: float = 0.15,
     window_octaves: float = 1.0,
-    min_dof: float = 3.0,
+    min_dof: float = MIN_DOF,
     min_span_decades: float = 0.3,
 ) -> AllanReading:
-    """Automated IEEE 952/1293 reading of an Allan variance (module docstring)."""
-    ok = (av.dof >= min_dof) & (av.avar > 0)
+    """Automated IEEE 952/1293 reading of an Allan variance (module docstring).
+
+    Parameters
+    ----------
+    av : AllanVariance
+        The Allan variance (:func:`allan_variance`).
+    slope_tol : float
+        Largest departure of a local log-log slope from a line's slope (table above) inside its region.
+    window_octaves : float
+        Half-width of the window of the local slopes [octaves of τ].
+    min_dof : float
+        Points with fewer equivalent degrees of freedom are not used.
+    min_span_decades : float
+        Shortest span of a region [decades of τ].
+
+    Returns
+    -------
+    AllanReading
+
+    Raises
+    ------
+    FitError
+        With fewer than 3 reliable points.
+    """
+    ok = reliable(av, min_dof)
     if np.sum(ok) < 3:
         raise FitError(f"only {int(np.sum(ok))} Allan points have ≥ {min_dof} degrees of freedom; need more data")
     tau, ad, eta = av.tau[ok], np.sqrt(av.avar[ok]), av.dof[ok]
@@ -258,7 +297,7 @@ def read_allan(
         # tolerance catches a noisy line (the region is reported, so the reading can be checked)
         for tol in (slope_tol, 2.0 * slope_tol) if relax else (slope_tol,):
             mask = np.abs(slopes - s) <= tol
-            runs = [(a, b) for a, b in _runs(mask) if logt[b] - logt[a] >= min_span_decades]
+            runs = [(a, b) for a, b in scale_runs(mask) if logt[b] - logt[a] >= min_span_decades]
             if runs:
                 break
         if not runs:
@@ -292,7 +331,7 @@ def read_allan(
         out.R = got[0] * math.sqrt(2.0)  # AD = Rτ/√2
         out.lines["R"] = AllanLine("R", 1.0, out.R, got[1].region, got[1].n_points)
     # B: the lowest point of the flat (slope 0) region, else an interior global minimum
-    flat = [(a, b) for a, b in _runs(np.abs(slopes) <= slope_tol)]
+    flat = scale_runs(np.abs(slopes) <= slope_tol)
     i_min = int(np.argmin(ad))
     if flat:
         a, b = min(flat, key=lambda r: float(np.min(ad[r[0] : r[1] + 1])))
@@ -335,25 +374,38 @@ def allan_fit(
 ) -> GMWMFit:
     """AV baseline (SPEC §6): read the AV automatically and return the equivalent model as a fit.
 
-    ``data``: array or list of segments. The result is a :class:`GMWMFit` with ``method="av"``; its
-    ``objective`` is the GMWM objective (Eq. 8) of the AV model on the data's WV and Ω (the same as
-    :func:`imunoise.selection.select_model` uses), ``extra["allan"]`` holds the reading (N, K, B,
-    T_BI, Q, R in continuous units and the τ regions), ``extra["allan_curve"]`` the AV points.
+    Parameters
+    ----------
+    data
+        Array or list of segments.
+    freq
+        Sample rate in Hz (a number, else ``DataError``).
+    unit
+        Data unit named in the summary and the reading's units.
+    grid
+        AV cluster sizes: ``"dense"`` or ``"octave"`` (the WV's scales; :func:`allan_variance`).
+    weights, robust
+        Ω and WV estimator of the reported GMWM objective (as for :func:`imunoise.estimator.gmwm`).
+    **reading_options
+        Passed to :func:`read_allan`.
+
+    Returns
+    -------
+    GMWMFit
+        ``method="av"``; ``objective`` is the GMWM objective (Eq. 8) of the AV model on the data's WV
+        and Ω (the same as :func:`imunoise.selection.select_model` uses), ``extra["allan"]`` holds the
+        reading (N, K, B, T_BI, Q, R in continuous units and the τ regions), ``extra["allan_curve"]``
+        the AV points.
     """
     t0 = time.perf_counter()
     problem = prepare(data, freq=freq, weights=weights, robust=robust)
     av = allan_variance(data, freq=freq, grid=grid, wv=problem.wv if grid == "octave" else None)
     reading = read_allan(av, **reading_options)
     model = reading_model(reading, freq)
-    fit = GMWMFit(
-        model=model,
-        objective=problem.objective(model),
-        wv=problem.wv,
-        weights=problem.weights,
-        omega_sqrt=problem.W,
+    fit = GMWMFit.from_problem(
+        problem,
+        model,
         converged=True,
-        elapsed_s=0.0,
-        freq=float(freq),
         unit=unit,
         method="av",
         extra={
@@ -371,6 +423,27 @@ def allan_fit(
     )
     fit.elapsed_s = time.perf_counter() - t0
     return fit
+
+
+def curve_to_dict(av: AllanVariance) -> dict[str, Any]:
+    """JSON-ready points of an Allan curve (grid, τ [s], AVAR, η), read back by :func:`data_curve`."""
+    return {"grid": av.grid, "tau_s": av.tau.tolist(), "avar": av.avar.tolist(), "dof": av.dof.tolist()}
+
+
+def data_curve(fit: GMWMFit) -> AllanVariance | None:
+    """The data's Allan curve a fit carries, densest first: ``extra["data_allan"]`` (the dense grid stored by
+    :func:`imunoise.imu_model.fit_axis`), an AV fit's ``extra["allan_curve"]``, else the octave grid of the
+    fit's own WV (AVAR = 2ν²_j at τ = 2^(j−1)Δt, SPEC §1; η = M_j/2^j). None when the fit has no WV."""
+    c = fit.extra.get("data_allan")
+    if c:
+        tau, avar, eta = (np.asarray(c[k], dtype=float) for k in ("tau_s", "avar", "dof"))
+        lo, hi = _chi2_ci(avar, eta)
+        return AllanVariance(tau, avar, eta, lo, hi, float(fit.freq), str(c.get("grid", "dense")))
+    if fit.extra.get("allan_curve"):
+        return curve_from_fit(fit)
+    if getattr(fit, "wv", None) is None or len(fit.wv) == 0:
+        return None
+    return allan_variance(None, freq=fit.freq, grid="octave", wv=fit.wv)
 
 
 def curve_from_fit(fit: GMWMFit) -> AllanVariance:
@@ -392,15 +465,24 @@ def plot_allan(
     models: list[tuple[str, Model]] | None = None,
     unit: str = "u",
     title: str = "",
+    colors: list[str] | None = None,
 ) -> Any:
     """Log-log Allan deviation with CI band, the fitted IEEE lines over their regions (shaded), and the
-    AD implied by any models (AVAR = 2ν² evaluated on the octave grid)."""
+    AD implied by any models (AVAR = 2ν² evaluated on the octave grid).
+
+    Legend: each line's coefficient with its unit; B is marked at its value (square at τ = T_BI) and
+    joined to the AD minimum it is read from (AD_min = 0.6643·B). Model curves take ``colors`` or the
+    method's colour (:data:`imunoise.plots.METHOD_COLORS`, from a label starting with GMWM/AV/EM); the
+    IEEE lines use colours none of the methods use.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.5, 5.2))
+    from imunoise.plots import finish_figure, method_color
+
+    fig, ax = plt.subplots(figsize=(9.6, 5.2), layout="constrained")
     ax.fill_between(av.tau, np.sqrt(av.ci_low), np.sqrt(av.ci_high), color="0.85", label="95% CI")
     ax.loglog(
         av.tau,
@@ -411,20 +493,20 @@ def plot_allan(
         lw=1,
         label=f"overlapping AD ({av.grid} grid)",
     )
-    colors = {"Q": "tab:purple", "N": "tab:blue", "B": "tab:green", "K": "tab:red", "R": "tab:brown"}
+    # not blue/orange/purple: those are GMWM/AV/EM
+    colors_ieee = {"Q": "tab:pink", "N": "tab:green", "B": "tab:olive", "K": "tab:red", "R": "tab:brown"}
+    units = {"Q": f"{unit}·s", "N": f"{unit}/√Hz", "K": f"{unit}/s/√Hz", "R": f"{unit}/s"}
+    slope_text = {-1.0: "−1", -0.5: "−½", 0.5: "+½", 1.0: "+1"}
     tt = np.geomspace(av.tau[0], av.tau[-1], 200)
     if reading is not None:
         for name, line in reading.lines.items():
-            c = colors[name]
+            c = colors_ieee[name]
             if name == "B":
-                ax.axhline(BI_FACTOR * line.value, color=c, ls=":", lw=1.2)
-                ax.plot(
-                    [line.region[0]],
-                    [BI_FACTOR * line.value],
-                    "s",
-                    color=c,
-                    label=f"B = {line.value:.3g} {unit} at T_BI = {line.region[0]:.3g} s",
-                )
+                t_bi, floor = line.region[0], BI_FACTOR * line.value
+                ax.plot([t_bi, t_bi], [floor, line.value], ":", color=c, lw=1.2)
+                ax.plot([t_bi], [floor], "o", color=c, mfc="none", ms=7, label="AD minimum = 0.6643·B")
+                ax.plot([t_bi], [line.value], "s", color=c, ms=7,
+                        label=f"B = {line.value:.3g} {unit} at T_BI = {t_bi:.3g} s")
                 continue
             if name == "N":
                 y = line.value / np.sqrt(tt)
@@ -434,19 +516,22 @@ def plot_allan(
                 y = math.sqrt(3.0) * line.value / tt
             else:
                 y = line.value * tt / math.sqrt(2.0)
-            ax.loglog(tt, y, "--", color=c, lw=1.2, label=f"{name} = {line.value:.3g} (slope {line.slope:+g})")
+            ax.loglog(tt, y, "--", color=c, lw=1.2,
+                      label=f"{name} = {line.value:.3g} {units[name]} ({slope_text[line.slope]} line)")
             ax.axvspan(line.region[0], line.region[1], color=c, alpha=0.08)
+    y_data = np.concatenate([np.sqrt(av.ci_low), np.sqrt(av.ci_high), av.adev])
+    y_data = y_data[np.isfinite(y_data) & (y_data > 0)]
     for i, (label, model) in enumerate(models or []):
         m = np.unique(np.round(np.geomspace(1, av.tau[-1] * av.freq, 60)))
         scales = 2.0 * m
         ad = np.sqrt(2.0 * model.wv(scales))
-        ax.loglog(m / av.freq, ad, "-", lw=1.6, color=plt.cm.tab10((i + 3) % 10), label=label)
+        color = colors[i] if colors is not None else method_color(label, i)
+        ax.loglog(m / av.freq, ad, "-", lw=1.8, color=color, label=label)
+    if y_data.size:  # the data decide the range; lines and models far outside are named in a note
+        ax.set_ylim(y_data.min() / 3.0, y_data.max() * 3.0)
+    ax.set_xlim(av.tau[0] / 1.5, av.tau[-1] * 1.5)
     ax.set_xlabel("averaging time τ [s]")
     ax.set_ylabel(f"Allan deviation [{unit}]")
     ax.grid(True, which="both", alpha=0.3)
     ax.set_title(title or "Allan deviation with automated IEEE reading")
-    ax.legend(fontsize=7, loc="best")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return finish_figure(fig, ax, path)

@@ -5,9 +5,12 @@ Each file is one task (read -> fit every axis -> write ``<name>.model.json``); t
 (the fits are numba/NumPy code that holds the GIL between kernels), or any scheduler address. A file
 that fails becomes a row with ``status = "error"`` and the one-line reason; the others go on.
 
-The table has one row per file and axis: the model, the continuous-time white-noise density N and
-bias random walk K_eq (SPEC §2, as exported by :mod:`imunoise.export`), their units, the GOF, the fit
-time and the handled data problems (``notes``: sorted or duplicated stamps, gaps). With a remote
+The table has one row per file and axis: the model, the continuous-time white-noise density N
+(``noise_density``) and bias random walk K (``random_walk_eq``) exactly as :mod:`imunoise.export` writes
+them (the one model → (N, K) mapping of :mod:`imunoise.equivalent_noise`, SPEC §12), the fitted RW term
+alone (``random_walk``), their units, the longest averaging time matched on and the worst AV ratio of the
+pair against the model there, the GOF, the fit time and the handled data problems and export notes
+(``notes``: sorted or duplicated stamps, gaps, unidentified white noise). With a remote
 scheduler the workers must see the input files and the output folder at the same paths. The table is
 written as CSV, and also as Parquet when ``pyarrow`` is installed (optional).
 """
@@ -43,6 +46,8 @@ TABLE_FIELDS = [
     "random_walk_eq",
     "random_walk",
     "random_walk_unit",
+    "match_tau_max_s",
+    "worst_av_ratio",
     "objective",
     "converged",
     "fit_s",
@@ -99,6 +104,7 @@ def process_file(path: str, cfg: dict[str, Any], out_dir: str, name: str) -> lis
     ``columns``, ``units``, ``time_column``, ``time_unit``, ``topic``, ``weights``, ``robust``, ``seed``,
     ``decimate``.
     """
+    from imunoise.errors import ModelError
     from imunoise.export import axis_noise, density_units
     from imunoise.imu_model import ImuModel, fit_axis
     from imunoise.io.imu_input import read_imu_source, sensor_of
@@ -134,7 +140,11 @@ def process_file(path: str, cfg: dict[str, Any], out_dir: str, name: str) -> lis
             )
             fit.extra.update({"source": path, "column": axis, "source_unit": series.source_unit[axis]})
             fits[axis] = fit
-            an = axis_noise(fit, axis)
+            try:
+                an = axis_noise(fit, axis)
+            except ModelError as exc:  # no exportable pair (e.g. no white-noise-like process): say why
+                an = None
+                why = str(exc)
             n_unit, k_unit = density_units(sensor_of(axis, fit.unit) or "gyro")
             if fit.unit not in ("rad/s", "m/s²"):
                 n_unit, k_unit = f"{fit.unit}/sqrt(Hz)", f"{fit.unit}/s/sqrt(Hz)"
@@ -148,15 +158,17 @@ def process_file(path: str, cfg: dict[str, Any], out_dir: str, name: str) -> lis
                     "n_samples": int(values.size),
                     "freq_hz": series.freq,
                     "unit": fit.unit,
-                    "noise_density": an.N,
+                    "noise_density": an.N if an else "",
                     "noise_density_unit": n_unit,
-                    "random_walk_eq": an.K_eq,
-                    "random_walk": an.K_rw,
+                    "random_walk_eq": an.K if an else "",
+                    "random_walk": an.K_rw if an else "",
                     "random_walk_unit": k_unit,
+                    "match_tau_max_s": an.tau_range_s[1] if an and an.tau_range_s else "",
+                    "worst_av_ratio": an.worst_ratio if an else "",
                     "objective": fit.objective,
                     "converged": bool(fit.converged),
                     "fit_s": time.perf_counter() - t0,
-                    "notes": notes,
+                    "notes": " | ".join(x for x in (notes, *(an.notes if an else (why,))) if x),
                 }
             )
         source = {"file": path, **{k: v for k, v in series.meta.items() if isinstance(v, (str, int, float))}}

@@ -28,14 +28,17 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from typing import Any
 
 import numpy as np
 from numba import njit
 
 from imunoise.errors import DataError, FitError, ModelError
-from imunoise.gmwm import GMWMFit, prepare
-from imunoise.model import Model
+from imunoise.fitting.arguments import check_freq, check_unit
+from imunoise.fitting.problem import prepare
+from imunoise.fitting.result import GMWMFit
+from imunoise.model import Model, ModelLike, as_model
 from imunoise.processes import AR1, DR, RW, WN
 
 __all__ = ["em_fit", "kalman_loglik"]
@@ -273,26 +276,92 @@ def _start_model(structure: Model, init: Model | None, var_y: float) -> Model:
     return Model(comps)
 
 
+def _looks_like_data(x: Any) -> bool:
+    # what the old em_fit(data, ...) order put first: an array or a list of segments, never a model
+    return isinstance(x, (np.ndarray, list, tuple)) or (hasattr(x, "__array__") and not isinstance(x, str))
+
+
+def _em_arguments(model: Any, data: Any, legacy: dict[str, Any]) -> tuple[Any, Any]:
+    """(model, data) of an em_fit call; the earlier order ``em_fit(data, model=...)`` still works for one
+    release with a DeprecationWarning (all estimators now take ``(model, data)`` like :func:`gmwm`)."""
+    extra = sorted(set(legacy) - {"model", "data"})
+    if extra:
+        raise TypeError(f"em_fit() got an unexpected keyword argument {extra[0]!r}")
+    if "data" in legacy:
+        if data is not None:
+            raise TypeError("em_fit() got the data twice: as the second argument and as data=")
+        data = legacy["data"]
+    old_order = data is None and _looks_like_data(model)
+    if old_order:
+        data, model = model, legacy.get("model")
+        warnings.warn(
+            "em_fit(data, model=...) is deprecated: estimators take (model, data) like gmwm; call "
+            "em_fit(model, data, freq=...) (model None: the structure of init=). The old order stops "
+            "working in the next release.",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+    elif "model" in legacy:
+        if model is not None:
+            raise TypeError("em_fit() got the model twice: as the first argument and as model=")
+        model = legacy["model"]
+    if data is None:
+        raise DataError("em_fit needs data: em_fit(model, data, freq=...) with a 1-D array of samples")
+    return model, data
+
+
 def em_fit(
-    data: Any,
+    model: ModelLike | None = None,
+    data: Any = None,
+    /,
     *,
     freq: float = 1.0,
-    model: Model | str | None = None,
-    init: GMWMFit | Model | str | None = "av",
+    init: GMWMFit | ModelLike | None = "av",
     max_iter: int = 500,
     tol: float = 1e-8,
     unit: str = "u",
     weights: str = "efficient",
+    **legacy: Any,
 ) -> GMWMFit:
     """Constrained EM estimate of a state-space error model (module docstring; SPEC §6).
 
-    ``data``: one 1-D array (segments are joined after removing each one's mean; EM needs one
-    time line). ``model``: the structure (default: the structure of the start). ``init``: ``"av"``
-    (the AV baseline, default), a fit or a model with parameters. The result is a :class:`GMWMFit` with
-    ``method="em"``, ``objective`` = the GMWM objective (Eq. 8) of the EM model on the data's WV and Ω,
-    and ``extra`` with iterations, log-likelihood (history too), time, convergence and divergence flags.
+    Same argument order as :func:`imunoise.estimator.gmwm`: ``em_fit(model, data, freq=...)``.
+
+    Parameters
+    ----------
+    model
+        The structure: a process, a Model or a model string (:func:`imunoise.model.as_model`); its
+        parameters, if any, are ignored (use ``init=``). ``None``: the structure of ``init``.
+    data
+        One 1-D array (segments are joined after removing each one's mean; EM needs one time line).
+    freq
+        Sample rate in Hz (a number, else :class:`DataError`).
+    init
+        ``"av"`` (the AV baseline, default), a fit, or a model (process, Model or string) with
+        parameters.
+    max_iter, tol
+        Iteration limit and relative log-likelihood tolerance.
+    unit
+        Data unit for summaries: ``"u"`` or a unit the CLI knows (else :class:`UnitError`).
+    weights
+        Ω of the reported GMWM objective.
+    **legacy
+        ``model=``/``data=`` as keywords; ``em_fit(data, model=...)`` (the old order) is accepted with a
+        DeprecationWarning for one release.
+
+    Returns
+    -------
+    GMWMFit
+        ``method="em"``, ``objective`` = the GMWM objective (Eq. 8) of the EM model on the data's WV and
+        Ω, and ``extra`` with iterations, log-likelihood (history too), time, convergence and divergence
+        flags.
     """
     t0 = time.perf_counter()
+    model, data = _em_arguments(model, data, legacy)
+    freq = check_freq(freq)
+    unit = check_unit(unit)
+    if model is not None:
+        model = as_model(model)
     if isinstance(data, (list, tuple)):
         y = np.concatenate([np.asarray(s, dtype=float) - np.mean(s) for s in data])
     else:
@@ -305,15 +374,12 @@ def em_fit(
     var_y = float(np.var(y))
     if not var_y > 0:
         raise DataError("the data are constant; EM cannot estimate a noise model")
-    if isinstance(model, str):
-        model = Model.parse(model)
-    if isinstance(init, str):
-        if init != "av":
-            init = Model.parse(init)
-        else:
-            from imunoise.allan import allan_fit
+    if isinstance(init, str) and init == "av":
+        from imunoise.allan import allan_fit
 
-            init = allan_fit(y, freq=freq, unit=unit).model
+        init = allan_fit(y, freq=freq, unit=unit).model
+    elif init is not None and not isinstance(init, GMWMFit):
+        init = as_model(init)
     init_model = init.model if isinstance(init, GMWMFit) else init
     if init_model is not None and not init_model.known:
         init_model = None
@@ -378,18 +444,13 @@ def em_fit(
         raise FitError("EM: the log-likelihood is not finite at the start; check the data and the start model")
     ll_best, final = best
     problem = prepare(y, freq=freq, weights=weights)
-    fit = GMWMFit(
-        model=final,
-        objective=problem.objective(final),
-        wv=problem.wv,
-        weights=problem.weights,
-        omega_sqrt=problem.W,
+    fit = GMWMFit.from_problem(
+        problem,
+        final,
         converged=converged and not diverged,
-        elapsed_s=0.0,
-        freq=float(freq),
+        method="em",
         unit=unit,
         iterations=it,
-        method="em",
         extra={
             "loglik": ll_best,
             "loglik_history": history,

@@ -16,7 +16,8 @@ class DataError(ImunoiseError, ValueError):
 
 
 class ModelError(ImunoiseError, ValueError):
-    """A model is malformed: unparseable string, missing parameters, impossible values."""
+    """A model, configuration or option value is malformed: unparseable string, missing parameters,
+    impossible, unknown or conflicting values (e.g. ``--top 0``, ``OnlineConfig(dr='x')``)."""
 
 
 class UnitError(ImunoiseError, ValueError):

@@ -1,17 +1,29 @@
 """Export a GMWM model to the noise parameters of VIO/INS stacks (SPEC §2, §12).
 
 Kalibr ``imu.yaml``, OpenVINS ``kalibr_imu_chain.yaml`` and ORB-SLAM3 ``IMU.*`` all take two
-*continuous-time* densities per sensor and discretise them with the update rate f = 1/Δt:
+*continuous-time* densities per sensor — white noise N [u/√Hz] and bias random walk K [u/s/√Hz] — and
+discretise them with the update rate f = 1/Δt (σ_d = N·√f per sample, bias step K/√f).
 
-- white noise density N [u/√Hz] = √((σ²_WN + 2Q²)·Δt): exactly σ_WN·√Δt (SPEC §2) for a WN model; a QN
-  term adds its per-sample variance 2Q² (the variance of u_t − u_{t−1}) as white noise at the data rate;
-- bias random walk K_eq [u/s/√Hz] = √(γ²·f + Σ_i 2σ²_GM,i / T_c,i): RW's K = γ/√Δt plus each Gauss–Markov
-  term's driving-noise density q_c = 2σ²_GM/T_c, because these formats have no GM slot and a GM bias
-  behaves like a random walk with density √q_c for times shorter than T_c. It is never the
-  Allan-variance minimum (bias instability), which is not a random-walk density at all.
+The fitted model is mapped to (N, K) by what the filter will see (:mod:`imunoise.equivalent_noise`, the one
+mapping shared with the online filter): the WN + RW pair whose Allan variance best matches the model's, in
+log-variance least squares over averaging times from the update period Δt to a horizon (default: the longest
+scale of the data the model was fitted on; ``horizon_s`` / ``--horizon S``), each line at or below the
+model's AV as in an IEEE Allan reading (K over the whole range, N where the model falls like white noise; a
+drift becomes the random walk with its AV at the horizon). Exact closed forms where they exist: WN → N =
+σ·√Δt, RW → K = γ/√Δt, QN → white with its per-sample variance 2Q², an AR1 that decorrelates within one
+update → white with its zero-frequency density σ/(1−φ)·√Δt (→ σ_GM·√(2T_c)). A Gauss–Markov term is white on
+scales ≫ T_c and a random walk on scales ≪ T_c: a slow one (T_c ≫ horizon) goes to K, a fast one to N, and
+one in between is neither — its Allan bump is what the pair cannot follow. K is never the Allan-variance
+minimum (bias instability). K never exceeds the data's Allan bound min_τ AD(τ)·√(3/τ) over the points with
+≥ 3 equivalent degrees of freedom (the densest curve the fit carries, :func:`imunoise.allan.data_curve`): a
+fitted RW term that overshoots the data's long-τ AV is capped there, and the file says so beside K.
 
-A drift (DR) has no slot either; its rate ramp is written as a comment. Three axes of one sensor are
-combined by the maximum (default, conservative) or the root mean square of the per-axis values.
+Beside each written pair: the τ range it was matched on and the worst ratio between the written pair's AV
+and each axis model's AV there; a ratio above 2 is a warning (:attr:`SensorNoise.warnings`). Never a zero
+or non-finite density: white noise not identified over the range → the largest white line under the
+model's AV when the model has a process that decorrelates inside the range, else :class:`ModelError`;
+random walk not identified (the model's AV does not rise) → half the largest RW under it, with a note.
+Three axes of one sensor are combined by the maximum (default) or the root mean square.
 Optional inflation factors (``white=2,rw=10``) multiply the written values and are shown beside them.
 Every number is followed by its unit and the words continuous / discrete in a comment.
 """
@@ -28,17 +40,24 @@ from typing import Any
 
 import numpy as np
 
-from imunoise import __version__
+from imunoise._version import __version__
+from imunoise.allan import data_curve
+from imunoise.equivalent_noise import WARN_RATIO, Equivalent, default_horizon_s, equivalent_noise
 from imunoise.errors import DataError, ModelError, UnitError
-from imunoise.gmwm import GMWMFit
+from imunoise.estimator import GMWMFit
 from imunoise.imu_model import ImuModel, load_model
+from imunoise.io.imu_input import sensor_of
+from imunoise.units import quantity_of
 
 __all__ = [
     "FORMATS",
     "DEFAULT_FILENAMES",
     "AxisNoise",
     "SensorNoise",
+    "RULE",
     "axis_noise",
+    "infer_sensor",
+    "model_sensors",
     "sensor_noise",
     "parse_inflate",
     "export_text",
@@ -89,72 +108,122 @@ def format_float(x: float) -> str:
 # ----------------------------------------------------------------------------------------------
 # per-axis and per-sensor noise values
 # ----------------------------------------------------------------------------------------------
+NOT_IDENTIFIED = 1e-9  # a matched N² or K² below this fraction of its cap sits at the bound 0
+RULE = (
+    "WN+RW pair whose Allan variance best matches the model's (log-variance least squares, each line at or "
+    "below the model's AV) over tau = update period .. horizon; WN, RW, QN (2Q^2) and AR1s faster than one "
+    "update (sigma/(1-phi)*sqrt(dt)) by exact closed forms; K capped at the data's Allan bound min AD*sqrt(3/tau) "
+    "over points with >= 3 dof"
+)
+
+
 @dataclass(frozen=True)
 class AxisNoise:
-    """Continuous-time noise of one axis (SPEC §2): ``N`` white-noise density, ``K_rw`` RW density,
-    ``q_gm`` Σ 2σ²_GM/T_c over AR1 terms, ``K_eq`` = √(K_rw² + q_gm); ``q2_white`` the QN share of N²."""
+    """Continuous-time pair of one axis (module docstring): ``N`` [u/√Hz], ``K`` [u/s/√Hz], ``K_rw`` the
+    fitted RW term alone, ``equivalent`` the matching with its τ range, worst AV ratio and routes."""
 
     axis: str
     model: str
     unit: str
     freq_hz: float
     N: float
+    K: float
     K_rw: float
-    q_gm: float
-    K_eq: float
-    n_qn: float = 0.0
-    gm: tuple[tuple[float, float], ...] = ()  # (T_c s, σ_GM) per AR1
+    equivalent: Equivalent
     rate_ramp: float | None = None
+    notes: tuple[str, ...] = ()
+
+    @property
+    def K_eq(self) -> float:
+        """The random-walk density written (alias of ``K``)."""
+        return self.K
+
+    @property
+    def tau_range_s(self) -> tuple[float, float] | None:
+        return self.equivalent.tau_range_s
+
+    @property
+    def worst_ratio(self) -> float:
+        return self.equivalent.worst_ratio
 
 
 def _as_fit(fit: GMWMFit | Mapping[str, Any]) -> GMWMFit:
     return fit if isinstance(fit, GMWMFit) else GMWMFit.from_dict(dict(fit))
 
 
-def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "") -> AxisNoise:
-    """Exportable continuous-time values of one fitted axis (module docstring)."""
+def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "", *, horizon_s: float | None = None) -> AxisNoise:
+    """Exportable continuous-time (N, K) of one fitted axis (module docstring; SPEC §12).
+
+    Parameters
+    ----------
+    fit
+        A :class:`GMWMFit` or its ``to_dict()``.
+    axis
+        Name used in messages.
+    horizon_s
+        Longest averaging time matched on [s]; default :func:`imunoise.equivalent_noise.default_horizon_s`.
+
+    Returns
+    -------
+    AxisNoise
+        Never a zero or non-finite density; raises :class:`ModelError` when no white noise can be given.
+    """
     fit = _as_fit(fit)
     f = float(fit.freq)
-    cont = fit.continuous()
-    white2 = 0.0
-    qn2 = 0.0
-    rw2 = 0.0
-    q_gm = 0.0
-    gm = []
-    ramp = None
-    for key, value in cont.items():
-        name, what = key.split(".", 1)
-        if what == "noise_density":
-            white2 += value * value
-        elif what == "random_walk":
-            rw2 += value * value
-        elif what == "q_c":
-            q_gm += value
-            gm.append((cont[f"{name}.tau_c"], cont[f"{name}.sigma_gm"]))
-        elif what == "rate_ramp":
-            ramp = value
-    for key, value in fit.params.items():
-        if key.endswith(".q2"):
-            qn2 += 2.0 * value / f  # per-sample variance 2Q² as white noise: density² = 2Q²·Δt
+    name = axis or "the fit"
+    h = default_horizon_s(fit) if horizon_s is None else float(horizon_s)
+    eq = equivalent_noise(fit.model, f, horizon_s=h, data_av=data_curve(fit))
+    notes = []
+    s2, g2 = eq.sigma2, eq.gamma2
+    if not s2 > NOT_IDENTIFIED * eq.sigma2_cap:
+        tcs = [-1.0 / (f * math.log(c.values[0])) for c in fit.model.components if c.kind == "AR1"]
+        if any(tc < h for tc in tcs) and eq.sigma2_cap > 0:
+            s2 = eq.sigma2_cap
+            notes.append(f"{name}: no white noise identified; N = the largest white line under the model's AV "
+                         "(from its AR1 that decorrelates inside the range)")
+        else:
+            raise ModelError(
+                f"{name}: model {fit.model} has no white-noise-like process between {1 / f:g} s and the horizon "
+                f"{h:g} s (its Allan variance never falls), so no white-noise density can be exported; fit a "
+                "model with WN (e.g. --model \"AR1+WN+RW\") or check the data"
+            )
+    if not g2 > NOT_IDENTIFIED * eq.gamma2_cap:
+        if not eq.gamma2_cap > 0:
+            raise ModelError(f"{name}: no random walk can be derived from model {fit.model}")
+        g2 = 0.5 * eq.gamma2_cap
+        notes.append(f"{name}: model {fit.model} shows no random walk up to {h:g} s; K = half the largest random "
+                     "walk under its AV (an upper-bound reading, not a fitted value)")
+    if (s2, g2) != (eq.sigma2, eq.gamma2):
+        eq = eq.with_pair(s2, g2)
+    N, K = eq.N, eq.K
+    if not (math.isfinite(N) and math.isfinite(K) and N > 0 and K > 0):
+        raise ModelError(f"{name}: the equivalent densities are not positive and finite (N={N}, K={K})")
+    rw = [c.values[0] for c in fit.model.components if c.kind == "RW"]
+    ramp = next((c.values[0] * f for c in fit.model.components if c.kind == "DR"), None)
+    if ramp is not None:
+        notes.append(f"{name}: drift (rate ramp {ramp:.4g} {fit.unit}/s) has no slot; matched from below by K")
+    if fit.model.has("QN"):
+        notes.append(f"{name}: QN folded into the white-noise density as per-sample variance 2Q^2")
     return AxisNoise(
         axis=axis,
         model=str(fit.model),
         unit=fit.unit,
         freq_hz=f,
-        N=math.sqrt(white2 + qn2),
-        K_rw=math.sqrt(rw2),
-        q_gm=q_gm,
-        K_eq=math.sqrt(rw2 + q_gm),
-        n_qn=math.sqrt(qn2),
-        gm=tuple(gm),
+        N=N,
+        K=K,
+        K_rw=math.sqrt(rw[0] * f) if rw else 0.0,
+        equivalent=eq,
         rate_ramp=ramp,
+        notes=tuple(notes),
     )
 
 
 @dataclass(frozen=True)
 class SensorNoise:
     """What goes into the files for one sensor: ``noise_density`` and ``random_walk`` (continuous, after
-    inflation), ``raw_*`` before inflation, the per-axis values, how they were combined."""
+    inflation), ``raw_*`` before inflation, the per-axis values, how they were combined; ``tau_range_s``
+    the averaging times matched on, ``worst_ratio`` the worst factor between the written (raw) pair's AV
+    and any axis model's there (``worst_axis``, ``worst_at_s``, ``worst_over``: pair above the model)."""
 
     sensor: str
     freq_hz: float
@@ -167,6 +236,11 @@ class SensorNoise:
     combine: str
     axes: tuple[AxisNoise, ...]
     notes: tuple[str, ...] = field(default_factory=tuple)
+    tau_range_s: tuple[float, float] | None = None
+    worst_ratio: float = 1.0
+    worst_axis: str = ""
+    worst_at_s: float = math.nan
+    worst_over: bool = False
 
     @property
     def discrete_sigma(self) -> float:
@@ -177,6 +251,26 @@ class SensorNoise:
     def discrete_bias_step(self) -> float:
         """Per-sample σ of the bias increment at the update rate: K/√f (unit of the sensor)."""
         return self.random_walk / math.sqrt(self.freq_hz)
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """One line when the written pair's AV is off an axis model's by more than ``WARN_RATIO``."""
+        if not self.worst_ratio > WARN_RATIO:
+            return ()
+        side = "above" if self.worst_over else "below"
+        return (
+            f"{self.sensor}: the exported pair's Allan variance is {self.worst_ratio:.3g}x {side} the fitted model of "
+            f"{self.worst_axis} at tau = {self.worst_at_s:.4g} s (matched on {_range_text(self.tau_range_s)}"
+            + (f"; the pair written is the {self.combine} over {len(self.axes)} axes" if len(self.axes) > 1 else "")
+            + "): a white-noise + random-walk pair cannot follow that model there; see the routes per axis",
+        )
+
+    def match_text(self) -> str:
+        """The comment written beside the pair."""
+        side = "above" if self.worst_over else "below"
+        at = f", pair {side} the {self.worst_axis} model at {self.worst_at_s:.4g} s" if self.worst_ratio > 1.0 else ""
+        return (f"matched on tau = {_range_text(self.tau_range_s)}; worst AV ratio exported/model = "
+                f"{self.worst_ratio:.3g}{at}{' (> 2: WARNING)' if self.worst_ratio > WARN_RATIO else ''}")
 
     def to_dict(self) -> dict[str, Any]:
         n_unit, k_unit = density_units(self.sensor)
@@ -194,12 +288,34 @@ class SensorNoise:
             "fit_random_walk": self.raw_random_walk,
             "inflate": {"white": self.inflate_white, "rw": self.inflate_rw},
             "combine": self.combine,
-            "random_walk_formula": "K_eq = sqrt(gamma^2*f + sum_i 2*sigma_GM,i^2/T_c,i)",
+            "rule": RULE,
+            "tau_range_s": list(self.tau_range_s) if self.tau_range_s else None,
+            "worst_av_ratio": self.worst_ratio,
+            "worst_av_ratio_axis": self.worst_axis,
+            "worst_av_ratio_at_s": self.worst_at_s,
+            "worst_av_ratio_pair_above": self.worst_over,
             "axes": {
-                a.axis: {"model": a.model, "N": a.N, "K_rw": a.K_rw, "q_gm": a.q_gm, "K_eq": a.K_eq} for a in self.axes
+                a.axis: {
+                    "model": a.model,
+                    "N": a.N,
+                    "K": a.K,
+                    "K_rw": a.K_rw,
+                    "tau_range_s": list(a.tau_range_s) if a.tau_range_s else None,
+                    "worst_av_ratio": a.worst_ratio,
+                    "K_model": a.equivalent.K_model,
+                    "K_data": a.equivalent.K_data,
+                    "K_data_at_s": a.equivalent.K_data_at_s,
+                    "K_capped_at_data": a.equivalent.capped,
+                    "routes": [{"process": r.process, "slot": r.slot, "how": r.how} for r in a.equivalent.routes],
+                }
+                for a in self.axes
             },
             "notes": list(self.notes),
         }
+
+
+def _range_text(r: tuple[float, float] | None) -> str:
+    return "n/a" if r is None else f"{r[0]:.4g}..{r[1]:.4g} s"
 
 
 def _check_unit(sensor: str, axes: list[AxisNoise]) -> list[str]:
@@ -219,15 +335,68 @@ def _check_unit(sensor: str, axes: list[AxisNoise]) -> list[str]:
     return notes
 
 
+def infer_sensor(fit: GMWMFit | Mapping[str, Any]) -> str | None:
+    """``"gyro"`` or ``"accel"`` of a single-axis fit from its unit (rad/s, deg/s, … → gyro; m/s², g, … →
+    accel; the SI unit, else the unit of the source data) or else its column name; None when neither says.
+
+    Parameters
+    ----------
+    fit : GMWMFit or mapping
+        A fit or its ``to_dict()``.
+
+    Returns
+    -------
+    str or None
+    """
+    d = fit.to_dict() if isinstance(fit, GMWMFit) else dict(fit)
+    extra = d.get("extra") or {}
+    for unit in (d.get("unit"), extra.get("source_unit")):
+        if not unit or unit in ("u", "1"):
+            continue
+        try:
+            q = quantity_of(str(unit))
+        except UnitError:
+            continue
+        if q in ("rate", "angle_increment"):
+            return "gyro"
+        if q in ("accel", "velocity_increment"):
+            return "accel"
+    return sensor_of(str(extra.get("column") or ""), None)
+
+
 def sensor_noise(
     model: ImuModel | GMWMFit,
     sensor: str,
     *,
     combine: str = "max",
     inflate: Mapping[str, float] | None = None,
+    horizon_s: float | None = None,
 ) -> SensorNoise:
     """Combined continuous-time values of one sensor (``"gyro"`` or ``"accel"``) of a multi-axis model,
-    or of a single-axis fit (then ``sensor`` says which sensor it is)."""
+    or of a single-axis fit (then ``sensor`` says which sensor it is). ``horizon_s``: see :func:`axis_noise`.
+
+    Parameters
+    ----------
+    model : ImuModel or GMWMFit
+        A multi-axis model or a single-axis fit.
+    sensor : {"gyro", "accel"}
+        Which sensor.
+    combine : {"max", "rms"}
+        How the three axes' values are combined.
+    inflate : mapping, optional
+        Factors ``{"white": w, "rw": r}`` (> 0) applied to N and K (default 1).
+    horizon_s : float, optional
+        Longest averaging time matched on [s] (default: the data's).
+
+    Returns
+    -------
+    SensorNoise
+
+    Raises
+    ------
+    ModelError
+        For an unknown sensor or combination, a factor ≤ 0 or a model without that sensor.
+    """
     if sensor not in SENSORS:
         raise ModelError(f"sensor must be 'gyro' or 'accel', got {sensor!r}")
     if combine not in ("max", "rms"):
@@ -243,23 +412,24 @@ def sensor_noise(
                 f"the model has no {sensor} axis (axes: {', '.join(model.axes)}); name the columns "
                 f"{sensor}_x/_y/_z or fit with SI units"
             )
-        axes = [axis_noise(model.axes[a], a) for a in names]
+        axes = [axis_noise(model.axes[a], a, horizon_s=horizon_s) for a in names]
     else:
-        axes = [axis_noise(model, sensor)]
+        axes = [axis_noise(model, str(model.extra.get("column") or sensor), horizon_s=horizon_s)]
     notes = _check_unit(sensor, axes)
     Ns = np.array([a.N for a in axes])
-    Ks = np.array([a.K_eq for a in axes])
+    Ks = np.array([a.K for a in axes])
     if combine == "max":
         n_raw, k_raw = float(Ns.max()), float(Ks.max())
     else:
         n_raw, k_raw = float(np.sqrt(np.mean(Ns**2))), float(np.sqrt(np.mean(Ks**2)))
+    worst = (1.0, "", math.nan, False)
     for a in axes:
-        if a.K_eq == 0.0:
-            notes.append(f"{a.axis}: model {a.model} has no RW or AR1 term: bias random walk 0")
-        if a.rate_ramp is not None:
-            notes.append(f"{a.axis}: drift (rate ramp {a.rate_ramp:.4g} {a.unit}/s) has no slot; not exported")
-        if a.n_qn > 0:
-            notes.append(f"{a.axis}: QN folded into the white-noise density as per-sample variance 2Q^2")
+        notes += list(a.notes)
+        ratio, at, over = a.equivalent.mismatch(n_raw, k_raw)
+        if ratio > worst[0]:
+            worst = (ratio, a.axis, at, over)
+    ranges = [a.tau_range_s for a in axes if a.tau_range_s]
+    tau_range = (min(x[0] for x in ranges), max(x[1] for x in ranges)) if ranges else None
     return SensorNoise(
         sensor=sensor,
         freq_hz=axes[0].freq_hz,
@@ -272,11 +442,32 @@ def sensor_noise(
         combine=combine,
         axes=tuple(axes),
         notes=tuple(notes),
+        tau_range_s=tau_range,
+        worst_ratio=worst[0],
+        worst_axis=worst[1],
+        worst_at_s=worst[2],
+        worst_over=worst[3],
     )
 
 
 def parse_inflate(text: str | None) -> dict[str, float]:
-    """``"white=2,rw=10"`` -> {"white": 2.0, "rw": 10.0}."""
+    """``"white=2,rw=10"`` -> {"white": 2.0, "rw": 10.0}.
+
+    Parameters
+    ----------
+    text : str or None
+        Comma-separated ``key=factor`` with keys ``white`` and ``rw``; empty or None: both 1.
+
+    Returns
+    -------
+    dict
+        ``{"white": w, "rw": r}``.
+
+    Raises
+    ------
+    ModelError
+        For an unknown key, a non-number or a factor ≤ 0.
+    """
     out = {"white": 1.0, "rw": 1.0}
     if not text:
         return out
@@ -298,15 +489,39 @@ def parse_inflate(text: str | None) -> dict[str, float]:
 # ----------------------------------------------------------------------------------------------
 # text formats
 # ----------------------------------------------------------------------------------------------
-def _sensors(model: ImuModel | GMWMFit, sensor: str | None, combine: str, inflate) -> dict[str, SensorNoise]:
+def model_sensors(model: ImuModel | GMWMFit, sensor: str | None, combine: str, inflate,
+                  horizon_s: float | None = None) -> dict[str, SensorNoise]:
+    """The exported (N, K) of every sensor a model holds.
+
+    Parameters
+    ----------
+    model : ImuModel or GMWMFit
+        A six-axis model, or one axis' fit (its sensor from ``sensor``, else from its unit or column name).
+    sensor : {"gyro", "accel"} or None
+        Needed only for a single-axis fit whose unit and column name do not say.
+    combine : {"max", "rms"}
+        How the three axes of a sensor are combined.
+    inflate : mapping or None
+        Visible inflation factors (:func:`parse_inflate`).
+    horizon_s : float, optional
+        Longest averaging time of the match [s] (default: the data's longest scale).
+
+    Returns
+    -------
+    dict
+        ``{"gyro": SensorNoise, "accel": SensorNoise}`` for the sensors present.
+    """
     if isinstance(model, GMWMFit):
+        sensor = sensor or infer_sensor(model)
         if sensor not in SENSORS:
-            raise ModelError("a single-axis fit needs --sensor gyro|accel (which sensor is this axis?)")
-        return {sensor: sensor_noise(model, sensor, combine=combine, inflate=inflate)}
+            raise ModelError(
+                "a single-axis fit whose unit and column name do not say gyro or accel needs --sensor gyro|accel"
+            )
+        return {sensor: sensor_noise(model, sensor, combine=combine, inflate=inflate, horizon_s=horizon_s)}
     out = {}
     for s in SENSORS:
         if model.sensor_axes(s) and sensor in (None, s):
-            out[s] = sensor_noise(model, s, combine=combine, inflate=inflate)
+            out[s] = sensor_noise(model, s, combine=combine, inflate=inflate, horizon_s=horizon_s)
     if not out:
         raise ModelError(f"no gyro or accel axes in the model (axes: {', '.join(model.axes)})")
     return out
@@ -317,15 +532,34 @@ def _value_comments(sn: SensorNoise) -> tuple[str, str]:
     base = _BASE_UNIT[sn.sensor]
     axes = ",".join(a.axis for a in sn.axes)
     how = f"{sn.combine} over {axes}" if len(sn.axes) > 1 else axes
-    n_c = f"[{n_unit}] continuous-time white-noise density N = sigma_WN*sqrt(dt) ({how})"
+    n_c = f"[{n_unit}] continuous-time white-noise density N, matched ({how})"
     if sn.inflate_white != 1.0:
         n_c += f" = {format_float(sn.raw_noise_density)} (fit) x {sn.inflate_white:g} (--inflate white)"
     n_c += f"; discrete sigma per sample at {sn.freq_hz:g} Hz = {sn.discrete_sigma:.4e} {base}"
-    k_c = f"[{k_unit}] continuous-time bias random walk K_eq = sqrt(gamma^2*f + sum 2*sigma_GM^2/T_c) ({how})"
+    k_c = f"[{k_unit}] continuous-time bias random walk K, matched ({how})"
     if sn.inflate_rw != 1.0:
         k_c += f" = {format_float(sn.raw_random_walk)} (fit) x {sn.inflate_rw:g} (--inflate rw)"
+    capped = [a.axis for a in sn.axes if a.equivalent.capped]
+    if capped:
+        k_c += f"; capped at the data's Allan bound on {','.join(capped)} (per-axis lines above)"
     k_c += f"; discrete bias step per sample = {sn.discrete_bias_step:.4e} {base}"
     return n_c, k_c
+
+
+def axis_lines(a: AxisNoise, prefix: str = "") -> list[str]:
+    """Per axis: the pair, its τ range and worst AV ratio, and which process went where."""
+    n_unit, k_unit = density_units(sensor_of(a.axis, a.unit) or "gyro")
+    e = a.equivalent
+    side = "above" if e.worst_over else "below"
+    worst = f"{e.worst_ratio:.3g}" + (f" (pair {side} the model at {e.worst_at_s:.4g} s)" if e.worst_ratio > 1 else "")
+    lines = [
+        f"{prefix}{a.axis or 'axis'}: {a.model}: N={a.N:.6e} {n_unit}, K={a.K:.6e} {k_unit} "
+        f"(fitted RW alone K_rw={a.K_rw:.6e}); matched on tau = {_range_text(e.tau_range_s)}, worst AV ratio {worst}"
+    ]
+    if e.capped:
+        lines.append(f"{prefix}    {e.cap_text()}")
+    lines += [f"{prefix}    {r.process} -> {r.slot}: {r.how}" for r in e.routes]
+    return lines
 
 
 def _header(model: ImuModel | GMWMFit, sensors: dict[str, SensorNoise], what: str, source: str | None) -> list[str]:
@@ -334,20 +568,20 @@ def _header(model: ImuModel | GMWMFit, sensors: dict[str, SensorNoise], what: st
         + (f" from {source}" if source else ""),
         "# The noise values are CONTINUOUS-TIME densities; the consumer discretises them with the update rate:",
         "#   per-sample white-noise sigma = N*sqrt(f), per-sample bias increment sigma = K/sqrt(f).",
-        "# N  = sqrt((sigma_WN^2 + 2*Q^2)*dt)  (exactly sigma_WN*sqrt(dt) without quantisation noise)",
-        "# K_eq = sqrt(gamma^2*f + sum_i 2*sigma_GM,i^2/T_c,i): random walk plus the Gauss-Markov driving noise,",
-        "#   because GM terms have no slot here. It is NOT the Allan-variance minimum (bias instability).",
+        "# (N, K) = the white-noise + random-walk pair whose Allan variance best matches the fitted model's",
+        "#   (log-variance least squares, each line at or below the model's AV) over tau = update period .. horizon.",
+        "#   Exact: WN -> N = sigma*sqrt(dt), RW -> K = gamma/sqrt(dt), QN -> white 2Q^2 per sample, AR1 faster than",
+        "#   one update -> white sigma/(1-phi)*sqrt(dt). A Gauss-Markov term is white on scales >> T_c and a random",
+        "#   walk on scales << T_c, neither in between. K is NOT the Allan-variance minimum (bias instability).",
+        "#   K never exceeds the data's Allan bound min AD(tau)*sqrt(3/tau) over points with >= 3 dof (capped where",
+        "#   the fitted model's K is above it; said per axis below).",
         "# Per axis (continuous-time, before inflation):",
     ]
     for sn in sensors.values():
-        n_unit, k_unit = density_units(sn.sensor)
         for a in sn.axes:
-            gm = "".join(f", GM T_c={tc:.4g} s sigma_GM={s:.4g}" for tc, s in a.gm)
-            lines.append(
-                f"#   {a.axis}: {a.model}: N={a.N:.6e} {n_unit}, K_rw={a.K_rw:.6e} {k_unit}, "
-                f"K_eq={a.K_eq:.6e} {k_unit}{gm}"
-            )
+            lines += axis_lines(a, "#   ")
         lines += [f"# note: {n}" for n in sn.notes]
+        lines += [f"# WARNING: {w}" for w in sn.warnings]
     return lines
 
 
@@ -360,6 +594,18 @@ def _missing_lines(sensors: dict[str, SensorNoise], keys: dict[str, tuple[str, s
     return out
 
 
+def _kalibr_lines(sensors: dict[str, SensorNoise], s: str, indent: str = "") -> list[str]:
+    """Kalibr's noise density and random walk keys of sensor ``s``, each with its value comment, and the
+    match note: the lines of Kalibr's imu.yaml and of OpenVINS's imu0 block (which reads Kalibr's keys)."""
+    nk, kk = _KALIBR_KEYS[s]
+    nc, kc = _value_comments(sensors[s])
+    return [
+        f"{indent}{nk}: {format_float(sensors[s].noise_density)}  # {nc}",
+        f"{indent}{kk}: {format_float(sensors[s].random_walk)}  # {kc}",
+        f"{indent}# {sensors[s].match_text()}",
+    ]
+
+
 def export_text(
     model: ImuModel | GMWMFit | str | Path,
     fmt: str,
@@ -369,9 +615,34 @@ def export_text(
     combine: str = "max",
     inflate: Mapping[str, float] | str | None = None,
     source: str | None = None,
+    horizon_s: float | None = None,
 ) -> str:
     """The file text of ``fmt`` (kalibr, openvins, orbslam3, json) for a multi-axis model or a single
-    fit (with ``sensor``). ``topic`` defaults to the model's recorded ROS topic, else ``/imu0``."""
+    fit (``sensor`` when its unit and column name do not say). ``topic`` defaults to the model's recorded
+    ROS topic, else ``/imu0``; ``horizon_s`` the longest averaging time matched on (default: the data's).
+
+    Parameters
+    ----------
+    model : ImuModel, GMWMFit, str or Path
+        The model, or the path of a saved model/fit JSON.
+    fmt : str
+        One of :data:`FORMATS`.
+    sensor : {"gyro", "accel"}, optional
+        For a single fit whose unit and column name do not say.
+    topic : str, optional
+        ROS topic written (Kalibr/OpenVINS).
+    combine, inflate
+        As for :func:`sensor_noise` (``inflate`` also as text, :func:`parse_inflate`).
+    source : str, optional
+        Where the model came from, for the header comment.
+    horizon_s : float, optional
+        Longest averaging time matched on [s].
+
+    Returns
+    -------
+    str
+        The file's text.
+    """
     if fmt not in FORMATS:
         raise ModelError(f"unknown export format {fmt!r}; use one of {', '.join(FORMATS)}")
     if isinstance(model, (str, Path)):
@@ -379,7 +650,7 @@ def export_text(
         model = load_model(model)
     if isinstance(inflate, str) or inflate is None:
         inflate = parse_inflate(inflate)
-    sensors = _sensors(model, sensor, combine, inflate)
+    sensors = model_sensors(model, sensor, combine, inflate, horizon_s)
     freq = next(iter(sensors.values())).freq_hz
     if topic is None:
         src = model.source if isinstance(model, ImuModel) else model.extra
@@ -404,10 +675,7 @@ def export_text(
         for s, title in (("accel", "#Accelerometers"), ("gyro", "#Gyroscopes")):
             lines += ["", title]
             if s in sensors:
-                nk, kk = _KALIBR_KEYS[s]
-                nc, kc = _value_comments(sensors[s])
-                lines.append(f"{nk}: {format_float(sensors[s].noise_density)}  # {nc}")
-                lines.append(f"{kk}: {format_float(sensors[s].random_walk)}  # {kc}")
+                lines += _kalibr_lines(sensors, s)
             else:
                 lines += _missing_lines(sensors, {x: _KALIBR_KEYS[x] for x in SENSORS if x == s})
         lines += [
@@ -430,10 +698,7 @@ def export_text(
         ]
         for s in ("accel", "gyro"):
             if s in sensors:
-                nk, kk = _KALIBR_KEYS[s]
-                nc, kc = _value_comments(sensors[s])
-                lines.append(f"  {nk}: {format_float(sensors[s].noise_density)}  # {nc}")
-                lines.append(f"  {kk}: {format_float(sensors[s].random_walk)}  # {kc}")
+                lines += _kalibr_lines(sensors, s, "  ")
         lines += _missing_lines(sensors, _KALIBR_KEYS, "  ")
         lines += [
             '  model: "calibrated"  # no IMU intrinsics estimated here',
@@ -455,6 +720,7 @@ def export_text(
             nk, kk = _ORB_KEYS[s]
             nc, kc = _value_comments(sensors[s])
             lines.append(f"{kk}: {format_float(sensors[s].random_walk)}  # {kc}")
+            lines.append(f"# {nk}, {kk}: {sensors[s].match_text()}")
     lines += _missing_lines(sensors, _ORB_KEYS)
     lines.append(f"IMU.Frequency: {freq!r}  # [Hz] ORB-SLAM3 multiplies N by sqrt(f) and divides K by sqrt(f)")
     return "\n".join(lines) + "\n"
@@ -466,11 +732,28 @@ def write_export(
     path: str | Path | None = None,
     **kwargs: Any,
 ) -> Path:
-    """Write :func:`export_text` to ``path`` (default: :data:`DEFAULT_FILENAMES` beside a model file)."""
+    """Write :func:`export_text` to ``path`` (default: :data:`DEFAULT_FILENAMES` beside a model file).
+
+    Parameters
+    ----------
+    model, fmt
+        As for :func:`export_text`.
+    path : str or Path, optional
+        Output file; must not be the input model file.
+    **kwargs
+        Passed to :func:`export_text`.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     if path is None:
         folder = Path(model).parent if isinstance(model, (str, Path)) else Path(".")
         path = folder / DEFAULT_FILENAMES[fmt]
     path = Path(path)
+    if isinstance(model, (str, Path)) and path.resolve() == Path(model).resolve():
+        raise ModelError(f"the output {path} is the input model file; choose another --out (it would be overwritten)")
     text = export_text(model, fmt, **kwargs)
     path.write_text(text)
     return path
@@ -478,7 +761,24 @@ def write_export(
 
 def read_export(path: str | Path, fmt: str | None = None) -> dict[str, Any]:
     """Read an exported file back: the flat key -> value mapping (Kalibr/ORB-SLAM3 keys; OpenVINS keys of
-    ``imu0``; for json the whole document). Used for the round-trip check."""
+    ``imu0``; for json the whole document). Used for the round-trip check.
+
+    Parameters
+    ----------
+    path : str or Path
+        An exported file.
+    fmt : {"json", "yaml"}, optional
+        Default: json when the text starts with ``{``, else YAML (Kalibr, OpenVINS, ORB-SLAM3).
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    DataError
+        When the YAML cannot be parsed.
+    """
     import yaml
 
     path = Path(path)

@@ -19,7 +19,7 @@ import numpy as np
 from imunoise.errors import ModelError
 from imunoise.processes import AR1, DR, PROCESS_TYPES, QN, RW, WN, Process
 
-__all__ = ["Model", "StateSpace", "ORDER"]
+__all__ = ["Model", "StateSpace", "ORDER", "ModelLike", "as_model"]
 
 ORDER = ("AR1", "WN", "QN", "RW", "DR")
 _SINGLETONS = ("WN", "QN", "RW", "DR")
@@ -34,6 +34,23 @@ class StateSpace:
     bias). ``P0`` holds the stationary variance of each AR1 state and 0 for bias and DR: the filter sets
     those from its own initial uncertainty. ``white_psd`` is the two-sided continuous PSD of WN + QN
     (unit²·s = N², N the noise density); ``white_var`` its per-step variance at dt (white_psd / dt).
+
+    Attributes
+    ----------
+    labels : tuple of str
+        Name of each state (``bias``, ``AR1_1``, …, ``DR``).
+    Phi : numpy.ndarray
+        Transition matrix over dt, shape (n, n).
+    Q : numpy.ndarray
+        Process-noise covariance over dt, shape (n, n).
+    H : numpy.ndarray
+        Map from the states to the sensor error, shape (n,).
+    P0 : numpy.ndarray
+        Initial covariance (stationary AR1 variances, 0 elsewhere), shape (n, n).
+    white_psd : float
+        Two-sided PSD of the white part [unit²·s].
+    white_var : float
+        Its variance per step dt [unit²].
     """
 
     labels: tuple[str, ...]
@@ -50,7 +67,21 @@ class StateSpace:
 
 
 class Model:
-    """A sum of independent processes; see module docstring for the canonical form and names."""
+    """A sum of independent processes; see module docstring for the canonical form and names.
+
+    Usually built with the algebra (``2 * AR1() + WN() + RW()``) or :meth:`parse`.
+
+    Parameters
+    ----------
+    components : list or tuple of Process
+        The processes, all with parameters or all without; WN, QN, RW and DR at most once each. AR1
+        components are ordered by decreasing φ, the others canonically (:data:`ORDER`).
+
+    Raises
+    ------
+    ModelError
+        For an empty list, a non-process, a repeated singleton or a mix of known and unknown processes.
+    """
 
     def __init__(self, components: list[Process] | tuple[Process, ...]) -> None:
         comps = list(components)
@@ -78,7 +109,23 @@ class Model:
     # -- construction -------------------------------------------------------------------------------
     @classmethod
     def parse(cls, text: str) -> Model:
-        """Read ``"2*AR1 + WN + RW"`` (also ``AR1()``, ``2 AR1``, ``2xAR1``); inverse of ``str()``."""
+        """Read ``"2*AR1 + WN + RW"`` (also ``AR1()``, ``2 AR1``, ``2xAR1``); inverse of ``str()``.
+
+        Parameters
+        ----------
+        text : str
+            Terms joined by ``+``, each a process name with an optional repeat count.
+
+        Returns
+        -------
+        Model
+            The structure, parameters unknown.
+
+        Raises
+        ------
+        ModelError
+            For an empty string or a term that is not a process.
+        """
         if not isinstance(text, str) or not text.strip():
             raise ModelError(f"empty model string; write e.g. '2*AR1+WN+RW' (processes: {', '.join(ORDER)})")
         comps: list[Process] = []
@@ -219,7 +266,18 @@ class Model:
 
     # -- wavelet variance ------------------------------------------------------------------------------
     def wv(self, scales: np.ndarray) -> np.ndarray:
-        """Theoretical Haar WV ν²(τ) at scales τ (samples): the sum of the processes' WVs (SPEC §2)."""
+        """Theoretical Haar WV ν²(τ) at scales τ (samples): the sum of the processes' WVs (SPEC §2).
+
+        Parameters
+        ----------
+        scales : numpy.ndarray
+            τ_j [samples].
+
+        Returns
+        -------
+        numpy.ndarray
+            ν²(τ_j) [u²], one per scale.
+        """
         tau = np.asarray(scales, dtype=float)
         return np.sum([c.wv(tau) for c in self.components], axis=0)
 
@@ -235,7 +293,20 @@ class Model:
 
     # -- simulation --------------------------------------------------------------------------------------
     def simulate(self, n: int, seed: int | np.random.Generator | None = None) -> np.ndarray:
-        """A sample path of length n (per-sample parameters, stationary AR1 starts)."""
+        """A sample path of length n (per-sample parameters, stationary AR1 starts).
+
+        Parameters
+        ----------
+        n : int
+            Number of samples (≥ 1).
+        seed : int or numpy.random.Generator, optional
+            Seed or generator of the random path.
+
+        Returns
+        -------
+        numpy.ndarray
+            The path [u], shape (n,).
+        """
         if not isinstance(n, (int, np.integer)) or n < 1:
             raise ModelError(f"simulate needs a positive number of samples, got {n!r}")
         rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
@@ -243,7 +314,18 @@ class Model:
 
     # -- continuous-time and filter forms --------------------------------------------------------------
     def continuous(self, freq: float) -> dict[str, float]:
-        """Continuous-time equivalents with canonical keys (SPEC §2): noise density, K, T_c, ..."""
+        """Continuous-time equivalents with canonical keys (SPEC §2): noise density, K, T_c, ...
+
+        Parameters
+        ----------
+        freq : float
+            Sample rate the per-sample parameters refer to [Hz].
+
+        Returns
+        -------
+        dict
+            Value per key, e.g. ``"WN.noise_density"``, ``"RW.random_walk"``, ``"AR1_1.tau_c"``.
+        """
         if not freq > 0:
             raise ModelError(f"sampling frequency must be > 0 Hz, got {freq}")
         out: dict[str, float] = {}
@@ -266,6 +348,17 @@ class Model:
 
         AR1 over dt: Φ = φ^{dt·f}, Q = σ²_GM(1 − Φ²). RW adds γ²·dt·f to the bias state. DR is a constant
         ramp state r (unit/s) with bias_{k+1} = bias_k + r·dt. ``freq`` defaults to 1/dt.
+
+        Parameters
+        ----------
+        dt : float
+            Filter step [s].
+        freq : float, optional
+            Sample rate the parameters refer to [Hz] (default 1/dt).
+
+        Returns
+        -------
+        StateSpace
         """
         if not dt > 0:
             raise ModelError(f"filter step dt must be > 0 s, got {dt}")
@@ -316,6 +409,51 @@ class Model:
         model = cls.parse(d["model"])
         params = d.get("params")
         return model.with_params(params) if params else model
+
+
+ModelLike = Process | Model | str
+"""What every estimator accepts as a model: ``WN()``, ``2 * AR1() + WN()`` or ``"2*AR1+WN"``."""
+
+
+def as_model(model: ModelLike) -> Model:
+    """The :class:`Model` meant by ``model``: a single process, a Model, or a model string (SPEC §2).
+
+    Every estimator (``gmwm``, ``refit``, ``em_fit``, ``select_model``'s ``complete=``) takes its model
+    through this function, so ``WN()``, ``WN() + RW()``, ``Model([WN()])`` and ``"WN+RW"`` are all the
+    same thing everywhere. A process class (``WN`` without parentheses) is taken as ``WN()``.
+
+    Parameters
+    ----------
+    model
+        A :class:`~imunoise.processes.Process` (with or without parameters), a :class:`Model`, or a
+        string read by :meth:`Model.parse`.
+
+    Returns
+    -------
+    Model
+        ``model`` itself when it is a Model, otherwise the equivalent one-or-more-process Model.
+
+    Raises
+    ------
+    ModelError
+        For anything else, with a hint when the arguments look swapped (data where the model goes).
+    """
+    if isinstance(model, Model):
+        return model
+    if isinstance(model, Process):
+        return Model([model])
+    if isinstance(model, str):
+        return Model.parse(model)
+    if isinstance(model, type) and issubclass(model, Process) and model is not Process:
+        return Model([model()])
+    hint = ""
+    if isinstance(model, (np.ndarray, list, tuple)) or hasattr(model, "__array__"):
+        # the old em_fit(data, model=...) order, or gmwm(data, model): say which order is meant
+        hint = "; this looks like data: estimators take (model, data), e.g. gmwm(WN() + RW(), x, freq=100.0)"
+    raise ModelError(
+        f"expected a model (a process such as WN(), a sum such as 2 * AR1() + WN(), or a string such as "
+        f"'2*AR1+WN'), got {type(model).__name__}{hint}"
+    )
 
 
 def default_complete() -> Model:

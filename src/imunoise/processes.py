@@ -21,7 +21,6 @@ import math
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
-from scipy.signal import lfilter
 
 from imunoise.errors import ModelError
 
@@ -113,7 +112,19 @@ def ar1_wv_dphi(tau: np.ndarray, phi: float, sigma2: float) -> np.ndarray:
 
 
 class Process:
-    """One latent process; parameters per sample (SPEC §1). Subclasses define the closed forms."""
+    """One latent process; parameters per sample (SPEC §1). Subclasses define the closed forms.
+
+    Parameters
+    ----------
+    **params : float, optional
+        The values of :attr:`param_names`, all or none (none: unknown, to be estimated by :func:`~imunoise.gmwm`).
+        ``u`` in the units is the data unit.
+
+    Raises
+    ------
+    ModelError
+        For an unknown name, only some parameters given, or a value out of range.
+    """
 
     kind: ClassVar[str] = ""
     param_names: ClassVar[tuple[str, ...]] = ()
@@ -171,6 +182,7 @@ class Process:
         raise NotImplementedError
 
     def simulate(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """``n`` samples of the process from ``rng`` (a known process only)."""
         raise NotImplementedError
 
     def continuous(self, freq: float, prefix: str) -> dict[str, float]:
@@ -213,7 +225,13 @@ class Process:
 
 
 class WN(Process):
-    """Gaussian white noise, variance σ² per sample: ν² = σ²/τ; noise density N = σ√Δt."""
+    """Gaussian white noise, variance σ² per sample: ν² = σ²/τ; noise density N = σ√Δt.
+
+    Parameters
+    ----------
+    sigma2 : float, optional
+        σ² [u²] per sample; omit it for a process to be estimated.
+    """
 
     kind = "WN"
     param_names = ("sigma2",)
@@ -234,7 +252,13 @@ class WN(Process):
 
 
 class QN(Process):
-    """Quantisation noise Q² (SPEC §2): x_t = u_t − u_{t−1}, Var(u) = Q²; ν² = 6Q²/τ²; Q_IEEE = QΔt."""
+    """Quantisation noise Q² (SPEC §2): x_t = u_t − u_{t−1}, Var(u) = Q²; ν² = 6Q²/τ²; Q_IEEE = QΔt.
+
+    Parameters
+    ----------
+    q2 : float, optional
+        Q² [u²]; omit it for a process to be estimated.
+    """
 
     kind = "QN"
     param_names = ("q2",)
@@ -257,7 +281,13 @@ class QN(Process):
 
 
 class RW(Process):
-    """Random walk with innovation variance γ²: ν² = γ²(τ² + 2)/(12τ); K = γ/√Δt."""
+    """Random walk with innovation variance γ²: ν² = γ²(τ² + 2)/(12τ); K = γ/√Δt.
+
+    Parameters
+    ----------
+    gamma2 : float, optional
+        γ² [u²] per sample; omit it for a process to be estimated.
+    """
 
     kind = "RW"
     param_names = ("gamma2",)
@@ -282,7 +312,12 @@ class RW(Process):
 class DR(Process):
     """Deterministic drift (rate ramp) ω per sample: x_t = ω·t; ν² = ω²τ²/16; R = ω/Δt.
 
-    The WV depends on ω² only, so GMWM returns |ω| (the sign is not identifiable from the WV).
+    The WV depends on ω² only, so GMWM returns ``|ω|`` (the sign is not identifiable from the WV).
+
+    Parameters
+    ----------
+    omega : float, optional
+        ω [u] per sample (any sign); omit it for a process to be estimated.
     """
 
     kind = "DR"
@@ -311,6 +346,13 @@ class AR1(Process):
     """First-order autoregression (discrete Gauss–Markov) x_t = φx_{t−1} + e_t, Var(e) = σ².
 
     Continuous equivalents: T_c = −Δt/ln φ, σ²_GM = σ²/(1−φ²), q_c = 2σ²_GM/T_c (SPEC §2).
+
+    Parameters
+    ----------
+    phi : float, optional
+        φ in (0, 1).
+    sigma2 : float, optional
+        σ² [u²], the innovation variance per sample. Give both or neither (a process to be estimated).
     """
 
     kind = "AR1"
@@ -335,6 +377,9 @@ class AR1(Process):
         return np.column_stack([ar1_wv_dphi(tau, phi, s2), ar1_wv(tau, phi, 1.0)])
 
     def simulate(self, n, rng):
+        # imported here: scipy.signal costs ~0.5 s to import, and every `imunoise nav` run loads this module
+        from scipy.signal import lfilter
+
         phi, s2 = self.values
         e = rng.normal(0.0, math.sqrt(s2), n)
         x0 = rng.normal(0.0, math.sqrt(s2 / (1.0 - phi * phi)))  # stationary start

@@ -9,13 +9,31 @@ from __future__ import annotations
 
 import base64
 import html
+import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Report", "fmt"]
+__all__ = ["Report", "fmt", "nobreak_numbers"]
+
+# a number (sign, decimals, exponent), optionally joined to more by a range dash or slash ("21–32",
+# "0.0188/0.0143/0.0138"); not inside a word or an HTML entity such as &#x27;
+_NUMBER = r"[-−+]?\d+(?:\.\d+)?(?:[eE][-+−]?\d+)?%?"
+_NUMBERS = re.compile(rf"(?<![\w.#&;]){_NUMBER}(?:\s?[–/]\s?{_NUMBER})*(?:\s(?:s|ms|m|Hz)\b)?")
+
+
+_UNIT = re.compile(r"\[[^\]\s<>]{1,16}\]")  # a bracketed unit: "[u/√Hz]", "[(rad/s)²]"
+_MODEL = re.compile(r"[\w*]+(?: \+ [\w*]+)+")  # a model structure: "2*AR1 + WN + RW"
+
+
+def nobreak_numbers(escaped: str) -> str:
+    """Wrap every number of already HTML-escaped text in a no-wrap span, so a line never breaks inside
+    a number ("1.5e-05" after its "-", "21–32" at the dash), between a number and its unit (" s") or
+    inside a bracketed unit ("[u/√Hz]")."""
+    out = _NUMBERS.sub(lambda m: f"<span class='n'>{m.group(0)}</span>", escaped)
+    return _UNIT.sub(lambda m: f"<span class='n'>{m.group(0)}</span>", out)
 
 
 def fmt(value: Any, digits: int = 4) -> str:
@@ -60,6 +78,11 @@ class Report:
         self.blocks.append(("pre", text))
         return self
 
+    def log(self, lines: Sequence[str]) -> Report:
+        """Log lines (e.g. JSON events): monospace, each wrapped at spaces with a hanging indent."""
+        self.blocks.append(("log", list(lines)))
+        return self
+
     def figure(self, path: str | Path, caption: str = "") -> Report:
         self.blocks.append(("figure", (Path(path), caption)))
         return self
@@ -83,6 +106,8 @@ class Report:
                 out.append("")
             elif kind == "pre":
                 out += ["```", payload.rstrip(), "```", ""]
+            elif kind == "log":
+                out += ["```", *payload, "```", ""]
             elif kind == "figure":
                 path, caption = payload
                 rel = path.name if base is None else _relative(path, base)
@@ -100,7 +125,12 @@ class Report:
             "padding:3px 8px;text-align:right;font-variant-numeric:tabular-nums}th{background:#f3f3f3}"
             "td:first-child,th:first-child{text-align:left}pre{background:#f7f7f7;padding:0.7em;"
             "overflow-x:auto;font-size:12px}img{max-width:100%;border:1px solid #ddd}"
-            "figcaption{color:#555;font-size:90%;margin-bottom:1.5em}.meta{color:#777;font-size:85%}</style>",
+            "figcaption{color:#555;font-size:90%;margin-bottom:1.5em}.meta{color:#777;font-size:85%}"
+            # numbers never break (.n), numeric cells never wrap; log lines wrap at spaces only, with a
+            # hanging indent so each event stays recognisable
+            ".n,td.num{white-space:nowrap}caption{caption-side:top;text-align:left;color:#555}"
+            ".log{background:#f7f7f7;padding:0.7em;font:12px ui-monospace,monospace}"
+            ".log div{white-space:pre-wrap;overflow-wrap:normal;padding-left:3em;text-indent:-3em}</style>",
             "</head><body>",
             f"<h1>{html.escape(self.title)}</h1>",
             f"<p class='meta'>generated {time.strftime('%Y-%m-%d %H:%M:%S')} by imunoise</p>",
@@ -110,15 +140,18 @@ class Report:
                 level, text = payload
                 parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
             elif kind == "paragraph":
-                parts.append(f"<p>{html.escape(payload)}</p>")
+                parts.append(f"<p>{nobreak_numbers(html.escape(payload))}</p>")
             elif kind == "table":
                 headers, rows, caption = payload
-                cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
-                head = "".join(f"<th>{html.escape(h)}</th>" for h in headers)
-                body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in r) + "</tr>" for r in rows)
+                cap = f"<caption>{nobreak_numbers(html.escape(caption))}</caption>" if caption else ""
+                head = "".join(f"<th>{nobreak_numbers(html.escape(h))}</th>" for h in headers)
+                body = "".join("<tr>" + "".join(_cell(c) for c in r) + "</tr>" for r in rows)
                 parts.append(f"<table>{cap}<tr>{head}</tr>{body}</table>")
             elif kind == "pre":
                 parts.append(f"<pre>{html.escape(payload)}</pre>")
+            elif kind == "log":
+                lines = "".join(f"<div>{nobreak_numbers(html.escape(line))}</div>" for line in payload)
+                parts.append(f"<div class='log'>{lines}</div>")
             elif kind == "figure":
                 path, caption = payload
                 if path.exists():
@@ -141,6 +174,18 @@ class Report:
         html_path.write_text(self.html())
         md_path.write_text(self.markdown(base=folder))
         return html_path, md_path
+
+
+def _cell(text: str) -> str:
+    """A table cell; one made only of numbers (with separators, brackets, signs) does not wrap at all."""
+    esc = html.escape(text)
+    # a list ("0.147, 0.139, …") may wrap at its commas: its numbers are no-break spans
+    listy = "," in text and not text.startswith("[")
+    if _MODEL.fullmatch(text):  # a model structure reads as one token
+        return f"<td class='num'>{esc}</td>"
+    if text and not listy and re.fullmatch(r"[\d\s.,eE+\-−–/\[\]%×]+", text) and any(ch.isdigit() for ch in text):
+        return f"<td class='num'>{esc}</td>"
+    return f"<td>{nobreak_numbers(esc)}</td>"
 
 
 def _relative(path: Path, base: Path) -> str:

@@ -65,6 +65,7 @@ __all__ = [
     "diagonal_weights",
     "huber_efficiency",
     "huber_scale",
+    "scale_runs",
     "wavelet_variance",
 ]
 
@@ -326,10 +327,26 @@ def _batch_stats(u, bsize, t_first):  # pragma: no cover - compiled
 class WaveletVariance:
     """Haar wavelet variance per level (SPEC §3). Arrays are per kept level j (ascending).
 
-    ``scales`` tau_j = 2**j (samples), ``variance`` nu^2_j, ``ci_low``/``ci_high`` the (1 - alpha) eta3
-    chi-square interval, ``n_coefficients`` M_j (pooled), ``cov`` the (J, J) covariance of nu^2 hat
-    (diagonal; module docstring), ``freq`` the sample rate in Hz, ``robust`` whether the Huber
-    M-estimate was used.
+    Attributes
+    ----------
+    scales : numpy.ndarray
+        tau_j = 2**j [samples].
+    variance : numpy.ndarray
+        nu^2_j [u²].
+    ci_low : numpy.ndarray
+        Lower end of the (1 - alpha) eta3 chi-square interval of nu^2_j.
+    ci_high : numpy.ndarray
+        Upper end of that interval.
+    n_coefficients : numpy.ndarray
+        M_j, the wavelet coefficients pooled over segments.
+    cov : numpy.ndarray
+        The (J, J) covariance of nu^2 hat (diagonal; module docstring).
+    freq : float
+        Sample rate [Hz].
+    robust : bool
+        Whether the Huber M-estimate was used.
+    alpha : float
+        Level of the intervals.
     """
 
     scales: np.ndarray  # tau_j = 2**j, samples
@@ -451,6 +468,13 @@ class WaveletVariance:
         )
 
 
+def scale_runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index of each run of consecutive True entries of a boolean ``mask`` over scales (WV
+    levels or Allan τ points), in order; e.g. [F, T, T, F, T] → [(1, 2), (4, 4)]."""
+    edges = np.diff(np.concatenate([[0], np.asarray(mask, dtype=bool).ravel().astype(np.int8), [0]]))
+    return [(int(a), int(b) - 1) for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True)]
+
+
 def diagonal_weights(wv: WaveletVariance) -> np.ndarray:
     """simts' "fast" weights 1/(ci_high - ci_low)^2 per level (the diagonal of its Omega)."""
     return 1.0 / (wv.ci_high - wv.ci_low) ** 2
@@ -547,6 +571,24 @@ class WVAccumulator:
     ``add`` costs O(len(segment) * J) and keeps only per-level sums; ``result()`` equals
     ``wavelet_variance(list_of_segments_added)`` with the same ``levels``, ``alpha``, ``freq``.
     Segments of any length >= 1 are accepted (a segment shorter than tau_j adds nothing at level j).
+
+    Parameters
+    ----------
+    levels : int, optional
+        J; default floor(log2 N) of the longest segment added.
+    freq : float
+        Sample rate [Hz] (for ``scales_s`` and ``avar`` of the result).
+    alpha : float
+        Level of the chi-square intervals.
+    max_levels : int
+        Levels accumulated when ``levels`` is not given.
+    min_coefficients : int
+        Levels with fewer pooled coefficients are dropped from the result.
+
+    Raises
+    ------
+    DataError
+        For a sample rate that is not positive and finite, or bad ``levels``/``alpha``.
     """
 
     def __init__(
@@ -574,7 +616,13 @@ class WVAccumulator:
         self._n_varying = 0
 
     def add(self, segment: np.ndarray) -> None:
-        """Add one segment (1-D array); its coefficients never reach into other segments."""
+        """Add one segment; its coefficients never reach into other segments.
+
+    Parameters
+    ----------
+    segment : numpy.ndarray
+        1-D array of finite samples [u].
+    """
         x, total = _as_series(segment, self.n_segments)
         self._add_validated(x, total / max(x.shape[0], 1))
 
@@ -594,7 +642,17 @@ class WVAccumulator:
         self._stats[:n_levels] += stats
 
     def result(self) -> WaveletVariance:
-        """The pooled wavelet variance of everything added so far."""
+        """The pooled wavelet variance of everything added so far.
+
+        Returns
+        -------
+        WaveletVariance
+
+        Raises
+        ------
+        DataError
+            With fewer than the minimum number of samples, or constant data.
+        """
         if self.n_samples < MIN_SAMPLES:
             raise DataError(
                 f"only {self.n_samples} samples; the wavelet variance needs at least {MIN_SAMPLES}"
@@ -734,11 +792,31 @@ def wavelet_variance(
 ) -> WaveletVariance:
     """Haar wavelet variance nu^2_j, j = 1..J, with eta3 chi-square CIs (SPEC §3, paper Eq. 4).
 
-    ``data``: a 1-D array, or a list of 1-D arrays (segments, pooled without crossing junctions;
-    ``concat=True`` joins them first). ``levels``: J (default floor(log2 N) of the longest segment,
-    like simts); levels with fewer than ``min_coefficients`` pooled coefficients are dropped.
-    ``robust``: Huber M-estimate of scale of the W_{j,t} per level (``HUBER_C``, 60 % efficiency).
-    ``freq``: sample rate in Hz (only used for ``scales_s`` and ``avar``).
+    Parameters
+    ----------
+    data : numpy.ndarray or sequence of numpy.ndarray
+        A 1-D array, or a list of 1-D arrays (segments, pooled without crossing junctions).
+    levels : int, optional
+        J (default floor(log2 N) of the longest segment, like simts).
+    robust : bool
+        Huber M-estimate of scale of the W_{j,t} per level (``HUBER_C``, 60 % efficiency).
+    alpha : float
+        Level of the chi-square intervals.
+    freq : float
+        Sample rate [Hz] (only used for ``scales_s`` and ``avar``).
+    concat : bool
+        Join the segments of a list first.
+    min_coefficients : int
+        Levels with fewer pooled coefficients are dropped.
+
+    Returns
+    -------
+    WaveletVariance
+
+    Raises
+    ------
+    DataError
+        For too few samples, constant or non-finite data, or bad arguments.
     """
     _check_args(levels, alpha, min_coefficients)
     segments, is_list = _as_segments(data)

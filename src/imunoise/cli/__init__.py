@@ -4,6 +4,9 @@ Each subcommand lives in its own module in this package and exposes
 ``register(subparsers) -> None``, which adds one or more sub-parsers whose ``func`` default is the
 handler ``func(args) -> int``. Modules are discovered automatically, so adding a command is adding a file.
 Errors of type :class:`imunoise.errors.ImunoiseError` become a one-line message and exit code 2.
+
+Top of the stack: a command may import any module of the data path (IMU → detection → modelling →
+filter) and :mod:`imunoise.experiments`; nothing but ``imunoise.__main__`` imports the CLI.
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ import importlib
 import pkgutil
 import sys
 
-from imunoise import __version__
+from imunoise._version import __version__
 from imunoise.errors import ImunoiseError
 
 EPILOG = """examples:
@@ -50,10 +53,17 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except ImunoiseError as exc:
-        print(f"imunoise {args.command}: error: {exc}", file=sys.stderr)
+        msg = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())  # one line
+        print(f"imunoise {args.command}: error: {msg}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:
         print(f"imunoise {args.command}: error: file not found: {exc.filename}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        # last resort: the readers and prepare_out_dir name the file themselves; this keeps any other
+        # OS error (disk full, permission on a nested output) to one line without a traceback
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"imunoise {args.command}: error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

@@ -8,6 +8,8 @@ import math
 import sys
 from pathlib import Path
 
+from imunoise.cli.options import add_out, add_series_options, load_series, out_dir, source_extra
+
 EXAMPLES = """examples:
   imunoise allan gyro_x.csv --freq 100 --units deg/s --out av_gx/
   imunoise allan static.npy --freq 125 --column gyro_z --grid octave
@@ -20,8 +22,6 @@ DIR/model.json; DIR/allan.png shows the AD, the fitted lines and their regions; 
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from imunoise.cli.select import add_data_options
-
     p = sub.add_parser(
         "allan",
         help="Allan-variance baseline: automated IEEE reading (N, K, B, Q, R) and equivalent model",
@@ -29,9 +29,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    add_data_options(p)
+    add_series_options(p)
     p.add_argument("--grid", choices=["dense", "octave"], default="dense", help="AV grid (default dense)")
-    p.add_argument("--out", help="output folder (default: <data name>_allan)")
+    add_out(p, "allan")
     p.set_defaults(func=run)
 
 
@@ -58,29 +58,29 @@ def reading_table(fit, unit: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from imunoise.allan import allan_fit, curve_from_fit, plot_allan, read_allan
-    from imunoise.cli.select import load_series, out_dir
+    from imunoise.io.atomic import atomic_path, atomic_write_text
 
     series = load_series(args)
     out = out_dir(args, "allan")
     fit = allan_fit(series.values, freq=args.freq, unit=series.unit, grid=args.grid)
-    fit.extra.update({"source": str(args.data), "column": series.name, "source_unit": series.source_unit})
+    fit.extra.update(source_extra(args, series))
     print(f"Allan-variance reading of {Path(args.data).name} [{series.name}] at {args.freq:g} Hz")
     print(reading_table(fit, series.unit))
     print()
     print(fit.summary())
     av = curve_from_fit(fit)
-    plot_allan(
-        av,
-        out / "allan.png",
-        reading=read_allan(av),
-        models=[(f"AV model: {fit.model}", fit.model)],
-        unit=series.unit,
-        title=f"{Path(args.data).name} [{series.name}]: Allan deviation",
-    )
-    with open(out / "allan.csv", "w") as fh:
-        fh.write(f"tau_s,avar_{series.unit}2,adev_{series.unit},dof\n")
-        for t, v, d in zip(av.tau, av.avar, av.dof):
-            fh.write(f"{t:.10g},{v:.10g},{math.sqrt(v):.10g},{d:.6g}\n")
-    (out / "model.json").write_text(json.dumps(fit.to_dict(), indent=1))
+    with atomic_path(out / "allan.png") as tmp:
+        plot_allan(
+            av,
+            tmp,
+            reading=read_allan(av),
+            models=[(f"AV model: {fit.model}", fit.model)],
+            unit=series.unit,
+            title=f"{Path(args.data).name} [{series.name}]: Allan deviation",
+        )
+    rows = [f"tau_s,avar_{series.unit}2,adev_{series.unit},dof\n"]
+    rows += [f"{t:.10g},{v:.10g},{math.sqrt(v):.10g},{d:.6g}\n" for t, v, d in zip(av.tau, av.avar, av.dof)]
+    atomic_write_text(out / "allan.csv", "".join(rows))
+    atomic_write_text(out / "model.json", json.dumps(fit.to_dict(), indent=1))
     print(f"\nwrote {out / 'model.json'}, {out / 'allan.png'} and {out / 'allan.csv'}", file=sys.stderr)
     return 0

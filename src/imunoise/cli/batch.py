@@ -5,7 +5,20 @@ from __future__ import annotations
 import argparse
 import sys
 
-from imunoise.errors import ImunoiseError
+from imunoise.cli.options import (
+    add_columns,
+    add_criterion,
+    add_freq,
+    add_model,
+    add_out,
+    add_time_options,
+    add_topic,
+    add_units,
+    add_weights,
+    check_freq,
+    parse_units,
+    prepare_out_dir,
+)
 
 EXAMPLES = """examples:
   imunoise batch "logs/*.csv" --freq 200 --model "WN+RW" --columns gyro_x=gx,gyro_y=gy,gyro_z=gz \\
@@ -29,18 +42,15 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("glob", nargs="+", help="file pattern(s), quoted so the shell does not expand them")
-    p.add_argument("--freq", type=float, help="sample rate in Hz (default: from the time stamps)")
-    g = p.add_mutually_exclusive_group(required=True)
-    g.add_argument("--model", help='model structure for every axis, e.g. "WN+RW" or "2*AR1+WN+RW"')
-    g.add_argument("--auto", action="store_true", help="automatic model selection per axis")
-    p.add_argument("--criterion", choices=["gof", "wvic"], default="wvic", help="ranking for --auto")
-    p.add_argument("--columns", help="columns to fit: a,b,c or axis=column pairs (default: all but time)")
-    p.add_argument("--units", help="unit for all columns, or per group/column: gyro=deg/s,accel=g")
-    p.add_argument("--time-column", help="time column name or index")
-    p.add_argument("--time-unit", default="s", choices=["s", "ms", "us", "µs", "ns"], help="unit of the time column")
-    p.add_argument("--topic", help="IMU topic for ROS bags")
+    add_freq(p)
+    add_model(p, auto=True)
+    add_criterion(p, "ranking for --auto")
+    add_columns(p, one=False, several=True)
+    add_units(p, several=True)
+    add_time_options(p)
+    add_topic(p)
     p.add_argument("--decimate", type=int, default=1, help="block-average K samples first (keeps the noise density)")
-    p.add_argument("--weights", choices=["efficient", "diagonal", "fast", "identity"], default="efficient")
+    add_weights(p)
     p.add_argument("--robust", action="store_true", help="robust (Huber) wavelet variance")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument(
@@ -49,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="'local' (LocalCluster of processes, default), 'sequential' (plain loop) or a scheduler address",
     )
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
-    p.add_argument("--out", required=True, help="output folder")
+    add_out(p)
     p.set_defaults(func=run)
 
 
@@ -57,16 +67,16 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.batch import expand_paths, run_batch, run_sequential
     from imunoise.io.tabular import parse_column_map
 
-    if args.freq is not None and not args.freq > 0:
-        raise ImunoiseError(f"--freq must be a positive rate in Hz, got {args.freq}")
+    check_freq(args.freq)
     paths = expand_paths(args.glob)
+    prepare_out_dir(args.out)  # an unusable --out fails before the cluster starts
     cfg = {
         "freq": args.freq,
         "model": args.model,
         "auto": args.auto,
         "criterion": args.criterion,
         "columns": parse_column_map(args.columns),
-        "units": _units(args.units),
+        "units": parse_units(args.units),
         "time_column": args.time_column,
         "time_unit": args.time_unit,
         "topic": args.topic,
@@ -89,8 +99,3 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {', '.join(str(p) for p in res.tables)} and one <file>.model.json per file", file=sys.stderr)
     return 0 if not res.failed else 1
 
-
-def _units(text: str | None):
-    if text is None or "=" not in text:
-        return text
-    return {k.strip(): v.strip() for k, v in (item.split("=", 1) for item in text.split(",") if item.strip())}

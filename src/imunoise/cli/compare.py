@@ -9,6 +9,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from imunoise.cli.options import add_criterion, add_out, add_series_options, load_series, out_dir, source_extra
+
 EXAMPLES = """examples:
   imunoise compare gyro_x.csv --freq 100 --units deg/s --out cmp_gx/
   imunoise compare static.npy --freq 125 --column gyro_z --criterion wvic --em-model "2*AR1+WN+RW"
@@ -23,8 +25,6 @@ DIR/compare.md (the tables, like paper Tables 2–4)."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from imunoise.cli.select import add_data_options
-
     p = sub.add_parser(
         "compare",
         help="GMWM (selected) vs Allan variance vs EM on the same static data",
@@ -32,11 +32,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    add_data_options(p)
-    p.add_argument("--criterion", choices=["gof", "wvic"], default="wvic", help="GMWM ranking (default wvic)")
+    add_series_options(p)
+    add_criterion(p, "GMWM ranking")
     p.add_argument("--em-model", help="EM structure (default: the AV model's structure)")
     p.add_argument("--em-max-iter", type=int, default=300, help="EM iteration cap (default 300)")
-    p.add_argument("--out", help="output folder (default: <data name>_compare)")
+    add_out(p, "compare")
     p.set_defaults(func=run)
 
 
@@ -56,7 +56,7 @@ def compare_fits(
     out: dict[str, Any] = {"gmwm": ranking.best, "av": av, "em": None, "em_error": "", "ranking": ranking}
     structure = Model.parse(em_model) if em_model else av.model.unknown()
     try:
-        out["em"] = em_fit(values, freq=freq, model=structure, init=av, unit=unit, max_iter=em_max_iter)
+        out["em"] = em_fit(structure, values, freq=freq, init=av, unit=unit, max_iter=em_max_iter)
     except ImunoiseError as exc:
         out["em_error"] = str(exc)
     return out
@@ -109,8 +109,8 @@ def parameter_table(fits: dict[str, Any], unit: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from imunoise.allan import curve_from_fit, plot_allan, read_allan
-    from imunoise.cli.select import load_series, out_dir
-    from imunoise.plots import plot_wv_fits
+    from imunoise.io.atomic import atomic_path, atomic_write_text
+    from imunoise.plots import METHOD_COLORS, plot_wv_fits
 
     series = load_series(args)
     out = out_dir(args, "compare")
@@ -123,25 +123,32 @@ def run(args: argparse.Namespace) -> int:
         print(f"\nEM not run: {fits['em_error']}")
     labels = [(k, fits[k]) for k in ("gmwm", "av", "em") if fits.get(k) is not None]
     wv = fits["gmwm"].wv
-    plot_wv_fits(
-        wv,
-        [(f"{k.upper()}: {f.model} (GOF {f.objective:.3g})", f.theoretical_wv) for k, f in labels],
-        out / "compare_wv.png",
-        unit=series.unit,
-        title=f"{title}: GMWM vs AV vs EM",
-    )
+    with atomic_path(out / "compare_wv.png") as tmp:
+        plot_wv_fits(
+            wv,
+            [(f"{k.upper()}: {f.model} (GOF {f.objective:.3g})", f.theoretical_wv) for k, f in labels],
+            tmp,
+            unit=series.unit,
+            title=f"{title}: GMWM vs AV vs EM",
+            colors=[METHOD_COLORS[k] for k, _ in labels],
+        )
     av = curve_from_fit(fits["av"])
-    plot_allan(
-        av,
-        out / "compare_allan.png",
-        reading=read_allan(av),
-        models=[(f"{k.upper()}: {f.model}", f.model) for k, f in labels],
-        unit=series.unit,
-        title=f"{title}: Allan deviation",
-    )
-    (out / "compare.md").write_text("\n".join(rows) + "\n")
-    (out / "compare.json").write_text(
-        json.dumps({k: f.to_dict() for k, f in labels} | {"em_error": fits["em_error"]}, indent=1, default=str)
+    with atomic_path(out / "compare_allan.png") as tmp:
+        plot_allan(
+            av,
+            tmp,
+            reading=read_allan(av),
+            models=[(f"{k.upper()}: {f.model}", f.model) for k, f in labels],
+            unit=series.unit,
+            title=f"{title}: Allan deviation",
+            colors=[METHOD_COLORS[k] for k, _ in labels],
+        )
+    atomic_write_text(out / "compare.md", "\n".join(rows) + "\n")
+    for _, f in labels:
+        f.extra.update(source_extra(args, series))
+    atomic_write_text(
+        out / "compare.json",
+        json.dumps({k: f.to_dict() for k, f in labels} | {"em_error": fits["em_error"]}, indent=1, default=str),
     )
     print(f"\nwrote {out / 'compare_wv.png'}, {out / 'compare_allan.png'}, compare.md/json", file=sys.stderr)
     return 0

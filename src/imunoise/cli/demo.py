@@ -3,12 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
-
-import numpy as np
 
 EXAMPLES = """examples:
   imunoise demo                       # online GMWM on the shipped real drive: out/demo/report.html
@@ -20,8 +17,6 @@ consumer MEMS IMU and RTK GNSS, BSD-3, shipped in the repository): static detect
 identification and refits, model hot-swap into the EKF; plain, AV, EM, online GMWM and online GMWM + ZUPT
 through the drive's five 60 s GNSS outages. About a minute on two cores.
 """
-
-AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 
 
 def demo_truth():
@@ -53,6 +48,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from imunoise.cli.options import prepare_out_dir
+
+    prepare_out_dir(args.out)  # an unusable --out fails before the work
     if args.static:
         return run_static_demo(Path(args.out), duration_s=args.duration, seed=args.seed)
     return run_online_demo(Path(args.out), data=args.data, workers=args.workers)
@@ -64,7 +62,7 @@ def run_online_demo(out: Path, *, data: str | None = None, workers: int = 2) -> 
 
     from tqdm import tqdm
 
-    from imunoise.cli.experiment import _print_headline
+    from imunoise.cli.experiment import print_headline
     from imunoise.experiments.common import repo_data_dir
     from imunoise.experiments.online_exp import DEMO_METHODS, run_real
     from imunoise.experiments.report import headline_rows, write_online_real
@@ -85,7 +83,7 @@ def run_online_demo(out: Path, *, data: str | None = None, workers: int = 2) -> 
     bar.update(1)
     bar.close()
     print(f"\nonline GMWM demo on {sc.name}")
-    _print_headline(headline_rows(res), fmt)
+    print_headline(headline_rows(res), fmt)
     t = res.get("timing", {})
     if t.get("identification_s") is not None:
         print(f"structure identification {t['identification_s']:.2f} s (6 axes), refits "
@@ -96,9 +94,12 @@ def run_online_demo(out: Path, *, data: str | None = None, workers: int = 2) -> 
 
 def run_static_demo(out: Path, *, duration_s: float = 3600.0, seed: int = 7, freq: float = 100.0) -> int:
     """Simulate a static 6-axis recording with known models, fit each axis by GMWM, report."""
+    import numpy as np
     from tqdm import tqdm
 
-    from imunoise.gmwm import gmwm
+    from imunoise.estimator import gmwm
+    from imunoise.imu import AXES
+    from imunoise.imu_model import ImuModel
     from imunoise.plots import plot_wv_fit
     from imunoise.report import Report
 
@@ -147,9 +148,7 @@ def run_static_demo(out: Path, *, duration_s: float = 3600.0, seed: int = 7, fre
         "σ_GM,1 true [u]", "σ_GM,1 fit",
     ]
     report.blocks.insert(1, ("table", (headers, [[_f(c) for c in r] for r in rows], "truth vs GMWM, all axes")))
-    (out / "model.json").write_text(
-        json.dumps({"kind": "imunoise.imu_model", "freq_hz": freq, "axes": axes_json}, indent=1)
-    )
+    ImuModel(freq, axes_json).save(out / "model.json")
     html_path, _ = report.write(out)
     elapsed = time.perf_counter() - t_start
     print(report.markdown().split("\n## ")[0].split("\n### ")[0])

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import json
+import math
+import sys
 from pathlib import Path
 
-import numpy as np
-
-from imunoise.errors import DataError, ImunoiseError
+from imunoise.cli.options import check_learn_from, check_learn_window_is_stop, prepare_out_dir
+from imunoise.errors import DataError, ModelError
+from imunoise.io.atomic import atomic_savefig, atomic_write_text
 
 EXAMPLES = """examples:
   imunoise detect --data ../shared/data/rtklibexplorer_drive0708 --learn-from 10 --out out/detect
@@ -50,22 +53,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _read_dataset(folder: str | Path) -> dict:
-    """Minimal reader of a dataset folder's ``dataset.json`` (SPEC §12): paths made absolute."""
-    folder = Path(folder)
-    path = folder / "dataset.json"
-    if not path.is_file():
-        raise DataError(f"--data {folder}: no dataset.json there (SPEC §12 manifest)")
-    try:
-        meta = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise DataError(f"{path}: not valid JSON ({exc})") from exc
-    if "imu" not in meta:
-        raise DataError(f"{path}: no 'imu' entry; the manifest must name the IMU file")
-    for key in ("imu", "gnss", "ref", "outages"):
-        if meta.get(key):
-            meta[key] = str(folder / meta[key])
-    return meta
+STATIC_SHARE_WARN = 0.9
+"""A detection that calls more than this share of the record static is warned about (λ0 too high)."""
 
 
 def _json_safe(obj):
@@ -74,7 +63,7 @@ def _json_safe(obj):
         return {k: _json_safe(v) for k, v in obj.items()}
     if isinstance(obj, list):
         return [_json_safe(v) for v in obj]
-    if isinstance(obj, float) and not np.isfinite(obj):
+    if isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
 
@@ -125,11 +114,13 @@ def _plot(det, t_ref_speed, speed, out: Path, speed_threshold: float, t0: float)
         f"≥ {det.config.min_duration_s:g} s; λ0 = {det.config.lambda0:.4g} m/s²)"
     )
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    atomic_savefig(fig, out, dpi=110)
     plt.close(fig)
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from imunoise.detect import (
         DetectorConfig,
         detect_static,
@@ -137,26 +128,35 @@ def run(args: argparse.Namespace) -> int:
         static_metrics,
         static_truth_from_speed,
     )
+    from imunoise.io.dataset import read_dataset
     from imunoise.io.kfgins import read_imu, read_reference
 
     imu_path, ref_path, offset = args.imu, args.ref, args.imu_time_offset
     if args.data:
-        meta = _read_dataset(args.data)
-        imu_path = imu_path or meta["imu"]
-        ref_path = ref_path or meta.get("ref")
+        ds = read_dataset(args.data, required=("imu",))  # detection needs no GNSS
+        imu_path = imu_path or str(ds.imu)
+        ref_path = ref_path or (str(ds.ref) if ds.ref else None)
         if offset is None:
-            offset = float(meta.get("imu_time_offset_s", 0.0) or 0.0)
+            offset = ds.imu_time_offset_s
     if not imu_path:
-        raise ImunoiseError("give --imu FILE or --data DIR")
+        raise DataError("give --imu FILE or --data DIR")
+    if args.lambda0 is not None and not (np.isfinite(args.lambda0) and args.lambda0 > 0):
+        raise ModelError(f"--lambda0 must be a positive threshold in m/s², got {args.lambda0:g}")
+    out = prepare_out_dir(args.out)  # before the work: an unusable --out fails fast
     imu = read_imu(imu_path, time_offset=float(offset or 0.0))
     gyro, accel = imu.rates()
     t = imu.t
 
     lambda0 = 0.02 if args.lambda0 is None else args.lambda0
     lambda0_source = "default (paper)" if args.lambda0 is None else "--lambda0"
+    ref = read_reference(ref_path) if ref_path else None
+    if ref is not None and not ((t >= ref.t[0]) & (t <= ref.t[-1])).any():
+        raise DataError(f"reference {ref_path} does not overlap the IMU time span; check the time stamps / offset")
+    warn: list[str] = []
     if args.learn_from is not None:
-        if not args.learn_from > 0:
-            raise ImunoiseError(f"--learn-from must be > 0 s, got {args.learn_from}")
+        check_learn_from(args.learn_from, t, args.window, imu.rate_hz, str(imu_path))
+        if ref is not None:
+            warn += check_learn_window_is_stop(ref, float(t[0]), args.learn_from, args.speed_threshold, str(ref_path))
         m = t < t[0] + args.learn_from
         lambda0 = learn_lambda0(accel[m], window=args.window)
         lambda0_source = f"learned from the first {args.learn_from:g} s (2 × median moving std)"
@@ -169,13 +169,20 @@ def run(args: argparse.Namespace) -> int:
     )
     det = detect_static(t, accel, gyro, config, rate_hz=imu.rate_hz)
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "segments.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["t0", "t1", "duration_s", "i0", "i1"])
-        for s in det.segments:
-            w.writerow([f"{s.t0:.6f}", f"{s.t1:.6f}", f"{s.duration:.3f}", s.i0, s.i1])
+    span = float(t[-1] - t[0])
+    if span > 0 and det.static_time_s > STATIC_SHARE_WARN * span:
+        warn.append(
+            f"{det.static_time_s:.0f} s of the {span:.0f} s record are called static: λ0 = {lambda0:.4g} m/s² "
+            "is probably too high (learned from motion?); check --learn-from / --lambda0"
+        )
+    for msg in warn:
+        print(f"warning: {msg}", file=sys.stderr)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["t0", "t1", "duration_s", "i0", "i1"])
+    for s in det.segments:
+        w.writerow([f"{s.t0:.6f}", f"{s.t1:.6f}", f"{s.duration:.3f}", s.i0, s.i1])
+    atomic_write_text(out / "segments.csv", buf.getvalue())
 
     summary: dict = {
         "imu": str(imu_path),
@@ -188,10 +195,10 @@ def run(args: argparse.Namespace) -> int:
         "static_time_s": det.static_time_s,
         "gate_open_fraction": float(det.gate_open.mean()),
         "segments": [{"t0": s.t0, "t1": s.t1, "duration_s": s.duration} for s in det.segments],
+        "warnings": warn,
     }
     speed = t_ref = None
-    if ref_path:
-        ref = read_reference(ref_path)
+    if ref is not None:
         t_ref = ref.t
         speed = np.linalg.norm(ref.vel_ned, axis=1)
         inside = (t >= t_ref[0]) & (t <= t_ref[-1])
@@ -208,7 +215,7 @@ def run(args: argparse.Namespace) -> int:
             "raw": static_metrics(det.static_raw[inside], truth[inside]),
         }
     _plot(det, t_ref, speed, out / "detection.png", args.speed_threshold, float(t[0]))
-    (out / "summary.json").write_text(json.dumps(_json_safe(summary), indent=2))
+    atomic_write_text(out / "summary.json", json.dumps(_json_safe(summary), indent=2))
 
     print(f"IMU {imu_path}: {t.size} samples, {t[-1] - t[0]:.1f} s at {imu.rate_hz:.1f} Hz")
     print(f"λ0 = {lambda0:.4g} m/s² ({lambda0_source}); window {config.window} samples; "

@@ -7,7 +7,8 @@ import json
 import sys
 from pathlib import Path
 
-from imunoise.errors import ImunoiseError
+from imunoise.cli.options import add_model, add_out, add_series_options, load_series, out_dir, source_extra
+from imunoise.errors import DataError
 
 EXAMPLES = """examples:
   imunoise em gyro_x.csv --freq 100 --units deg/s --model "AR1+WN+RW" --out em_gx/
@@ -20,8 +21,6 @@ and DIR/wv.png. EM is slow on long series (about 0.1 s per iteration per 10^6 sa
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from imunoise.cli.select import add_data_options
-
     p = sub.add_parser(
         "em",
         help="EM baseline: maximum likelihood of a state-space error model (Kalman smoother E-step)",
@@ -29,45 +28,49 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    add_data_options(p)
-    p.add_argument("--model", required=True, help='structure, e.g. "AR1+WN+RW" (AR1, WN, RW, DR)')
+    add_series_options(p)
+    add_model(p, processes="AR1 WN RW DR")
     p.add_argument("--init", default="av", help="'av' (default) or a model/fit JSON file to start from")
     p.add_argument("--max-iter", type=int, default=500, help="maximum EM iterations (default 500)")
     p.add_argument("--tol", type=float, default=1e-8, help="relative log-likelihood change to stop (1e-8)")
-    p.add_argument("--out", help="output folder (default: <data name>_em)")
+    add_out(p, "em")
     p.set_defaults(func=run)
 
 
 def load_init(spec: str):
     if spec == "av":
         return "av"
-    from imunoise.gmwm import GMWMFit
-    from imunoise.model import Model
+    from imunoise.errors import ModelError
+    from imunoise.imu_model import ImuModel, parse_model, read_model_json
 
     path = Path(spec)
     if not path.exists():
-        raise ImunoiseError(f"--init {spec!r}: not 'av' and no such file")
-    d = json.loads(path.read_text())
-    return GMWMFit.from_dict(d) if d.get("kind") == "imunoise.fit" else Model.from_dict(d)
+        raise DataError(f"--init {spec!r} is neither 'av' nor an existing file; give 'av' or the model.json of a fit")
+    d = read_model_json(path, "--init")  # binary or malformed file -> one error naming it
+    init = parse_model(d, f"--init {path}")  # a one-axis fit or a bare model dict
+    if isinstance(init, ImuModel):
+        raise ModelError(f"--init {path} is a multi-axis IMU model; give the model.json of one axis' fit")
+    return init
 
 
 def run(args: argparse.Namespace) -> int:
-    from imunoise.cli.select import load_series, out_dir
     from imunoise.em import em_fit
+    from imunoise.io.atomic import atomic_path, atomic_write_text
     from imunoise.plots import plot_wv_fit
 
+    init = load_init(args.init)  # before the data: a bad --init fails fast
     series = load_series(args)
     out = out_dir(args, "em")
     fit = em_fit(
+        args.model,
         series.values,
         freq=args.freq,
-        model=args.model,
-        init=load_init(args.init),
+        init=init,
         max_iter=args.max_iter,
         tol=args.tol,
         unit=series.unit,
     )
-    fit.extra.update({"source": str(args.data), "column": series.name, "source_unit": series.source_unit})
+    fit.extra.update(source_extra(args, series))
     print(fit.summary())
     ex = fit.extra
     flags = " (diverged: best iterate kept)" if ex["diverged"] else ""
@@ -75,7 +78,8 @@ def run(args: argparse.Namespace) -> int:
         f"\n  EM: {ex['iterations']} iterations, converged = {ex['converged']}{flags}, "
         f"log-likelihood = {ex['loglik']:.10g}, time = {ex['time_s']:.2f} s"
     )
-    (out / "model.json").write_text(json.dumps(fit.to_dict(), indent=1))
-    plot_wv_fit(fit, out / "wv.png", title=f"{Path(args.data).name} [{series.name}]: EM {fit.model}")
+    atomic_write_text(out / "model.json", json.dumps(fit.to_dict(), indent=1))
+    with atomic_path(out / "wv.png") as tmp:
+        plot_wv_fit(fit, tmp, title=f"{Path(args.data).name} [{series.name}]: EM {fit.model}")
     print(f"\nwrote {out / 'model.json'} and {out / 'wv.png'}", file=sys.stderr)
     return 0

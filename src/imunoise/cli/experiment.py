@@ -6,20 +6,26 @@ import argparse
 import logging
 import sys
 import time
-from pathlib import Path
 
-from imunoise.errors import ImunoiseError
+from imunoise.errors import ModelError
 
 EXAMPLES = """examples:
   imunoise experiment online --data data/drive_0708 --out out/exp_online
   imunoise experiment online --sim --seeds 20 --out out/mc_online          # Monte Carlo, both cores
   imunoise experiment denial --sim --seeds 20 --out out/mc_denial
   imunoise experiment denial --data ../shared/data/rtklibexplorer_drive0708 --out out/denial_real
+  imunoise experiment online --data data/drive_0708 --outages dense:60:20 --gnss rtk --gnss noise:1.5,3,1 \
+      --noise-seeds 5 --pairs gmwm/av,gmwm/em --out out/evidence      # paired ratios with CIs (evidence)
 
 Writes DIR/report.html (one self-contained page), DIR/report.md, DIR/results.json (SPEC §11 keys:
 methods → horizontal_rms_m, vertical_rms_m, ecef_rms_m, outage_end_horizontal_m, mean_outage_end_horizontal_m;
 timing; seeds and per_seed for Monte Carlo), CSV tables (headline.csv, outages.csv, differences.csv or
-sections.csv) and PNG figures. Lengths in m, times in s."""
+sections.csv) and PNG figures. Lengths in m, times in s.
+
+With --outages dense:L:S[:LEAD], --gnss or --pairs (online only) the run is the dense-window evidence
+(imunoise.experiments.dense): results.json has "paired" (per GNSS regime, metric drift/rms/aided_rms, each
+method vs plain and vs static_var and every --pairs pair: geometric-mean ratio, 95 % CI, n_windows,
+n_independent, n_drives, significant) and report.md/html lead with that table."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,7 +44,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed0", type=int, default=0, help="simulator: first seed (default 0)")
     p.add_argument("--duration", type=float, default=600.0, help="simulator: drive length [s] (default 600)")
     p.add_argument("--stops", type=int, default=4, help="simulator: traffic-light stops (default 4)")
-    p.add_argument("--outages", type=int, default=4, help="simulator: 60 s outages per drive (default 4)")
+    p.add_argument("--outages", default=None,
+                   help="outage windows: dense:L:S[:LEAD] (windows of L s every S s after LEAD s of aiding; "
+                   "default 60:20:60), a number (simulator: 60 s outages per drive, default 4) or an outage file")
+    p.add_argument("--gnss", action="append", default=None,
+                   help="GNSS regime, repeatable: rtk (as recorded, default) or noise:H,V[,RATE[,TAU]] "
+                   "(σ north/east and down [m], thinned to RATE Hz, white or Gauss-Markov with TAU s)")
+    p.add_argument("--noise-seeds", type=int, default=5, help="noise regimes: GNSS noise seeds (default 5)")
+    p.add_argument("--noise-seed0", type=int, default=1, help="first GNSS noise seed (default 1)")
+    p.add_argument("--pairs", help="extra paired comparisons method/baseline,... (e.g. gmwm/av,gmwm/em)")
+    p.add_argument("--bootstrap", type=int, default=2000, help="bootstrap replicates of the CIs (default 2000)")
+    p.add_argument("--boot-seed", type=int, default=0, help="bootstrap seed (default 0)")
     p.add_argument("--imu", default=None,
                    help="simulator: IMU error models: preset (paper, mems, tactical), structure, or model JSON "
                    "(imunoise.sim.resolve_imu_models; default: paper = gyros of paper Table 4 and mems "
@@ -49,6 +65,28 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=run)
+
+
+def select_methods(which: str, sim: bool, methods: str | None, evidence: bool = False) -> tuple[str, ...]:
+    """The methods of one run (SPEC §11): ``methods`` ("a,b,c") checked against the choices of the mode, or
+    the mode's default list. The online Monte Carlo also offers ``oracle`` (the simulator's true IMU model
+    in the filter), which real data cannot have; the default list of every mode passes this check.
+    ``evidence``: the dense-window evidence (:data:`imunoise.experiments.dense.EVIDENCE_METHODS` by default,
+    plus ``oracle`` on the simulator)."""
+    from imunoise.experiments import denial, dense, online_exp
+
+    mod = denial if which == "denial" else online_exp
+    default = online_exp.MC_METHODS if (which == "online" and sim) else mod.METHODS
+    if evidence:
+        default = (*dense.EVIDENCE_METHODS, *(dense.SIM_EXTRA if sim else ()))
+    allowed = tuple(dict.fromkeys((*mod.METHODS, *default)))
+    if evidence:
+        allowed = tuple(dict.fromkeys((*allowed, "static_var_hindsight", *(("oracle",) if sim else ()))))
+    chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else default
+    bad = [m for m in chosen if m not in allowed]
+    if bad or not chosen:
+        raise ModelError(f"unknown method(s) {bad or [methods]}; choose from {', '.join(allowed)}")
+    return chosen
 
 
 def _progress(total: int, desc: str):
@@ -69,21 +107,29 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.report import fmt
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    from imunoise.cli.options import prepare_out_dir
+
+    out = prepare_out_dir(args.out)
     t0 = time.perf_counter()
-    mod = denial if args.which == "denial" else online_exp
-    default = mod.METHODS if (args.which == "denial" or not args.sim) else online_exp.MC_METHODS
-    methods = tuple(m.strip() for m in args.methods.split(",")) if args.methods else default
-    bad = [m for m in methods if m not in mod.METHODS]
-    if bad:
-        raise ImunoiseError(f"unknown method(s) {bad}; choose from {', '.join(mod.METHODS)}")
+    from imunoise.experiments.dense import parse_outages
+
+    kind, outages = parse_outages(args.outages)
+    evidence = kind == "dense" or bool(args.gnss) or bool(args.pairs)
+    if evidence:
+        if args.which != "online":
+            raise ModelError("--outages dense:..., --gnss and --pairs belong to the online experiment")
+        return _run_evidence(args, out, outages, t0)
+    methods = select_methods(args.which, args.sim, args.methods)
+    if kind == "file" and args.sim:
+        raise ModelError("--outages FILE is for real data; the simulator takes a number or dense:L:S")
+    if kind == "count" and not args.sim:
+        raise ModelError("--outages N is for the simulator; on real data give dense:L:S or an outage file")
     if args.sim:
         if args.seeds < 1:
-            raise ImunoiseError(f"--seeds must be ≥ 1, got {args.seeds}")
+            raise ModelError(f"--seeds must be ≥ 1, got {args.seeds}")
         seeds = list(range(args.seed0, args.seed0 + args.seeds))
         bar, step = _progress(len(seeds), f"{args.which} Monte Carlo")
-        kw = {"duration_s": args.duration, "n_stops": args.stops, "n_outages": args.outages}
+        kw = {"duration_s": args.duration, "n_stops": args.stops, "n_outages": 4 if outages is None else outages}
         if args.imu:
             kw["imu_models"] = args.imu
         if args.which == "denial":
@@ -102,18 +148,84 @@ def run(args: argparse.Namespace) -> int:
             bar.close()
             html = write_denial_real(res, sc, out)
         else:
-            res, sc = online_exp.run_real(data, methods=methods, workers=args.workers, start=args.start, progress=step)
+            windows = None
+            if kind == "file":
+                from imunoise.io.kfgins import read_outages
+
+                windows = read_outages(outages)
+            res, sc = online_exp.run_real(data, methods=methods, workers=args.workers, start=args.start, progress=step,
+                                          windows=windows)
             bar.close()
             html = write_online_real(res, sc, out)
-    _print_headline(headline_rows(res), fmt)
+    print_headline(headline_rows(res), fmt)
     print(f"\nreport: {html.resolve()}  ({time.perf_counter() - t0:.1f} s)")
     return 0
 
 
-def _print_headline(rows, fmt) -> None:
+def print_headline(rows, fmt) -> None:
+    """Print the headline table of an experiment (one line per method: horizontal / vertical RMS, mean
+    end-of-outage drift and the change against the plain default) to stdout.
+
+    Parameters
+    ----------
+    rows : list of list
+        :func:`imunoise.experiments.report.headline_rows` of the results.
+    fmt : callable
+        Number formatter (:func:`imunoise.report.fmt`).
+    """
     heads = ["method", "horiz. RMS [m]", "vert. RMS [m]", "mean outage drift [m]", "Δ vs plain [%]"]
     table = [[r[0].split(" (")[0], fmt(r[1]), fmt(r[2]), fmt(r[4]), fmt(r[5])] for r in rows]
     w = [max(len(h), *(len(t[i]) for t in table)) for i, h in enumerate(heads)]
     print("  ".join(h.ljust(w[i]) for i, h in enumerate(heads)))
     for t in table:
         print("  ".join(c.ljust(w[i]) for i, c in enumerate(t)))
+
+
+def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
+    """The dense-window evidence (``imunoise.experiments.dense``) with its paired table."""
+    from imunoise.experiments import dense
+    from imunoise.experiments.common import repo_data_dir
+    from imunoise.experiments.gnss_regimes import parse_gnss
+    from imunoise.experiments.report import paired_rows, write_evidence
+    from imunoise.report import fmt
+
+    spec = spec if isinstance(spec, dense.DenseSpec) else dense.DenseSpec()
+    methods = select_methods("online", args.sim, args.methods, evidence=True)
+    regimes = [parse_gnss(g) for g in (args.gnss or ["rtk"])]
+    if args.noise_seeds < 1:
+        raise ModelError(f"--noise-seeds must be ≥ 1, got {args.noise_seeds}")
+    noise_seeds = list(range(args.noise_seed0, args.noise_seed0 + args.noise_seeds))
+    pairs = dense.parse_pairs(args.pairs)
+    for a, b in pairs:
+        if a not in methods or b not in methods:
+            raise ModelError(f"--pairs {a}/{b}: both must be among the methods ({', '.join(methods)})")
+    kw = {"spec": spec, "regimes": regimes, "noise_seeds": noise_seeds, "methods": methods, "pairs": pairs,
+          "workers": args.workers, "n_boot": args.bootstrap, "boot_seed": args.boot_seed}
+    if args.sim:
+        if args.seeds < 1:
+            raise ModelError(f"--seeds must be ≥ 1, got {args.seeds}")
+        seeds = list(range(args.seed0, args.seed0 + args.seeds))
+        bar, step = _progress(len(seeds), "evidence Monte Carlo")
+        scen = {"duration_s": args.duration, "n_stops": args.stops}
+        if args.imu:
+            scen["imu_models"] = args.imu
+        res = dense.run_sim(seeds, progress=step, **kw, **scen)
+        title = f"imunoise: dense-window evidence, {len(seeds)} simulated drives"
+    else:
+        data = args.data or str(repo_data_dir())
+        n_jobs = len(methods) * sum(len(noise_seeds) if r.random else 1 for r in regimes)
+        bar, step = _progress(n_jobs, "evidence")
+        res = dense.run_real(data, start=args.start, progress=step, **kw)
+        title = f"imunoise: dense-window evidence on {data}"
+    bar.close()
+    res["elapsed_s"] = time.perf_counter() - t0
+    html = write_evidence(res, out, title=title)
+    rows = paired_rows(res)
+    heads = ["GNSS", "method", "baseline", "metric", "ratio", "95 % CI", "n_win", "n_ind", "n_drv", "verdict"]
+    table = [[str(c) if isinstance(c, (str, int)) else fmt(c, 3) for c in r] for r in rows]
+    w = [max(len(h), *(len(t[i]) for t in table)) for i, h in enumerate(heads)]
+    print("  ".join(h.ljust(w[i]) for i, h in enumerate(heads)))
+    for t in table:
+        print("  ".join(c.ljust(w[i]) for i, c in enumerate(t)))
+    print(f"\nreport: {html.resolve()}  ({time.perf_counter() - t0:.1f} s)")
+    return 0

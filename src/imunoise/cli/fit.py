@@ -9,7 +9,24 @@ import sys
 import warnings
 from pathlib import Path
 
-from imunoise.errors import DataError, ImunoiseError
+from imunoise.cli.options import (
+    add_columns,
+    add_criterion,
+    add_data_argument,
+    add_freq,
+    add_model,
+    add_out,
+    add_time_options,
+    add_topic,
+    add_units,
+    add_weights,
+    check_freq,
+    out_dir,
+    parse_units,
+    print_warnings,
+)
+from imunoise.errors import DataError, ModelError
+from imunoise.io.atomic import atomic_path, atomic_write_text
 
 EXAMPLES = """examples:
   imunoise fit gyro_x.csv --freq 100 --model "2*AR1+WN+RW" --units deg/s --out fit_gx/
@@ -39,31 +56,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument(
-        "data", help="CSV/TXT (header optional, .gz ok), .npy/.npz, or a ROS bag (.bag, .db3, .mcap, folder)"
-    )
-    p.add_argument("--freq", type=float, help="sample rate in Hz (needed unless the data have time stamps)")
-    g = p.add_mutually_exclusive_group(required=True)
-    g.add_argument("--model", help='model structure, e.g. "2*AR1+WN+RW" (processes: AR1 WN QN RW DR)')
-    g.add_argument(
-        "--auto",
-        action="store_true",
-        help="select the model automatically among all 79 sub-models of 4*AR1+DR+WN+QN+RW",
-    )
-    p.add_argument("--criterion", choices=["gof", "wvic"], default="wvic", help="ranking for --auto (default wvic)")
-    p.add_argument("--column", help="one column name or 0-based index (a bag axis: gyro_x .. accel_z)")
-    p.add_argument(
-        "--columns",
-        help="several columns: a,b,c (named as in the file) or axis=column pairs, e.g. gyro_x=gx,accel_x=3",
-    )
-    p.add_argument(
-        "--units",
-        help="unit of the data: one for all (rad/s, deg/s, deg/h, m/s2, g, mg, rad, deg, m/s) or per "
-        "group/column: gyro=deg/s,accel=g (converted to SI); default: as is",
-    )
-    p.add_argument("--time-column", help="time column name or index (rate inferred, jitter and gaps reported)")
-    p.add_argument("--time-unit", default="s", choices=["s", "ms", "us", "µs", "ns"], help="unit of the time column")
-    p.add_argument("--topic", help="sensor_msgs/Imu topic of a ROS bag (listed when missing or wrong)")
+    add_data_argument(p)
+    add_freq(p)
+    add_model(p, auto=True)
+    add_criterion(p, "ranking for --auto")
+    add_columns(p, several=True)
+    add_units(p, several=True)
+    add_time_options(p)
+    add_topic(p)
     p.add_argument("--stamps", choices=["header", "bag"], default="header", help="bag time source (default header)")
     p.add_argument("--decimate", type=int, default=1, help="block-average K samples before fitting")
     p.add_argument(
@@ -72,12 +72,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         default="average",
         help="'average' (keeps the noise density); 'drop' is refused for noise modelling (inflates N by sqrt(K))",
     )
-    p.add_argument(
-        "--weights",
-        choices=["efficient", "diagonal", "fast", "identity"],
-        default="efficient",
-        help="GMWM weighting matrix Ω (default efficient = inverse WV covariance)",
-    )
+    add_weights(p)
     p.add_argument("--robust", action="store_true", help="robust (Huber) wavelet variance for contaminated data")
     p.add_argument("--seed", type=int, default=0, help="seed of the random starting points")
     p.add_argument(
@@ -87,14 +82,15 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="also write this export beside the model (repeatable)",
     )
     p.add_argument("--sensor", choices=["gyro", "accel"], help="sensor of a single-axis fit (for --export)")
-    p.add_argument("--out", help="output folder (default: <data name>_fit)")
+    p.add_argument(
+        "--horizon",
+        type=float,
+        metavar="S",
+        help="--export: longest averaging time [s] the (N, K) pair is matched on (default: the data's longest "
+        "scale); see `imunoise export --help` for the rule",
+    )
+    add_out(p, "fit")
     p.set_defaults(func=run)
-
-
-def _units(text: str | None):
-    if text is None or "=" not in text:
-        return text
-    return {k.strip(): v.strip() for k, v in (item.split("=", 1) for item in text.split(",") if item.strip())}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -102,13 +98,10 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.io.rosbag import is_bag
     from imunoise.io.tabular import parse_column_map
 
-    if args.freq is not None and not args.freq > 0:
-        raise ImunoiseError(f"--freq must be a positive rate in Hz, got {args.freq}")
+    check_freq(args.freq)
     if args.column is not None and args.columns is not None:
-        raise ImunoiseError("give --column (one axis) or --columns (several), not both")
+        raise ModelError("give --column (one axis) or --columns (several), not both")
     bag = is_bag(args.data)
-    if not bag and args.freq is None and args.time_column is None:
-        raise ImunoiseError("give the sample rate with --freq HZ (or a time column with --time-column)")
     multi = args.columns is not None or (bag and args.column is None)
     columns = parse_column_map(args.columns) if args.columns is not None else None
     if not multi and args.column is not None:
@@ -119,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
             args.data,
             topic=args.topic,
             columns=columns,
-            units=_units(args.units),
+            units=parse_units(args.units),
             time_column=args.time_column,
             time_unit=args.time_unit,
             freq=args.freq,
@@ -127,8 +120,8 @@ def run(args: argparse.Namespace) -> int:
             decimate_method=args.decimate_method,
             stamps=args.stamps,
         )
-    for w in caught:  # one readable line per handled data problem (sorted, duplicates, gaps)
-        print(f"warning: {w.message}", file=sys.stderr)
+    # one readable line per handled data problem (sorted, duplicates, gaps, doubtful units), kept in the output
+    series.meta["warnings"] = print_warnings(caught)
     if not multi and len(series.data) != 1:
         raise DataError(
             f"{args.data} has {len(series.data)} data columns ({', '.join(series.data)}); choose one with "
@@ -136,8 +129,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if series.report is not None or bag:
         print(series.describe(), file=sys.stderr)
-    out = Path(args.out or f"{Path(args.data).name.split('.')[0]}_fit")
-    out.mkdir(parents=True, exist_ok=True)
+    out = out_dir(args, "fit")
     if multi:
         return _run_multi(args, series, out)
     return _run_single(args, series, out)
@@ -151,6 +143,10 @@ def _base_extra(args: argparse.Namespace, series, axis: str) -> dict:
         extra["timing"] = series.report.to_dict()
     if series.meta.get("decimated"):
         extra["decimated"] = series.meta["decimated"]
+    if series.meta.get("warnings"):
+        extra["warnings"] = list(series.meta["warnings"])
+    if series.meta.get("units_from_file"):
+        extra["units_from_file"] = True
     return extra
 
 
@@ -184,17 +180,21 @@ def _run_single(args: argparse.Namespace, series, out: Path) -> int:
     axis = next(iter(series.data))
     fit = _fit_one(args, series, axis)
     print(fit.summary())
-    (out / "model.json").write_text(json.dumps(fit.to_dict(), indent=1))
-    plot_wv_fit(fit, out / "wv.png", title=f"{Path(args.data).name} [{axis}]: {fit.model}")
+    atomic_write_text(out / "model.json", json.dumps(fit.to_dict(), indent=1))
+    with atomic_path(out / "wv.png") as tmp:
+        plot_wv_fit(fit, tmp, title=f"{Path(args.data).name} [{axis}]: {fit.model}")
     written = [out / "model.json", out / "wv.png"]
     if args.export:
-        from imunoise.io.imu_input import sensor_of
+        from imunoise.export import infer_sensor
 
-        sensor = args.sensor or sensor_of(axis, fit.unit)
+        sensor = args.sensor or infer_sensor(fit)
         if sensor is None:
-            raise ImunoiseError("--export of a single axis needs --sensor gyro|accel")
+            raise ModelError("--export of a single axis needs --sensor gyro|accel (its unit and name do not say)")
+        _export_report(fit, args, sensor)
         for fmt in args.export:
-            written.append(_export(fit, fmt, out, sensor=sensor, source=str(out / "model.json")))
+            written.append(
+                _export(fit, fmt, out, sensor=sensor, source=str(out / "model.json"), horizon_s=args.horizon)
+            )
     print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
     return 0
 
@@ -213,17 +213,22 @@ def _run_multi(args: argparse.Namespace, series, out: Path) -> int:
         print(f"== {axis} ==")
         print(fit.summary())
         print()
-        plot_wv_fit(fit, out / f"wv_{axis}.png", title=f"{Path(args.data).name} [{axis}]: {fit.model}")
+        with atomic_path(out / f"wv_{axis}.png") as tmp:
+            plot_wv_fit(fit, tmp, title=f"{Path(args.data).name} [{axis}]: {fit.model}")
     source = {"file": str(args.data), "freq_hz": series.freq}
-    for k in ("topic", "frame_id", "frame", "format"):
+    for k in ("topic", "frame_id", "frame", "format", "warnings", "units_from_file"):
         if series.meta.get(k):
             source[k] = series.meta[k]
     model = ImuModel.from_fits(fits, source=source)
-    path = model.save(out / "imu_model.json")
-    print(_continuous_table(model))
+    path = out / "imu_model.json"
+    with atomic_path(path) as tmp:
+        model.save(tmp)
+    print(_continuous_table(model, args.horizon))
     written = [path]
+    if args.export:
+        _export_report(model, args, None)
     for fmt in args.export or []:
-        written.append(_export(model, fmt, out, source=str(path)))
+        written.append(_export(model, fmt, out, source=str(path), horizon_s=args.horizon))
     print(f"\nwrote {', '.join(str(w) for w in written)} and wv_<axis>.png", file=sys.stderr)
     return 0
 
@@ -234,8 +239,18 @@ def _export(model, fmt: str, out: Path, **kwargs) -> Path:
     return write_export(model, fmt, out / DEFAULT_FILENAMES[fmt], **kwargs)
 
 
-def _continuous_table(model) -> str:
-    """Per-axis continuous-time values as exported (SPEC §2), with the discrete per-sample equivalents."""
+def _export_report(model, args: argparse.Namespace, sensor: str | None) -> None:
+    """Before writing the exports: per axis which process went where, notes and AV-ratio warnings (stderr)."""
+    from imunoise.cli.export import report
+    from imunoise.export import model_sensors
+
+    if args.horizon is not None and not args.horizon > 0:
+        raise ModelError(f"--horizon must be a positive time in seconds, got {args.horizon}")
+    report(model_sensors(model, sensor, "max", None, args.horizon).values())
+
+
+def _continuous_table(model, horizon_s: float | None = None) -> str:
+    """Per-axis continuous-time values as exported (SPEC §2, §12), with the discrete per-sample equivalents."""
     import math
 
     from imunoise.export import axis_noise
@@ -243,13 +258,18 @@ def _continuous_table(model) -> str:
     f = model.freq_hz
     lines = [
         f"continuous-time noise per axis (what Kalibr / OpenVINS / ORB-SLAM3 take; discrete = per sample at {f:g} Hz)",
-        f"  {'axis':<9}{'model':<22}{'N white (continuous)':>22}  {'K_eq bias RW (continuous)':>27}  "
-        f"{'σ per sample (discrete)':>24}",
+        f"  {'axis':<9}{'model':<22}{'N white (continuous)':>22}  {'K bias RW (continuous)':>27}  "
+        f"{'σ per sample (discrete)':>24}  worst AV ratio",
     ]
     for axis, d in model.axes.items():
-        a = axis_noise(d, axis)
         u = d.get("unit", "u")
+        try:
+            a = axis_noise(d, axis, horizon_s=horizon_s)
+        except ModelError as exc:
+            lines.append(f"  {axis:<9}{d.get('model', ''):<22}no (N, K) pair: {exc}")
+            continue
         lines.append(
-            f"  {axis:<9}{a.model:<22}{a.N:>12.4e} {u}/√Hz  {a.K_eq:>14.4e} {u}/s/√Hz  {a.N * math.sqrt(f):>14.4e} {u}"
+            f"  {axis:<9}{a.model:<22}{a.N:>12.4e} {u}/√Hz  {a.K:>14.4e} {u}/s/√Hz  {a.N * math.sqrt(f):>14.4e} {u}"
+            f"  {a.worst_ratio:>8.3g}"
         )
     return "\n".join(lines)

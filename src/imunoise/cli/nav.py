@@ -7,12 +7,15 @@ import json
 import logging
 import math
 import sys
-import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+from imunoise.cli.navrun import outage_summary, read_nav_inputs, run_metrics, write_trajectory
+from imunoise.cli.options import add_nav_input_options, check_nav_span, check_outage_windows
+from imunoise.io.atomic import atomic_savefig, atomic_write_text
 
-from imunoise.errors import DataError, ImunoiseError
+if TYPE_CHECKING:
+    import numpy as np
 
 EXAMPLES = """examples:
   imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --out out/nav_full
@@ -40,7 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    add_input_options(p)
+    add_nav_input_options(p)
     m = p.add_mutually_exclusive_group()
     m.add_argument("--model", help="model JSON: {'gyro': fit, 'accel': fit} or per axis (from `imunoise fit`)")
     m.add_argument("--default", action="store_true", help="plain default model WN+RW+GM (the default)")
@@ -61,64 +64,23 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="zero-velocity updates at stops found by the SPEC §7 static detector (λ0 learned from the static window)",
     )
     p.add_argument("--no-gate", action="store_true", help="disable the χ² innovation gate")
+    p.add_argument("--scale-factors", action="store_true",
+                   help="add gyro and accel scale-factor states (KF-GINS' 21-state filter; 1000 ppm, GM 1 h)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=run)
 
 
-def add_input_options(p: argparse.ArgumentParser) -> None:
-    """The input options every navigation command shares (SPEC §12); resolve them with :func:`resolve_inputs`."""
-    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12)")
-    p.add_argument("--imu", help="IMU file (KF-GINS increments or rate CSV, body FRD, SI)")
-    p.add_argument("--gnss", help="GNSS file (KF-GINS: SOW lat lon h σN σE σD)")
-    p.add_argument("--ref", help="reference trajectory (KF-GINS result format) for metrics")
-    p.add_argument(
-        "--lever-arm",
-        nargs=3,
-        type=float,
-        metavar=("X", "Y", "Z"),
-        help="GNSS antenna position in the body frame FRD from the IMU [m]",
-    )
-    p.add_argument("--imu-time-offset", type=float, help="seconds added to every IMU time stamp")
-    p.add_argument("--outages", help="outage file: 'start duration' per line [s]")
-    p.add_argument("--outage-runs", action="store_true", help="run each outage window separately")
-
-
-def resolve_inputs(args: argparse.Namespace):
-    """(dataset or None, imu, gnss, ref, outages, lever arm, IMU time offset); explicit options override."""
-    from imunoise.io.dataset import read_dataset
-
-    ds = read_dataset(args.data) if args.data else None
-    imu = args.imu or (str(ds.imu) if ds else None)
-    gnss = args.gnss or (str(ds.gnss) if ds else None)
-    if not imu or not gnss:
-        raise ImunoiseError("give --imu and --gnss, or --data DIR with a dataset.json")
-    ref = args.ref or (str(ds.ref) if ds and ds.ref else None)
-    outages = args.outages or (str(ds.outages) if ds and ds.outages and args.outage_runs else None)
-    lever = args.lever_arm if args.lever_arm is not None else (list(ds.lever_arm_m) if ds else [0.0, 0.0, 0.0])
-    offset = args.imu_time_offset if args.imu_time_offset is not None else (ds.imu_time_offset_s if ds else 0.0)
-    return ds, imu, gnss, ref, outages, np.asarray(lever, dtype=float), float(offset)
-
-
 def run(args: argparse.Namespace) -> int:
-    from imunoise.io.kfgins import Reference, read_gnss, read_imu, read_outages, read_reference
+    import numpy as np
+
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig, default_axis_models, kfgins_loose, load_axis_models
     from imunoise.nav.ekf import run_ekf
-    from imunoise.nav.metrics import nav_errors, summarize
 
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
-    _, imu_p, gnss_p, ref_p, out_p, lever, offset = resolve_inputs(args)
-    if args.outage_runs and not out_p:
-        raise ImunoiseError("--outage-runs needs --outages F (or a dataset.json with 'outages')")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        imu = read_imu(imu_p, time_offset=offset)
-        gnss = read_gnss(gnss_p)
-        ref = read_reference(ref_p) if ref_p else None
-    for w in caught:
-        log.warning("%s", w.message)
-    windows = read_outages(out_p) if out_p else []
+    inp = read_nav_inputs(args, log)
+    imu, gnss, ref, notes, windows, lever = inp.imu, inp.gnss, inp.ref, inp.notes, inp.windows, inp.lever
     rate = imu.rate_hz
     if args.model:
         models = load_axis_models(args.model, rate)
@@ -132,13 +94,16 @@ def run(args: argparse.Namespace) -> int:
         kw["cov_every"] = int(args.cov_every)
     if args.no_gate:
         kw["chi2_gate"] = 0.0
+    if args.scale_factors:
+        kw["scale_factors"] = True
     config = EkfConfig(**kw)
 
     t0 = args.start if args.start is not None else max(float(imu.t[0]), float(gnss.t[0]))
-    if not (imu.t[0] <= t0 < imu.t[-1]):
-        raise DataError(f"--start {t0:.3f} is outside the IMU data [{imu.t[0]:.3f}, {imu.t[-1]:.3f}]")
-    if args.end is not None and args.end <= t0:
-        raise DataError(f"--end {args.end} must be after the start {t0:.3f}")
+    check_nav_span(imu, gnss, ref, t0, args.end, args.static_duration, inp.imu_path)
+    new = check_outage_windows(windows, t0, float(imu.t[-1]) if args.end is None else args.end, inp.outages_path)
+    for n in new:
+        log.warning("%s", n)
+    notes += new
     yaw = None if args.yaw is None else math.radians(args.yaw)
     init = coarse_align(imu, gnss, t0, static_duration=args.static_duration, yaw=yaw, lever_arm=lever)
     log.info(
@@ -148,25 +113,21 @@ def run(args: argparse.Namespace) -> int:
         np.round(np.degrees(init.gyro_bias) * 3600, 1),
     )
 
-    zupt = _zupt_mask(imu, args.static_duration) if args.zupt else None
+    zupt = zupt_mask(imu, args.static_duration) if args.zupt else None
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     base_gnss = gnss if args.outage_runs else gnss.without(windows)
     res = run_ekf(imu, base_gnss, init, config, models, t_end=args.end, zupt=zupt)
     duration = float(res.t[-1] - res.t[0])
-    week = int(ref.week[0]) if ref is not None and ref.week.size else 0
-    _write_traj(out / "trajectory.nav", res, week, Reference)
+    write_trajectory(out / "trajectory.nav", res, ref)
     metrics: dict = {"model": model_name, "start": float(res.t[0]), "duration_s": duration, "zupt": bool(args.zupt)}
-    err = None
-    if ref is not None:
-        err = nav_errors(res.t, res.antenna_llh(lever), res.vel_ned, res.euler, ref)
-        metrics.update(
-            summarize(err, outages=[] if args.outage_runs else windows, elapsed_s=res.elapsed_s, duration_s=duration)
-        )
-    else:
-        metrics.update({"elapsed_s": res.elapsed_s, "realtime_factor": duration / res.elapsed_s, "outages": []})
+    run, err = run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)
+    metrics.update(run)
+    metrics["warnings"] = notes
     metrics["gnss_rejected"] = int(np.sum(res.gnss_status == 0))
     metrics["gnss_forced"] = int(np.sum(res.gnss_status == 2))
+    if res.scale_factors is not None:  # --scale-factors: final ŝ, gyro x,y,z then accel x,y,z
+        metrics["scale_factors_ppm"] = [float(x) * 1e6 for x in res.scale_factors[-1]]
 
     runs = []
     if args.outage_runs and windows:
@@ -177,17 +138,14 @@ def run(args: argparse.Namespace) -> int:
             r = run_ekf(imu, gnss.without([w]), init, config, models, t_end=args.end, zupt=zupt)
             sub = out / f"outage_{k + 1}"
             sub.mkdir(exist_ok=True)
-            _write_traj(sub / "trajectory.nav", r, week, Reference)
-            if ref is not None:
-                e = nav_errors(r.t, r.antenna_llh(lever), r.vel_ned, r.euler, ref)
-                mk = summarize(e, outages=[w], elapsed_s=r.elapsed_s, duration_s=duration)
+            write_trajectory(sub / "trajectory.nav", r, ref)
+            mk, e = run_metrics(r, ref, lever, [w], duration)
+            if e is not None:
                 (sub / "metrics.json").write_text(json.dumps(mk, indent=1))
                 outs.append(mk["outages"][0])
                 runs.append((w, e))
-        metrics["outages"] = outs
-        ends = [o["end_horizontal_m"] for o in outs if o["end_horizontal_m"] is not None]
-        metrics["mean_outage_end_horizontal_m"] = float(np.mean(ends)) if ends else None
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
+        metrics.update(outage_summary(outs))
+    atomic_write_text(out / "metrics.json", json.dumps(metrics, indent=1))
     if not args.no_plots:
         _plots(out, res, ref, err, windows, runs, lever)
     _print_summary(metrics)
@@ -198,7 +156,9 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _zupt_mask(imu, static_duration: float) -> np.ndarray:
+def zupt_mask(imu, static_duration: float) -> np.ndarray:
+    """Stops found by the SPEC §7 static detector, λ0 learned from the first ``static_duration`` s (a stop):
+    a boolean mask over the IMU epochs for the ZUPT updates."""
     from imunoise.detect import DetectorConfig, detect_static, learn_lambda0
 
     gyro, accel = imu.rates()
@@ -212,14 +172,6 @@ def _zupt_mask(imu, static_duration: float) -> np.ndarray:
         ", ".join(f"{s.t0:.1f}+{s.duration:.1f}s" for s in det.segments),
     )
     return det.static
-
-
-def _write_traj(path: Path, res, week: int, Reference) -> None:
-    from imunoise.io.kfgins import write_reference
-
-    write_reference(
-        path, Reference(t=res.t, llh=res.llh, vel_ned=res.vel_ned, euler=res.euler, week=np.full(res.t.size, week))
-    )
 
 
 def _print_summary(m: dict) -> None:
@@ -246,6 +198,7 @@ def _plots(out: Path, res, ref, err, windows, runs, lever) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
     from imunoise.nav.earth import llh_to_ned
 
@@ -283,7 +236,7 @@ def _plots(out: Path, res, ref, err, windows, runs, lever) -> None:
     ax.legend()
     ax.set_title("trajectory (GNSS antenna)")
     fig.tight_layout()
-    fig.savefig(out / "trajectory.png", dpi=120)
+    atomic_savefig(fig, out / "trajectory.png", dpi=120)
     plt.close(fig)
 
     if err is not None:
@@ -300,7 +253,7 @@ def _plots(out: Path, res, ref, err, windows, runs, lever) -> None:
         axs[-1].set_xlabel(f"time since {err.t[0]:.1f} s [s]")
         axs[0].set_title("position error vs reference (shaded: outage windows; red: per-window runs)")
         fig.tight_layout()
-        fig.savefig(out / "errors.png", dpi=120)
+        atomic_savefig(fig, out / "errors.png", dpi=120)
         plt.close(fig)
 
     fig, axs = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
@@ -316,5 +269,5 @@ def _plots(out: Path, res, ref, err, windows, runs, lever) -> None:
         a.legend(ncol=3)
     axs[0].set_title("estimated sensor errors (bias + augmented states)")
     fig.tight_layout()
-    fig.savefig(out / "biases.png", dpi=120)
+    atomic_savefig(fig, out / "biases.png", dpi=120)
     plt.close(fig)

@@ -7,12 +7,19 @@ import json
 import logging
 import math
 import sys
-import warnings
 from pathlib import Path
 
-import numpy as np
-
-from imunoise.errors import DataError, ImunoiseError
+from imunoise.cli.navrun import outage_summary, read_nav_inputs, run_metrics, write_trajectory
+from imunoise.cli.options import (
+    add_criterion,
+    add_nav_input_options,
+    check_learn_from,
+    check_learn_window_is_stop,
+    check_nav_span,
+    check_outage_windows,
+)
+from imunoise.errors import ModelError
+from imunoise.io.atomic import atomic_path, atomic_write_text
 
 EXAMPLES = """examples:
   imunoise online --data data/drive_0708 --out out/online
@@ -30,8 +37,6 @@ log = logging.getLogger("imunoise.online")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from imunoise.cli.nav import add_input_options
-
     p = sub.add_parser(
         "online",
         help="online GMWM: detect stops, model the IMU while driving, hot-swap the model into the EKF",
@@ -39,13 +44,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    add_input_options(p)
+    add_nav_input_options(p)
     p.add_argument("--model", help="initial model JSON (default: the plain default WN+RW+GM)")
     p.add_argument("--start", type=float, help="start time [s]; default: manifest start_sow or first GNSS epoch")
     p.add_argument("--static-duration", type=float, default=30.0,
                    help="seconds of still data at the start for levelling and gyro bias (default 30)")
-    p.add_argument("--criterion", choices=("gof", "wvic"), default="gof",
-                   help="model ranking: gof (the paper's Eq. 8, default) or wvic")
+    add_criterion(p)
     p.add_argument("--min-static", type=float, default=20.0,
                    help="static data [s] before the structure identification (default 20)")
     p.add_argument("--latency", type=float, help="fixed delay [s] stop end → model in the filter "
@@ -54,6 +58,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="inline = deterministic replay (default); thread = background thread, never blocks")
     p.add_argument("--zupt", action="store_true", help="ZUPT/ZARU updates during detected stops")
     p.add_argument("--no-gate", action="store_true", help="do not use the 30 °/s angular-rate gate")
+    p.add_argument("--scale-factors", action="store_true",
+                   help="add gyro and accel scale-factor states to the EKF (KF-GINS' 21-state filter)")
     p.add_argument("--no-floor", action="store_true", help="no plain-default floor on the filter noise")
     p.add_argument("--learn-from", type=float, default=10.0, help="seconds of the first stop to learn λ0 (default 10)")
     p.add_argument("--lambda0", type=float, help="fixed detector λ0 [m/s²] instead of learning it")
@@ -64,38 +70,39 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from imunoise.cli.nav import resolve_inputs
     from imunoise.detect import DetectorConfig
-    from imunoise.io.kfgins import Reference, read_gnss, read_imu, read_outages, read_reference, write_reference
+    from imunoise.imu import AXES
+    from imunoise.imu_model import ImuModel
+    from imunoise.io.jsonutil import json_default
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig, load_axis_models
-    from imunoise.nav.metrics import nav_errors, summarize
     from imunoise.online import OnlineConfig, OnlineNavigator
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    ds, imu_p, gnss_p, ref_p, out_p, lever, offset = resolve_inputs(args)
-    if args.outage_runs and not out_p:
-        raise ImunoiseError("--outage-runs needs --outages F (or a dataset.json with 'outages')")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        imu = read_imu(imu_p, time_offset=float(offset))
-        gnss = read_gnss(gnss_p)
-        ref = read_reference(ref_p) if ref_p else None
-    for w in caught:
-        log.warning("%s", w.message)
-    windows = read_outages(out_p) if out_p else []
-    t0 = args.start if args.start is not None else (ds.extra.get("start_sow") if ds else None)
+    if args.lambda0 is not None and not (math.isfinite(args.lambda0) and args.lambda0 > 0):
+        raise ModelError(f"--lambda0 must be a positive threshold in m/s², got {args.lambda0:g}")
+    inp = read_nav_inputs(args, log)
+    imu, gnss, ref, notes, windows, lever = inp.imu, inp.gnss, inp.ref, inp.notes, inp.windows, inp.lever
+    t0 = args.start if args.start is not None else (inp.dataset.extra.get("start_sow") if inp.dataset else None)
     if t0 is None:
         t0 = max(float(imu.t[0]), float(gnss.t[0]))
     t0 = float(t0)
-    if not (imu.t[0] <= t0 < imu.t[-1]):
-        raise DataError(f"--start {t0:.3f} is outside the IMU data [{imu.t[0]:.3f}, {imu.t[-1]:.3f}]")
+    check_nav_span(imu, gnss, ref, t0, None, args.static_duration, inp.imu_path)
+    n_read = len(notes)
+    notes += check_outage_windows(windows, t0, float(imu.t[-1]), inp.outages_path)
+    if args.lambda0 is None:  # λ0 is learned from the first --learn-from s of the IMU file: a known stop
+        check_learn_from(args.learn_from, imu.t, DetectorConfig().window, imu.rate_hz, inp.imu_path)
+        if ref is not None:
+            notes += check_learn_window_is_stop(ref, float(imu.t[0]), args.learn_from, 0.2, inp.ref_path)
+    for n in notes[n_read:]:
+        log.warning("%s", n)
     init = coarse_align(imu, gnss, t0, static_duration=args.static_duration, lever_arm=lever)
     rate = imu.rate_hz
     models = load_axis_models(args.model, rate) if args.model else None
-    detector = DetectorConfig(lambda0=args.lambda0) if args.lambda0 else None
+    detector = DetectorConfig(lambda0=args.lambda0) if args.lambda0 is not None else None
     config = OnlineConfig(
-        ekf=EkfConfig(lever_arm=tuple(lever)), detector=detector, learn_lambda0_s=args.learn_from,
+        ekf=EkfConfig(lever_arm=tuple(lever), scale_factors=args.scale_factors),
+        detector=detector, learn_lambda0_s=args.learn_from,
         min_static_s=args.min_static, criterion=args.criterion, latency=args.latency, worker=args.worker,
         gate=not args.no_gate, zupt=args.zupt, floor="none" if args.no_floor else "default",
     )
@@ -118,50 +125,30 @@ def run(args: argparse.Namespace) -> int:
 
     base = gnss if args.outage_runs else gnss.without(windows)
     res = one(base, "online")
-    week = int(ref.week[0]) if ref is not None and ref.week.size else 0
-    write_reference(out / "trajectory.nav", Reference(t=res.t, llh=res.llh, vel_ned=res.vel_ned, euler=res.euler,
-                                                      week=np.full(res.t.size, week)))
-    res.write_events(out / "events.jsonl")
+    write_trajectory(out / "trajectory.nav", res, ref)
+    with atomic_path(out / "events.jsonl") as tmp:
+        res.write_events(tmp)
     metrics: dict = {"start": float(res.t[0]) if res.t.size else t0, "duration_s": duration,
                      "lambda0_m_s2": res.lambda0, "static_s": float(sum(s.duration for s in res.segments)),
                      "timing": res.timing, "config": {"criterion": config.criterion, "zupt": config.zupt,
                                                        "floor": config.floor, "latency": config.latency}}
-    if ref is not None:
-        err = nav_errors(res.t, res.antenna_llh(lever), res.vel_ned, res.euler, ref)
-        metrics.update(summarize(err, outages=[] if args.outage_runs else windows, elapsed_s=res.elapsed_s,
-                                 duration_s=duration))
-    else:
-        metrics.update({"elapsed_s": res.elapsed_s, "realtime_factor": duration / max(res.elapsed_s, 1e-9),
-                        "outages": []})
+    metrics.update(run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)[0])
     if args.outage_runs and windows:
         outs = []
         for k, w in enumerate(windows):
             r = one(gnss.without([w]), f"outage {k + 1}/{len(windows)}")
-            if ref is not None:
-                e = nav_errors(r.t, r.antenna_llh(lever), r.vel_ned, r.euler, ref)
-                outs.append(summarize(e, outages=[w])["outages"][0])
-        metrics["outages"] = outs
-        ends = [o["end_horizontal_m"] for o in outs if o["end_horizontal_m"] is not None]
-        metrics["mean_outage_end_horizontal_m"] = float(np.mean(ends)) if ends else None
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=1, default=_default))
-    fits = {ax: f.to_dict() for ax, f in zip(("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"),
-                                             res.fits) if f is not None}
+            mk, e = run_metrics(r, ref, lever, [w], duration)
+            if e is not None:
+                outs.append(mk["outages"][0])
+        metrics.update(outage_summary(outs))
+    metrics["warnings"] = notes
+    atomic_write_text(out / "metrics.json", json.dumps(metrics, indent=1, default=json_default))
+    fits = {ax: f.to_dict() for ax, f in zip(AXES, res.fits, strict=True) if f is not None}
     if fits:
-        (out / "model.json").write_text(json.dumps({"kind": "imunoise.imu_model", "freq_hz": rate, "axes": fits},
-                                                   indent=1, default=_default))
+        ImuModel(float(rate), fits).save(out / "model.json")
     _print(metrics, res)
     print(f"wrote {out / 'trajectory.nav'}, {out / 'metrics.json'}, {out / 'events.jsonl'}", file=sys.stderr)
     return 0
-
-
-def _default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, float) and not math.isfinite(o):
-        return None
-    return str(o)
 
 
 def _print(m: dict, res) -> None:
@@ -172,6 +159,10 @@ def _print(m: dict, res) -> None:
                   f"{e['elapsed_s']:.3f} s: {axes}")
         elif e["event"] == "rejected":
             print(f"rejected at {e['t']:.1f} s: {e.get('axis', '')} {e['reason']}")
+        elif e["event"] == "warm_up":
+            print(f"warm-up of the fitting kernels: {e['error']}" if "error" in e else
+                  f"warm-up of the fitting kernels: {e['time_s']:.2f} s ({e['compiled']} compiled, "
+                  f"{e['loaded']} loaded from numba's cache)")
     if "horizontal_rms_m" in m:
         print(f"horizontal RMS / p95 / max: {m['horizontal_rms_m']:.3f} / {m['horizontal_p95_m']:.3f} / "
               f"{m['horizontal_max_m']:.3f} m; vertical RMS {m['vertical_rms_m']:.3f} m")

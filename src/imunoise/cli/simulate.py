@@ -8,16 +8,20 @@ import io
 import json
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+from imunoise.cli.options import prepare_out_dir
+from imunoise.errors import ModelError
+from imunoise.io.atomic import staged_dir
 
-from imunoise.errors import ImunoiseError
+if TYPE_CHECKING:
+    import numpy as np
 
 EXAMPLES = """examples:
-  imunoise simulate --duration 600 --stops 3 --imu-model "3*AR1+WN+RW" --seed 1 --out sim/drive1
-  imunoise simulate --duration 900 --stops 5 --imu-model mems --gnss-rate 1 --outages outages.txt --out sim/d2
-  imunoise simulate --imu-model models.json --clean --out sim/noisefree
-  imunoise simulate --static --duration 7200 --imu-model mems --seed 3 --out sim/static2h
+  imunoise simulate --duration 600 --stops 3 --imu-model "3*AR1+WN+RW" --seed 1 --out out/sim/drive1
+  imunoise simulate --duration 900 --stops 5 --imu-model mems --gnss-rate 1 --outages outages.txt --out out/sim/d2
+  imunoise simulate --imu-model models.json --clean --out out/sim/noisefree
+  imunoise simulate --static --duration 7200 --imu-model mems --seed 3 --out out/sim/static2h
 
 --imu-model accepts a preset name (mems, tactical: 3*AR1+WN+RW with consumer/tactical values; paper: the gyros
 of paper Table 4 with mems accelerometers), a structure
@@ -93,7 +97,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--clean", action="store_true", help="no turn-on bias, vibration or outliers")
     p.add_argument("--gzip", action="store_true", help="gzip imu.txt, imu_true.txt and ref.nav")
     p.add_argument("--static", action="store_true", help="write a static recording instead of a drive")
-    p.add_argument("--out", type=Path, required=True, help="output folder")
+    p.add_argument(
+        "--out", type=Path, default=Path("out/simulate"), help="output folder (default out/simulate, git-ignored)"
+    )
     p.set_defaults(func=run)
 
 
@@ -107,13 +113,15 @@ def run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     models = _models_arg(args.imu_model)
+    prepare_out_dir(args.out)  # an unusable --out fails before the simulation
     if args.static:
         rec = simulate_static(models, args.duration, args.imu_rate, args.seed, start_sow=args.start_sow)
-        args.out.mkdir(parents=True, exist_ok=True)
         suffix = ".gz" if args.gzip else ""
-        write_imu(args.out / f"imu.txt{suffix}", rec.imu)
-        _write_rate_csv(args.out / f"imu_rate.csv{suffix}", rec.t, rec.rates)
-        (args.out / "truth.json").write_text(json.dumps(rec.truth, indent=1))
+        # the files only make sense together: written into a staging folder, moved in when all are done
+        with staged_dir(args.out) as stage:
+            write_imu(stage / f"imu.txt{suffix}", rec.imu)
+            _write_rate_csv(stage / f"imu_rate.csv{suffix}", rec.t, rec.rates)
+            (stage / "truth.json").write_text(json.dumps(rec.truth, indent=1))
         print(
             f"static recording: {len(rec.t)} samples at {args.imu_rate:g} Hz ({args.duration:g} s) "
             f"-> {args.out} in {time.perf_counter() - t0:.1f} s"
@@ -144,9 +152,12 @@ def run(args: argparse.Namespace) -> int:
     )
     cfg = DriveConfig.noise_free(**kw) if args.clean else DriveConfig(**kw)
     if outages and max(s + d for s, d in outages) > cfg.duration_s:
-        raise ImunoiseError("an outage window ends after the drive; give outage starts in s from the start or SOW")
+        raise ModelError("an outage window ends after the drive; give outage starts in s from the start or SOW")
     drive = simulate_drive(cfg, models, args.seed)
-    out = drive.write(args.out, compress=args.gzip)
+    # IMU, GNSS, reference and truth only make sense together: an interrupted run leaves none of them
+    with staged_dir(args.out) as stage:
+        drive.write(stage, compress=args.gzip)
+    out = args.out
     tr = drive.truth
     stops = ", ".join(f"{b - a:.0f}" for a, b in tr["stops"]) or "none"
     print(
@@ -165,6 +176,8 @@ def _describe(models: dict) -> str:
 
 def _write_rate_csv(path: Path, t: np.ndarray, rates: np.ndarray) -> None:
     """Rates as CSV with the header ``sow,gx,gy,gz,ax,ay,az`` (rad/s, m/s²), gzip by suffix."""
+    import numpy as np
+
     buf = io.StringIO()
     buf.write("sow,gx,gy,gz,ax,ay,az\n")
     np.savetxt(buf, np.column_stack([t, rates]), fmt=["%.9f"] + ["%.12e"] * 6, delimiter=",")

@@ -4,7 +4,7 @@ A :class:`Scenario` is one drive with a reference: the real drive (a dataset fol
 SPEC §12) or a simulated one (SPEC §10). Every method is run through :class:`imunoise.online.OnlineNavigator`
 (fixed-model baselines with ``modelling=False``), so methods differ only in their error models.
 All static-derived models (AV, EM, GMWM) pass through the same fit → filter mapping
-(:func:`imunoise.online.ekf_axis_model`, floor = the plain default), so the comparison is about the
+(:func:`imunoise.online.filter_axis_models`, floor = the plain default), so the comparison is about the
 models, not about the mapping.
 """
 
@@ -23,10 +23,11 @@ from scipy import stats
 
 from imunoise.detect import DetectorConfig, detect_static, learn_lambda0, segment_data
 from imunoise.errors import DataError, ImunoiseError
+from imunoise.imu import AXES
 from imunoise.nav.defaults import EkfConfig
 from imunoise.nav.ekf import InitialState
 from imunoise.nav.metrics import nav_errors, summarize
-from imunoise.online import OnlineConfig, OnlineNavigator, OnlineResult, data_horizon, ekf_axis_model
+from imunoise.online import OnlineConfig, OnlineNavigator, OnlineResult, filter_axis_models
 
 log = logging.getLogger(__name__)
 
@@ -36,7 +37,6 @@ __all__ = [
     "paired_ci", "map_seeds", "METHOD_LABELS", "SIM_IMU", "repo_data_dir",
 ]
 
-AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 SIM_IMU = "paper"  # gyros of paper Table 4 (3*AR1+WN+RW per axis), accelerometers of the "mems" preset
 KFGINS_DRIVE0708 = [335.5, 520.9, 42.7, 398.6, 310.8]  # m, README of the shared drive
 
@@ -203,7 +203,7 @@ def baseline_fits(segments: list[np.ndarray], freq: float, which: str) -> list:
                 rest.append(RW(gamma2=1e-6 * v))
             start = Model(rest)
         try:
-            out.append(em_fit(data, freq=freq, init=start, unit=unit, max_iter=200))
+            out.append(em_fit(start.unknown(), data, freq=freq, init=start, unit=unit, max_iter=200))
         except ImunoiseError as exc:
             log.warning("EM baseline failed on %s (%s): using the AV model", AXES[a], exc)
             out.append(av)
@@ -211,19 +211,9 @@ def baseline_fits(segments: list[np.ndarray], freq: float, which: str) -> list:
 
 
 def filter_models(fits: list, freq: float, config: OnlineConfig | None = None) -> list:
-    """The six filter models of fixed fits, through the same mapping as the online engine."""
-    from imunoise.nav.defaults import default_axis_models
-
-    config = config or OnlineConfig()
-    floor = [m for m, _ in default_axis_models(freq, config.ekf.fallback)]
-    out = []
-    for a, f in enumerate(fits):
-        is_fit = hasattr(f, "model")
-        model = f.model if is_fit else f
-        fl = floor[a] if config.floor == "default" else None
-        out.append((ekf_axis_model(model, freq, fl, fold_tau_s=config.fold_tau_s, dr=config.dr,
-                                   horizon=data_horizon(f) if is_fit else None, qn=config.qn), freq))
-    return out
+    """The six filter models of fixed fits (or bare models), through the online engine's own mapping
+    (:func:`imunoise.online.filter_axis_models`)."""
+    return filter_axis_models(fits, freq, config)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from imunoise.errors import ModelError
 from imunoise.experiments.common import (
     KFGINS_DRIVE0708,
     Scenario,
@@ -39,7 +40,8 @@ from imunoise.online import OnlineConfig
 
 log = logging.getLogger(__name__)
 
-__all__ = ["METHODS", "MC_METHODS", "DEMO_METHODS", "method_config", "run_real", "run_sim", "summarize_seeds"]
+__all__ = ["METHODS", "MC_METHODS", "DEMO_METHODS", "method_config", "run_real", "run_sim", "summarize_seeds",
+           "window_paired"]
 
 METHODS = ("plain", "av", "em", "gmwm", "gmwm_wvic", "gmwm_raw", "gmwm_qndrop", "gmwm_zupt", "plain_zupt")
 MC_METHODS = ("plain", "av", "em", "gmwm", "gmwm_wvic", "gmwm_zupt", "plain_zupt", "oracle")
@@ -49,8 +51,12 @@ METRIC_KEYS = ("horizontal_rms_m", "vertical_rms_m", "mean_outage_end_horizontal
 
 def method_config(name: str, sc: Scenario, base: OnlineConfig | None = None,
                   fits_cache: dict | None = None) -> tuple[OnlineConfig, Any]:
-    """(OnlineConfig, initial models) of a method on a scenario."""
-    base = (base or OnlineConfig()).with_(ekf=sc.ekf_config(), store=True)
+    """(OnlineConfig, initial models) of a method on a scenario.
+
+    The ``gmwm`` family ranks candidates by GOF (paper Eq. 8), as the paper does; ``gmwm_wvic`` by WVIC,
+    the library's default elsewhere.
+    """
+    base = (base or OnlineConfig()).with_(ekf=sc.ekf_config(), store=True, criterion="gof")
     if name == "plain":
         return base.with_(modelling=False), None
     if name == "plain_zupt":
@@ -69,13 +75,13 @@ def method_config(name: str, sc: Scenario, base: OnlineConfig | None = None,
         # the simulator's true per-axis models through the same fit → filter mapping, without the floor:
         # the best any static-data model can do, the ceiling of every method here
         if not sc.truth_models:
-            raise ValueError("the oracle method needs a simulated scenario (true IMU models)")
+            raise ModelError("the oracle method needs a simulated scenario (true IMU models)")
+        from imunoise.imu import AXES
         from imunoise.model import Model
         from imunoise.processes import WN
-        from imunoise.sim.imu_errors import AXES as SIM_AXES
 
         none = Model([WN(sigma2=1e-30)])  # an axis the simulator left without errors
-        truth = [sc.truth_models.get(ax, none) for ax in SIM_AXES]
+        truth = [sc.truth_models.get(ax, none) for ax in AXES]
         return base.with_(modelling=False), filter_models(truth, sc.rate, base.with_(floor="none"))
     if name in ("av", "em"):
         cache = fits_cache if fits_cache is not None else {}
@@ -84,7 +90,7 @@ def method_config(name: str, sc: Scenario, base: OnlineConfig | None = None,
         if name not in cache:
             cache[name] = baseline_fits(cache["segments"], sc.rate, name)
         return base.with_(modelling=False), filter_models(cache[name], sc.rate, base)
-    raise ValueError(f"unknown method {name!r}; choose from {METHODS}")
+    raise ModelError(f"unknown method {name!r}; choose from {METHODS}")
 
 
 # --------------------------------------------------------------------------------------------------
@@ -93,9 +99,12 @@ def method_config(name: str, sc: Scenario, base: OnlineConfig | None = None,
 _SC: dict[str, Any] = {}
 
 
-def _init_real(data_dir: str, start: float | None, base: OnlineConfig | None = None) -> None:
+def _init_real(data_dir: str, start: float | None, base: OnlineConfig | None = None,
+               windows: list | None = None) -> None:
     logging.getLogger("imunoise").setLevel(logging.WARNING)
     _SC["sc"] = load_real(data_dir, start=start)
+    if windows is not None:
+        _SC["sc"].windows = [tuple(w) for w in windows]
     _SC["cache"] = {}
     _SC["base"] = base
 
@@ -116,12 +125,13 @@ def _real_job(job: tuple[str, int]) -> tuple[str, int, dict]:
 
 def run_real(data_dir: str, *, methods: Sequence[str] = METHODS, workers: int = 2, start: float | None = None,
              progress: Callable[[str], None] | None = None,
-             base: OnlineConfig | None = None) -> tuple[dict, Scenario]:
+             base: OnlineConfig | None = None, windows: list | None = None) -> tuple[dict, Scenario]:
     """The online experiment on a real dataset folder: ``results`` (SPEC §11 keys; per-method objects
     under ``_objects``) and the scenario. Runs (method × {full, window k}) are spread over ``workers``
     processes; ``progress(name)`` is called after every run. ``base``: the online settings the methods
-    start from (default :class:`OnlineConfig`)."""
-    _init_real(str(data_dir), start, base)
+    start from (default :class:`OnlineConfig`); ``windows``: outage windows (start, length) instead of the
+    dataset's outage file."""
+    _init_real(str(data_dir), start, base, windows)
     sc = _SC["sc"]
     jobs = [(m, k) for m in methods for k in range(-1, len(sc.windows))]
     # baselines first (their fits are cached per worker), long online runs early for load balance
@@ -129,7 +139,7 @@ def run_real(data_dir: str, *, methods: Sequence[str] = METHODS, workers: int = 
     parts: dict[str, dict[int, dict]] = {m: {} for m in methods}
     if workers > 1 and len(jobs) > 1:
         ctx = mp.get_context("fork")
-        with ctx.Pool(workers, initializer=_init_real, initargs=(str(data_dir), start, base)) as pool:
+        with ctx.Pool(workers, initializer=_init_real, initargs=(str(data_dir), start, base, windows)) as pool:
             for name, k, res in pool.imap_unordered(_real_job, jobs):
                 parts[name][k] = res
                 if progress:
@@ -182,12 +192,40 @@ def _assemble(raw: dict[str, dict], methods: Sequence[str], sc: Scenario) -> dic
                                             "static_s": u.static_s, "elapsed_s": float(sum(u.elapsed_s))}
                                            for u in full.updates]}
     results["_objects"] = objects
+    results["paired"] = window_paired({m: [results["methods"][m].get("outage_end_horizontal_m") or []]
+                                       for m in methods}, [list(sc.windows)])
     if "plain" in results["methods"]:
         results["improvement_vs_plain_pct"] = {
             n: {k: _pct(results["methods"][n].get(k), results["methods"]["plain"].get(k)) for k in METRIC_KEYS}
             for n in methods if n != "plain"
         }
     return results
+
+
+def window_paired(ends: dict[str, list[list]], windows: list[list], *, n_boot: int = 2000, seed: int = 0) -> list[dict]:
+    """The ``paired`` list of the per-window protocols (official windows): end-drift log-ratios of every method
+    against ``plain`` (and ``static_var`` when run), bootstrap over drives and windows (:mod:`.stats`);
+    ``ends[m]`` per drive the drift per window, ``windows`` per drive the (start, length) list."""
+    from imunoise.experiments.stats import default_block, n_independent, paired_entry
+
+    lengths = [w[1] for ws in windows for w in ws]
+    if lengths:
+        starts = sorted(w[0] for ws in windows for w in ws)
+        step = min((b - a for a, b in zip(starts, starts[1:]) if b > a), default=max(lengths))
+        block = default_block(max(lengths), step)
+        n_ind: int | None = sum(n_independent([w[0] for w in ws], max(lengths)) for ws in windows)
+    else:  # windows not given: taken as disjoint (every window independent)
+        block, n_ind = 1, None
+    out = []
+    for base in ("plain", "static_var"):
+        if base not in ends:
+            continue
+        for m in ends:
+            if m == base or (m, base) == ("plain", "static_var"):
+                continue
+            out.append(paired_entry(m, base, "drift", ends, block, n_independent_total=n_ind, n_boot=n_boot,
+                                    seed=seed))
+    return out
 
 
 def _pct(a, b) -> float | None:
@@ -227,7 +265,7 @@ def _sim_job_clean(seed: int, methods: Sequence[str], kw: dict, keep_seed: int, 
     logging.getLogger("imunoise").setLevel(logging.WARNING)
     sc = simulate_scenario(seed, **kw)
     cache: dict = {}
-    out: dict[str, Any] = {"seed": seed, "methods": {}}
+    out: dict[str, Any] = {"seed": seed, "methods": {}, "windows": [list(w) for w in sc.windows]}
     for name in methods:
         cfg, models = method_config(name, sc, base, fits_cache=cache)
         res = evaluate(sc, cfg, initial_models=models, keep=(seed == keep_seed and name == "gmwm"))
@@ -271,6 +309,8 @@ def summarize_seeds(per_seed: list[dict], methods: Sequence[str]) -> dict:
                 for k in METRIC_KEYS
             }
         res["differences"][name] = d
+    res["paired"] = window_paired({m: [r["methods"][m].get("outage_end_horizontal_m") or [] for r in per_seed]
+                                   for m in methods}, [r.get("windows") or [] for r in per_seed])
     timing = [r["methods"]["gmwm"]["timing"] for r in per_seed if "gmwm" in r["methods"]]
     if timing:
         ident = [t["identification_s"] for t in timing if t["identification_s"] is not None]

@@ -14,11 +14,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from imunoise.experiments.common import METHOD_LABELS  # noqa: E402
+from imunoise.imu import AXES  # noqa: E402
 
 __all__ = ["detection_figure", "trajectory_figure", "error_figure", "timeline_figure", "wv_figures",
            "av_figures", "mc_figure"]
 
-AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 _COLORS = {"plain": "tab:gray", "plain_zupt": "tab:brown", "av": "tab:orange", "em": "tab:purple",
            "gmwm": "tab:blue", "gmwm_wvic": "tab:cyan", "gmwm_raw": "tab:olive", "gmwm_zupt": "tab:green",
            "gmwm_top2": "tab:red", "gmwm_top3": "tab:olive"}
@@ -30,7 +30,8 @@ def _color(name: str) -> str:
 
 def detection_figure(t: np.ndarray, det: Any, path: Path, *, ref=None, static_truth=None) -> Path:
     """Eq. 9 statistic (accel x, y), adaptive threshold, detected static epochs, reference speed."""
-    fig, axs = plt.subplots(2, 1, figsize=(11, 6), sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    fig, axs = plt.subplots(2, 1, figsize=(12, 6), sharex=True, gridspec_kw={"height_ratios": [2, 1]},
+                            layout="constrained")
     x = t - t[0]
     ax = axs[0]
     ax.semilogy(x, det.statistic[:, 0], lw=0.6, label="T (accel x)")
@@ -39,7 +40,7 @@ def detection_figure(t: np.ndarray, det: Any, path: Path, *, ref=None, static_tr
     for k, s in enumerate(det.segments):
         ax.axvspan(s.t0 - t[0], s.t1 - t[0], color="tab:red", alpha=0.15, label="detected static" if k == 0 else None)
     ax.set_ylabel("moving std [m/s²]")
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
     ax.grid(alpha=0.3, which="both")
     ax.set_title("static detection (paper Eq. 9 with the adaptive threshold of SPEC §7)")
     ax = axs[1]
@@ -52,9 +53,8 @@ def detection_figure(t: np.ndarray, det: Any, path: Path, *, ref=None, static_tr
     ax.plot(x, np.where(det.static, 0.5, np.nan), color="tab:red", lw=3, label="detected static")
     ax.set_ylabel("speed [m/s]")
     ax.set_xlabel(f"time since {t[0]:.1f} s [s]")
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
     ax.grid(alpha=0.3)
-    fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -100,7 +100,7 @@ def trajectory_figure(sc: Any, objects: dict[str, dict], path: Path, methods: Se
 def error_figure(sc: Any, objects: dict[str, dict], path: Path, methods: Sequence[str],
                  labels: dict | None = None) -> Path:
     """Horizontal error vs time: outage runs (top, log scale) and full-GNSS runs (ECEF X/Y/Z residuals)."""
-    fig, axs = plt.subplots(4, 1, figsize=(11, 10), sharex=True)
+    fig, axs = plt.subplots(4, 1, figsize=(11, 10), sharex=True, layout="constrained")
     t0 = sc.init.t
     for name in methods:
         if name not in objects:
@@ -122,12 +122,13 @@ def error_figure(sc: Any, objects: dict[str, dict], path: Path, methods: Sequenc
         for ax in axs:
             ax.axvspan(s - t0, s + d - t0, color="gold", alpha=0.15)
     axs[0].set_ylabel("horizontal error in outages [m]")
-    axs[0].legend(fontsize=7, ncol=2)
+    # above the panel: inside, it covered the drift curves of the later windows
+    axs[0].legend(fontsize=7, ncol=3, loc="lower left", bbox_to_anchor=(0.0, 1.02), borderaxespad=0.0,
+                  frameon=False)
     axs[1].set_title("full GNSS: position residuals (ECEF)", fontsize=9)
     axs[-1].set_xlabel(f"time since start {t0:.1f} s [s]")
     for ax in axs:
         ax.grid(alpha=0.3)
-    fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -135,32 +136,58 @@ def error_figure(sc: Any, objects: dict[str, dict], path: Path, methods: Sequenc
 
 def timeline_figure(full: Any, path: Path, t0: float) -> Path:
     """Static segments, angular-rate gate, model identification/refits (stop end → model in use)."""
-    fig, ax = plt.subplots(figsize=(11, 2.8))
+    fig, ax = plt.subplots(figsize=(11, 3.0), layout="constrained")
     for k, s in enumerate(full.segments):
         ax.barh(2, s.t1 - s.t0, left=s.t0 - t0, height=0.6, color="tab:red", alpha=0.6,
                 label="static segment" if k == 0 else None)
     if full.gate_open.size and full.sample_t.size == full.gate_open.size:
         tt, m = full.sample_t, full.gate_open
         ax.fill_between(tt - t0, 0.7, 1.3, where=m, color="tab:purple", alpha=0.5, step="mid", label="gate open")
-    for k, u in enumerate(full.updates):
+    seen: set[str] = set()
+    marks = []
+    for u in full.updates:
         if u.t_effect is None:
-            ax.plot(u.t_stop - t0, 0, "x", color="k")
+            ax.plot(u.t_stop - t0, 0, "x", color="k", label=None if "failed" in seen else "no model (failed)")
+            seen.add("failed")
             continue
         ax.annotate("", xy=(u.t_effect - t0, 0), xytext=(u.t_stop - t0, 0),
                     arrowprops={"arrowstyle": "->", "color": "tab:blue"})
+        name = "identification" if u.kind == "identify" else "refit"
         ax.plot(u.t_effect - t0, 0, "o", color="tab:blue" if u.kind == "identify" else "tab:cyan",
-                label=("identification" if u.kind == "identify" else "refit") if k < 2 else None)
-        ax.text(u.t_effect - t0, -0.45, f"{sum(u.elapsed_s):.2g} s", fontsize=7, ha="center")
+                label=None if name in seen else name)
+        seen.add(name)
+        marks.append((u.t_effect - t0, f"{sum(u.elapsed_s):.2g} s"))
     ax.set_yticks([0, 1, 2], ["model", "gate", "static"])
-    ax.set_ylim(-0.8, 2.6)
+    ax.set_ylim(-1.0, 2.5)
+    _stagger_labels(ax, marks, rows=(-0.38, -0.62, -0.86))
     ax.set_xlabel(f"time since {t0:.1f} s [s]")
-    ax.legend(fontsize=7, loc="upper right", ncol=4)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
     ax.grid(alpha=0.3, axis="x")
     ax.set_title("online timeline: stops → modelling → model in the filter (labels: compute time)")
-    fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def _stagger_labels(ax, marks: Sequence[tuple[float, str]], rows: Sequence[float], fontsize: int = 7) -> None:
+    """Text labels under points at x, each on the first row where it does not touch its left neighbour.
+
+    Widths are measured in display pixels (after the x limits are fixed), so labels of model updates a
+    few seconds apart on a 10 min axis no longer print over each other.
+    """
+    if not marks:
+        return
+    fig = ax.figure
+    ax.set_xlim(*ax.get_xlim())  # freeze autoscaling before measuring
+    renderer = fig.canvas.get_renderer()
+    right = [-np.inf] * len(rows)  # right edge (px) of the last label on each row
+    for x, text in sorted(marks):
+        t = ax.text(x, rows[0], text, fontsize=fontsize, ha="center", va="center")
+        bb = t.get_window_extent(renderer)
+        pad = 3.0
+        row = next((i for i, r in enumerate(right) if bb.x0 - pad > r), int(np.argmin(right)))
+        t.set_y(rows[row])
+        right[row] = bb.x1
 
 
 def wv_figures(fits: Sequence[Any], folder: Path, stem: str = "wv") -> list[Path]:
@@ -178,27 +205,36 @@ def wv_figures(fits: Sequence[Any], folder: Path, stem: str = "wv") -> list[Path
 
 
 def av_figures(av_fits: Sequence[Any], other: Sequence[Any] | None, folder: Path) -> Path:
-    """Allan deviation of each axis with the AV model's and (optionally) the GMWM model's implied AD."""
-    fig, axs = plt.subplots(2, 3, figsize=(14, 8))
+    """Allan deviation of each axis with the AV model's and (optionally) the GMWM model's implied AD.
+
+    One legend for the figure (the curves' meaning is the same in every panel); each panel's title names
+    its two model structures, so no per-panel legend covers the data. Colours: the methods' colours of
+    :data:`imunoise.plots.METHOD_COLORS`.
+    """
+    from imunoise.plots import METHOD_COLORS
+
+    fig, axs = plt.subplots(2, 3, figsize=(14, 8.4), layout="constrained")
     for a, f in enumerate(av_fits):
         ax = axs[a // 3, a % 3]
         tau = f.wv.scales / 2.0 / f.freq
         ad = np.sqrt(2.0 * f.wv.variance)
-        ax.fill_between(tau, np.sqrt(2 * f.wv.ci_low), np.sqrt(2 * f.wv.ci_high), color="0.85")
-        ax.loglog(tau, ad, "o-", color="k", ms=3, lw=1, label="overlapping AD")
-        ax.loglog(tau, np.sqrt(2 * f.model.wv(f.wv.scales)), "-", color="tab:orange", lw=1.8,
-                  label=f"AV model: {f.model}")
+        ax.fill_between(tau, np.sqrt(2 * f.wv.ci_low), np.sqrt(2 * f.wv.ci_high), color="0.85", label="95% CI")
+        ax.loglog(tau, ad, "o-", color="k", ms=3, lw=1, label="overlapping AD (octave grid)")
+        ax.loglog(tau, np.sqrt(2 * f.model.wv(f.wv.scales)), "-", color=METHOD_COLORS["av"], lw=1.8,
+                  label="AV model")
+        names = f"AV: {f.model}"
         if other is not None and other[a] is not None:
             g = other[a]
-            ax.loglog(tau, np.sqrt(2 * g.model.wv(f.wv.scales)), "--", color="tab:blue", lw=1.5,
-                      label=f"GMWM: {g.model}")
-        ax.set_title(AXES[a], fontsize=9)
+            ax.loglog(tau, np.sqrt(2 * g.model.wv(f.wv.scales)), "--", color=METHOD_COLORS["gmwm"], lw=1.5,
+                      label="GMWM model")
+            names += f"\nGMWM: {g.model}"
+        ax.set_title(f"{AXES[a]}\n{names}", fontsize=8)
         ax.set_xlabel("τ [s]")
         ax.set_ylabel("AD [" + ("rad/s" if a < 3 else "m/s²") + "]")
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=6)
+    handles, labels = axs[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=9, frameon=False)
     fig.suptitle("Allan deviation of the static data with the AV and GMWM models")
-    fig.tight_layout()
     p = folder / "allan.png"
     fig.savefig(p, dpi=100)
     plt.close(fig)

@@ -13,9 +13,11 @@ from typing import Any
 import numpy as np
 
 from imunoise.experiments.common import METHOD_LABELS
+from imunoise.io.jsonutil import json_default
 from imunoise.report import Report, fmt
 
-__all__ = ["write_results", "headline_rows", "write_online_real", "write_sim", "write_denial_real"]
+__all__ = ["write_results", "headline_rows", "write_online_real", "write_sim", "write_denial_real", "write_evidence",
+           "paired_rows"]
 
 HEADLINE = ["method", "horizontal RMS [m]", "vertical RMS [m]", "ECEF RMS X/Y/Z [m]", "mean outage-end drift [m]",
             "Δ drift vs plain [%]"]
@@ -38,10 +40,21 @@ def _clean(o: Any) -> Any:
     return o
 
 
+def _short(o: Any) -> Any:
+    """Floats rounded for reading: times (≥ 10⁴, GPS seconds) to the ms, the rest to 6 significant digits."""
+    if isinstance(o, dict):
+        return {k: _short(v) for k, v in o.items()}
+    if isinstance(o, list):
+        return [_short(v) for v in o]
+    if isinstance(o, float):
+        return round(o, 3) if abs(o) >= 1e4 else float(f"{o:.6g}")
+    return o
+
+
 def write_results(results: dict, out: Path) -> Path:
     """``results.json`` without the in-memory objects (keys starting with ``_``)."""
     p = out / "results.json"
-    p.write_text(json.dumps(_clean(results), indent=1, default=str))
+    p.write_text(json.dumps(_clean(results), indent=1, default=json_default))
     return p
 
 
@@ -182,9 +195,10 @@ def write_online_real(results: dict, sc: Any, out: Path, *, title: str | None = 
         if "av" in obj and "_fits" in obj["av"]:
             rep.figure(plots.av_figures(obj["av"]["_fits"], full.fits, out), "Allan deviation with AV and GMWM models")
         rep.heading("Event log", 2)
-        lines = [json.dumps(_clean(e)) for e in full.events if e["event"] not in ("gate_open", "gate_closed")]
+        lines = [json.dumps(_short(_clean(e)), ensure_ascii=False) for e in full.events
+                 if e["event"] not in ("gate_open", "gate_closed")]
         n_gate = sum(e["event"] == "gate_open" for e in full.events)
-        rep.pre("\n".join(lines) + f"\n({n_gate} gate-open events not shown; all in events.jsonl)")
+        rep.log(lines + [f"({n_gate} gate-open events not shown; all events at full precision in events.jsonl)"])
         full.write_events(out / "events.jsonl")
     write_results(results, out)
     html, _ = rep.write(out)
@@ -259,6 +273,71 @@ def write_sim(results: dict, out: Path, *, title: str) -> Path:
     if ex and ex.get("fits"):
         for p in plots.wv_figures(ex["fits"], out, "wv"):
             rep.figure(p, f"{p.stem[3:]}: GMWM fit (seed {results['seeds'][0]})")
+    write_results(results, out)
+    html, _ = rep.write(out)
+    return html
+
+
+PAIRED_HEADS = ["GNSS", "method", "baseline", "metric", "ratio", "95 % CI", "n_windows", "n_independent",
+                "n_drives", "verdict"]
+
+
+def paired_rows(results: dict) -> list[list[Any]]:
+    """Rows of the paired table (headline of the dense-window evidence)."""
+    from imunoise.experiments.dense import significance_text
+
+    rows = []
+    for e in results.get("paired", []):
+        lo, hi = e["ci"]
+        rows.append([e.get("gnss", ""), e["method"], e["baseline"], e["metric"], e["ratio"],
+                     f"[{fmt(lo, 3)}, {fmt(hi, 3)}]", e["n_windows"], e.get("n_independent"), e["n_drives"],
+                     significance_text(e)])
+    return rows
+
+
+def write_evidence(results: dict, out: Path, *, title: str) -> Path:
+    """Report of the dense-window evidence (:mod:`imunoise.experiments.dense`): the paired log-ratio table is
+    the headline; the per-method means and the official-windows table follow as the paper-style view."""
+    from imunoise.experiments.dense import LABELS as DENSE_LABELS
+
+    out.mkdir(parents=True, exist_ok=True)
+    p = results["protocol"]
+    rep = Report(title)
+    rep.paragraph(
+        f"Dense outage protocol {p['outages']}: windows of {p['length_s']:g} s opened every {p['step_s']:g} s "
+        f"after {p['lead_s']:g} s of GNSS-aided driving; each method runs once with GNSS everywhere and, at each "
+        "window start, a copy of the navigator continues without GNSS through the window (= a full run with that "
+        f"window's GNSS removed). {results['n_windows']} windows on {results['n_drives']} drive(s), "
+        f"{results['n_independent']} of them share no data. Metrics: drift = horizontal error at the window's "
+        "end; rms = horizontal RMS inside the window; aided_rms = horizontal RMS of the GNSS-aided run over the "
+        "window (paper Table 5's metric). Ratio = geometric mean of the paired ratios method/baseline over the "
+        f"windows (log-ratios averaged over GNSS noise seeds first); 95 % CI = exp(mean ± t·SE) with SE from a "
+        f"bootstrap over drives and moving blocks of {p['block']} windows ({p['n_boot']} replicates, seed "
+        f"{p['boot_seed']}), df = n_independent − 1. A method is better only where the CI excludes 1."
+    )
+    rep.heading("Paired ratios (headline)", 2)
+    rows = paired_rows(results)
+    rep.table(PAIRED_HEADS, rows, "ratio < 1: the method's error is smaller than the baseline's")
+    _write_csv(out / "paired.csv", PAIRED_HEADS, rows)
+    rep.heading("Paper-style view", 2)
+    labels = {**METHOD_LABELS, **DENSE_LABELS}
+    heads = ["GNSS", "method", "horiz. RMS, aided [m]", "vert. RMS, aided [m]", "mean end drift, dense [m]",
+             "mean RMS in window, dense [m]", "mean drift, official windows [m]"]
+    srows = []
+    for g, s in results["summary"].items():
+        for m, r in s.items():
+            srows.append([g, f"{m} ({labels.get(m, m)})", r["horizontal_rms_m"], r["vertical_rms_m"],
+                          r["mean_end_drift_m"], r["mean_window_rms_m"], r.get("paper_mean_drift_m")])
+    rep.table(heads, srows, "arithmetic means (over windows and noise seeds); not a test — see the paired table")
+    _write_csv(out / "summary.csv", heads, srows)
+    pw = results.get("paper_windows") or []
+    if pw:
+        oheads = ["GNSS", "method"] + [f"#{i + 1} @ {w[0]:.0f}" for i, w in enumerate(pw)] + ["mean"]
+        orows = [[g, m, *(r.get("paper_windows_drift_m") or []), r.get("paper_mean_drift_m")]
+                 for g, s in results["summary"].items() for m, r in s.items()]
+        rep.table(oheads, orows, "the dataset's official windows: end drift [m] (one run per window; 5 windows "
+                  "are too few for a conclusion)")
+        _write_csv(out / "outages.csv", oheads, orows)
     write_results(results, out)
     html, _ = rep.write(out)
     return html

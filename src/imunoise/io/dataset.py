@@ -7,12 +7,12 @@ manifest. Other keys are kept in ``extra`` (e.g. ``imu_rate_hz``, notes).
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from imunoise.errors import DataError
+from imunoise.io.files import read_json
 
 __all__ = ["Dataset", "read_dataset", "MANIFEST"]
 
@@ -27,7 +27,7 @@ class Dataset:
     root: Path
     name: str
     imu: Path
-    gnss: Path
+    gnss: Path | None
     imu_kind: str = "increments"
     ref: Path | None = None
     outages: Path | None = None
@@ -37,8 +37,20 @@ class Dataset:
     extra: dict = field(default_factory=dict)
 
 
-def read_dataset(path: str | Path) -> Dataset:
+def read_dataset(path: str | Path, required: tuple[str, ...] = ("imu", "gnss")) -> Dataset:
     """Read and validate ``dataset.json`` in folder ``path`` (or the manifest file itself).
+
+    Parameters
+    ----------
+    path : str or Path
+        The dataset folder or its manifest.
+    required : tuple of str
+        Keys the manifest must name (navigation needs IMU and GNSS; static detection only the IMU).
+
+    Returns
+    -------
+    Dataset
+        Absolute paths (None for an absent optional file) and the checked values.
 
     Raises :class:`DataError` for a missing manifest, missing required keys, files that do not exist,
     or malformed values.
@@ -47,14 +59,11 @@ def read_dataset(path: str | Path) -> Dataset:
     manifest = p / MANIFEST if p.is_dir() else p
     if not manifest.exists():
         raise DataError(f"no {MANIFEST} in {p}; a dataset folder needs a manifest (SPEC §12)")
-    try:
-        d = json.loads(manifest.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise DataError(f"{manifest}: not valid JSON ({exc})") from exc
+    d = read_json(manifest, "dataset manifest")  # binary / malformed -> DataError naming the file
     if not isinstance(d, dict):
         raise DataError(f"{manifest}: the manifest must be a JSON object")
     root = manifest.parent.resolve()
-    missing = [k for k in ("imu", "gnss") if not d.get(k)]
+    missing = [k for k in required if not d.get(k)]
     if missing:
         raise DataError(f"{manifest}: missing required key(s) {missing} (paths relative to the folder)")
 

@@ -24,13 +24,13 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import DataError
+from imunoise.imu import AXES
 from imunoise.io.rosbag import is_bag, read_imu_bag
-from imunoise.io.tabular import TimeReport, TimingWarning, clean_time, read_columns
+from imunoise.io.tabular import RATE_TOLERANCE, TimeReport, TimingWarning, UnitWarning, clean_time, read_columns
 from imunoise.units import quantity_of
 
 __all__ = ["AXES", "ImuSeries", "read_imu_source", "decimate", "sensor_of"]
 
-AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 
 _RATE_OF_INCREMENT = {"angle_increment": "rad/s", "velocity_increment": "m/s²"}
 
@@ -160,10 +160,18 @@ def read_imu_source(
         )
     else:
         cols = read_columns(path, columns, units=units, time_column=time_column, time_unit=time_unit, freq=freq)
+        file_freq = cols.extra.get("freq_hz")
+        if freq and file_freq and abs(float(freq) - file_freq) > RATE_TOLERANCE * file_freq:
+            raise DataError(
+                f"{path} states its rate as {file_freq:g} Hz but --freq is {float(freq):g} Hz; drop --freq or fix it "
+                "(the noise densities scale with the rate)"
+            )
         if cols.report is not None:
             f = float(freq) if freq else cols.report.rate_hz
         elif freq:
             f = float(freq)
+        elif file_freq:
+            f = float(file_freq)
         else:
             raise DataError(f"{path}: give the sample rate with --freq HZ or a time column with --time-column")
         if not f > 0:
@@ -181,6 +189,11 @@ def read_imu_source(
             report=cols.report,
             meta={"format": "table", "columns": dict(cols.column)},
         )
+        if cols.extra.get("units_from_file"):
+            series.meta["units_from_file"] = True
+        if file_freq and not freq and cols.report is None:
+            series.meta["freq_from_file"] = True
+        _check_unknown_units(series)
     if series.report is not None and not 1.0 <= series.report.rate_hz <= 1e5:
         warnings.warn(
             f"{series.source}: the time stamps give {series.report.rate_hz:.6g} Hz, unusual for an IMU; "
@@ -191,6 +204,51 @@ def read_imu_source(
     if decimate_by != 1 or decimate_method != "average":
         series = _decimated(series, decimate_by, decimate_method)
     return series
+
+
+GYRO_STATIC_MAX_MEAN = 0.1
+"""rad/s (5.7 °/s): a static gyro's mean (Earth rate + bias) beyond this is not plausibly in rad/s."""
+
+GYRO_STATIC_MAX_STD = 0.05
+"""rad/s (2.9 °/s): a static gyro's per-sample σ beyond this is not plausibly in rad/s."""
+
+ACCEL_STATIC_MAX_MEAN = 20.0
+"""m/s² (2 g): a static accelerometer's mean beyond this is not plausibly in m/s²."""
+
+
+def _check_unknown_units(series: ImuSeries) -> None:
+    """Warn (:class:`UnitWarning`, also kept in ``series.meta["warnings"]``) when data without a unit
+    cannot be SI: a static gyro with mean > 0.1 rad/s or σ > 0.05 rad/s is almost surely deg/s, three
+    accelerometer means whose norm is ≈ 1 are in g. Without ``--units`` the values are taken as they
+    are (unit "u"), and an export would turn them into rad/s or m/s² — wrong by 57× or 9.8×."""
+    found: list[str] = []
+    unknown = [a for a in series.data if series.unit[a] == "u"]
+    for axis in unknown:
+        x = series.data[axis]
+        mean, std = float(np.mean(x)), float(np.std(x))
+        kind = sensor_of(axis)
+        if kind == "gyro" and (abs(mean) > GYRO_STATIC_MAX_MEAN or std > GYRO_STATIC_MAX_STD):
+            found.append(
+                f"{series.source}: {axis} has no unit and a static mean {mean:.3g} / σ {std:.3g} that cannot be "
+                "rad/s (a still gyro stays below 0.1 rad/s); give --units deg/s (or the right unit)"
+            )
+        elif kind == "accel" and abs(mean) > ACCEL_STATIC_MAX_MEAN:
+            found.append(
+                f"{series.source}: {axis} has no unit and a static mean {mean:.4g} that cannot be m/s² "
+                "(|g| = 9.81); give --units mg (or the right unit)"
+            )
+    acc = [a for a in unknown if sensor_of(a) == "accel"]
+    if len(acc) == 3:
+        g = float(np.linalg.norm([np.mean(series.data[a]) for a in acc]))
+        if 0.8 < g < 1.2:
+            found.append(
+                f"{series.source}: accelerometers {', '.join(acc)} have no unit and a static norm of {g:.3g}: "
+                "that is 1 g, not 9.81 m/s²; give --units accel=g"
+            )
+    for msg in found:
+        warnings.warn(msg, UnitWarning, stacklevel=3)
+    if found:
+        series.meta.setdefault("warnings", []).extend(found)
 
 
 def _bag_axes(columns: Any, all_axes: Mapping[str, np.ndarray]) -> list[str]:

@@ -27,6 +27,9 @@ from pathlib import Path
 import numpy as np
 
 from imunoise.errors import DataError
+from imunoise.imu import LEGACY_AXES, ImuData, as_columns, as_time_column  # ImuData: re-exported, its old home
+from imunoise.io.atomic import atomic_write_bytes
+from imunoise.io.files import is_number, read_text
 
 __all__ = [
     "DataWarning",
@@ -60,92 +63,6 @@ class DataWarning(UserWarning):
 # ----------------------------------------------------------------------------------------------
 
 
-def _as_2d(name: str, a: np.ndarray, n: int, cols: int = 3) -> np.ndarray:
-    a = np.asarray(a, dtype=float)
-    if a.shape != (n, cols):
-        raise DataError(f"{name} must have shape ({n}, {cols}), got {a.shape}")
-    return a
-
-
-def _as_time(t: np.ndarray) -> np.ndarray:
-    t = np.asarray(t, dtype=float)
-    if t.ndim != 1:
-        raise DataError(f"time must be a 1-D array, got shape {t.shape}")
-    return t
-
-
-def _step(t: np.ndarray) -> np.ndarray:
-    """t[k] − t[k−1], the first entry being the median step (SPEC §1 increments convention)."""
-    n = t.size
-    if n < 2:
-        return np.full(n, np.nan)
-    d = np.diff(t)
-    return np.concatenate(([np.median(d)], d))
-
-
-@dataclass(frozen=True, eq=False)
-class ImuData:
-    """IMU samples in body FRD (SPEC §1).
-
-    ``kind == "increments"`` (what every reader returns): ``dtheta`` [rad] and ``dv`` [m/s] are the
-    increments over (t_{k-1}, t_k]. ``kind == "rates"``: the same fields hold rates [rad/s, m/s²];
-    use :meth:`rates`, :meth:`increments` or :meth:`as_increments` to get either form regardless.
-    """
-
-    t: np.ndarray
-    dtheta: np.ndarray
-    dv: np.ndarray
-    kind: str = "increments"
-    frame: str = "FRD"
-
-    def __post_init__(self) -> None:
-        t = _as_time(self.t)
-        object.__setattr__(self, "t", t)
-        object.__setattr__(self, "dtheta", _as_2d("dtheta", self.dtheta, t.size))
-        object.__setattr__(self, "dv", _as_2d("dv", self.dv, t.size))
-        if self.kind not in ("increments", "rates"):
-            raise DataError(f"ImuData.kind must be 'increments' or 'rates', got {self.kind!r}")
-
-    def __len__(self) -> int:
-        return int(self.t.size)
-
-    @property
-    def dt(self) -> np.ndarray:
-        """Sample intervals t[k] − t[k−1] in s; the first is the median interval."""
-        return _step(self.t)
-
-    @property
-    def rate_hz(self) -> float:
-        """Nominal sampling rate 1 / median(Δt) in Hz."""
-        return float(1.0 / np.median(np.diff(self.t))) if self.t.size > 1 else float("nan")
-
-    def rates(self) -> tuple[np.ndarray, np.ndarray]:
-        """(gyro [rad/s], accel [m/s²]), each (n, 3): increments divided by Δt_k."""
-        if self.kind == "rates":
-            return self.dtheta, self.dv
-        dt = self.dt[:, None]
-        return self.dtheta / dt, self.dv / dt
-
-    def increments(self) -> tuple[np.ndarray, np.ndarray]:
-        """(Δθ [rad], Δv [m/s]), each (n, 3): rates multiplied by Δt_k when stored as rates."""
-        if self.kind == "increments":
-            return self.dtheta, self.dv
-        dt = self.dt[:, None]
-        return self.dtheta * dt, self.dv * dt
-
-    def as_increments(self) -> ImuData:
-        """The same samples with ``kind == "increments"``."""
-        if self.kind == "increments":
-            return self
-        dth, dv = self.increments()
-        return replace(self, dtheta=dth, dv=dv, kind="increments")
-
-    def slice(self, t0: float, t1: float) -> ImuData:
-        """Samples with t0 ≤ t ≤ t1."""
-        m = (self.t >= t0) & (self.t <= t1)
-        return replace(self, t=self.t[m], dtheta=self.dtheta[m], dv=self.dv[m])
-
-
 @dataclass(frozen=True, eq=False)
 class GnssData:
     """GNSS position fixes: ``llh`` = [lat rad, lon rad, h m] (antenna), ``sigma_ned`` in m."""
@@ -155,10 +72,10 @@ class GnssData:
     sigma_ned: np.ndarray
 
     def __post_init__(self) -> None:
-        t = _as_time(self.t)
+        t = as_time_column(self.t)
         object.__setattr__(self, "t", t)
-        object.__setattr__(self, "llh", _as_2d("llh", self.llh, t.size))
-        object.__setattr__(self, "sigma_ned", _as_2d("sigma_ned", self.sigma_ned, t.size))
+        object.__setattr__(self, "llh", as_columns("llh", self.llh, t.size))
+        object.__setattr__(self, "sigma_ned", as_columns("sigma_ned", self.sigma_ned, t.size))
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -190,11 +107,11 @@ class Reference:
     week: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def __post_init__(self) -> None:
-        t = _as_time(self.t)
+        t = as_time_column(self.t)
         object.__setattr__(self, "t", t)
-        object.__setattr__(self, "llh", _as_2d("llh", self.llh, t.size))
-        object.__setattr__(self, "vel_ned", _as_2d("vel_ned", self.vel_ned, t.size))
-        object.__setattr__(self, "euler", _as_2d("euler", self.euler, t.size))
+        object.__setattr__(self, "llh", as_columns("llh", self.llh, t.size))
+        object.__setattr__(self, "vel_ned", as_columns("vel_ned", self.vel_ned, t.size))
+        object.__setattr__(self, "euler", as_columns("euler", self.euler, t.size))
         week = np.asarray(self.week)
         if week.size == 0 and t.size:
             week = np.zeros(t.size, dtype=int)
@@ -225,20 +142,6 @@ class Reference:
 # ----------------------------------------------------------------------------------------------
 
 
-def _open_text(path: Path, mode: str):
-    if path.suffix == ".gz":
-        return gzip.open(path, mode + "t", encoding="utf-8")
-    return open(path, mode, encoding="utf-8")
-
-
-def _is_number(tok: str) -> bool:
-    try:
-        float(tok)
-    except ValueError:
-        return False
-    return True
-
-
 def _read_table(path: str | Path, what: str) -> tuple[list[str] | None, np.ndarray, np.ndarray]:
     """Read a numeric text table: (header tokens or None, data (n, m), 1-based file line of each row).
 
@@ -248,8 +151,7 @@ def _read_table(path: str | Path, what: str) -> tuple[list[str] | None, np.ndarr
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(2, "No such file", str(path))
-    with _open_text(path, "r") as fh:
-        raw = fh.read().splitlines()
+    raw = read_text(path, f"{what} file").splitlines()  # binary / truncated .gz -> DataError naming the file
     rows: list[str] = []
     lines: list[int] = []
     header: list[str] | None = None
@@ -261,7 +163,7 @@ def _read_table(path: str | Path, what: str) -> tuple[list[str] | None, np.ndarr
         if sep is None:
             sep = "," if "," in s else ""
         toks = [x.strip() for x in s.split(",")] if sep else s.split()
-        if not rows and header is None and not all(_is_number(x) for x in toks):
+        if not rows and header is None and not all(is_number(x) for x in toks):
             header = [x.lower() for x in toks]
             continue
         rows.append(" ".join(toks) if sep else s)
@@ -281,7 +183,7 @@ def _read_table(path: str | Path, what: str) -> tuple[list[str] | None, np.ndarr
         data = np.array(" ".join(rows).split(), dtype=float).reshape(len(rows), int(ncols[0]))
     except ValueError as exc:
         for k, r in enumerate(rows):
-            if not all(_is_number(x) for x in r.split()):
+            if not all(is_number(x) for x in r.split()):
                 raise DataError(f"{what} file {path}, line {line_no[k]}: non-numeric value in {r!r}") from exc
         raise DataError(f"{what} file {path}: cannot parse numbers ({exc})") from exc
     return header, data, line_no
@@ -337,7 +239,7 @@ def _check_time(t: np.ndarray, lines: np.ndarray, path: Path, what: str, gap_fac
 # readers
 # ----------------------------------------------------------------------------------------------
 
-_RATE_COLS = ("gx", "gy", "gz", "ax", "ay", "az")
+_RATE_COLS = tuple(LEGACY_AXES)  # the rate CSV header names the axes the short way: sow,gx,...,az
 _TIME_NAMES = ("sow", "t", "time", "timestamp", "gps_time", "tow")
 
 
@@ -349,6 +251,26 @@ def read_imu(path: str | Path, *, time_offset: float = 0.0, gap_factor: float = 
     rate CSV with a header naming ``sow`` (or ``t``/``time``) and ``gx,gy,gz`` [rad/s], ``ax,ay,az``
     [m/s²] in any order; rates become increments rate·Δt_k (first Δt = median), SPEC §1.
     ``time_offset`` [s] is added to every stamp (e.g. a logging delay).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (``.gz`` is decompressed).
+    time_offset : float
+        Added to every stamp [s].
+    gap_factor : float
+        Gaps longer than this many median steps are reported with a :class:`DataWarning`.
+
+    Returns
+    -------
+    ImuData
+        Increments, body FRD.
+
+    Raises
+    ------
+    DataError
+        For an unknown layout, non-finite values, fewer than 2 samples or time going backwards (naming the
+        line).
     """
     path = Path(path)
     header, data, lines = _read_table(path, "IMU")
@@ -400,6 +322,27 @@ def read_gnss(
 
     With 4 columns the σ are ``default_sigma`` (warned). σ below ``sigma_floor`` (including 0) is raised
     to the floor with a warning so the filter's R stays positive definite; negative σ is an error.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (``.gz`` is decompressed).
+    default_sigma : sequence of float
+        σ N, E, D [m] for a file without σ columns.
+    sigma_floor : float
+        Smallest σ kept [m].
+    gap_factor : float
+        Gaps longer than this many median steps are reported with a :class:`DataWarning`.
+
+    Returns
+    -------
+    GnssData
+        Times [s], antenna latitude/longitude [rad] and height [m], σ NED [m].
+
+    Raises
+    ------
+    DataError
+        For too few columns, non-finite values, negative σ or time going backwards (naming the line).
     """
     path = Path(path)
     _, data, lines = _read_table(path, "GNSS")
@@ -462,19 +405,16 @@ def read_outages(path: str | Path) -> list[tuple[float, float]]:
     if not path.exists():
         raise FileNotFoundError(2, "No such file", str(path))
     out: list[tuple[float, float]] = []
-    with _open_text(path, "r") as fh:
-        for i, line in enumerate(fh, start=1):
-            s = line.split("#", 1)[0].replace(",", " ").split()
-            if not s:
-                continue
-            if len(s) != 2 or not all(_is_number(x) for x in s):
-                raise DataError(f"outage file {path}, line {i}: expected 'start duration' in s, got {line.strip()!r}")
-            start, dur = float(s[0]), float(s[1])
-            if not (np.isfinite(start) and np.isfinite(dur)) or dur <= 0:
-                raise DataError(
-                    f"outage file {path}, line {i}: need finite start and duration > 0, got {line.strip()!r}"
-                )
-            out.append((start, dur))
+    for i, line in enumerate(read_text(path, "outage file").splitlines(), start=1):
+        s = line.split("#", 1)[0].replace(",", " ").split()
+        if not s:
+            continue
+        if len(s) != 2 or not all(is_number(x) for x in s):
+            raise DataError(f"outage file {path}, line {i}: expected 'start duration' in s, got {line.strip()!r}")
+        start, dur = float(s[0]), float(s[1])
+        if not (np.isfinite(start) and np.isfinite(dur)) or dur <= 0:
+            raise DataError(f"outage file {path}, line {i}: need finite start and duration > 0, got {line.strip()!r}")
+        out.append((start, dur))
     return out
 
 
@@ -490,14 +430,12 @@ def _write_rows(path: str | Path, data: np.ndarray, fmt: Sequence[str], header: 
     if header:
         buf.write("".join(f"# {h}\n" for h in header.splitlines()))
     np.savetxt(buf, data, fmt=list(fmt), delimiter=" ")
-    text = buf.getvalue()
+    data_bytes = buf.getvalue().encode("utf-8")
     if path.suffix == ".gz":
         # mtime=0 keeps the bytes reproducible for a given content
-        with open(path, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0, filename="") as gz:
-            gz.write(text.encode("utf-8"))
-    else:
-        path.write_text(text, encoding="utf-8")
-    return path
+        data_bytes = gzip.compress(data_bytes, mtime=0)
+    # temporary file + rename: an interrupted run never leaves a complete-looking truncated table
+    return atomic_write_bytes(path, data_bytes)
 
 
 def write_imu(path: str | Path, imu: ImuData) -> Path:

@@ -163,8 +163,8 @@ class BagImu:
         return out
 
     def to_imudata(self, frame: str = "FRD"):
-        """:class:`imunoise.io.kfgins.ImuData` of rates; ``frame="FRD"`` negates y and z (ROS FLU -> FRD)."""
-        from imunoise.io.kfgins import ImuData
+        """:class:`imunoise.imu.ImuData` of rates; ``frame="FRD"`` negates y and z (ROS FLU -> FRD)."""
+        from imunoise.imu import ImuData
 
         if frame not in ("FRD", "FLU"):
             raise DataError(f"frame must be 'FRD' or 'FLU', got {frame!r}")

@@ -13,9 +13,10 @@ infers (or checks) the sample rate. The same report is used by the ROS bag reade
 from __future__ import annotations
 
 import csv
-import gzip
 import io
 import warnings
+import zipfile
+import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import DataError, UnitError
+from imunoise.io.files import is_number, read_text
 from imunoise.units import TIME_UNITS, quantity_of, si_unit, time_to_seconds, to_si
 
 __all__ = [
@@ -33,6 +35,7 @@ __all__ = [
     "Series",
     "TimeReport",
     "TimingWarning",
+    "UnitWarning",
     "clean_time",
     "Columns",
     "read_columns",
@@ -59,6 +62,8 @@ class Table:
     first_line: int
     line_of_row: np.ndarray | None = None  # file line of each row (when comments/blank lines are skipped)
     delimiter: str | None = None  # text files: the column separator (None = white space)
+    units: dict[str, str] = field(default_factory=dict)  # unit per column when the file says (.npz 'units')
+    freq_hz: float | None = None  # sample rate when the file says (.npz 'freq_hz')
 
     def column_index(self, column: str | int | None) -> int:
         k = self.data.shape[1]
@@ -91,19 +96,76 @@ class Series:
     source_unit: str
 
 
-def _open_text(path: Path) -> str:
-    if path.suffix == ".gz":
-        with gzip.open(path, "rt") as fh:
-            return fh.read()
-    return path.read_text()
+_NUMPY_HINT = (
+    "it must be a plain numeric array saved with numpy.save/numpy.savez (pickled objects are refused "
+    "for safety)"
+)
 
 
-def _is_number(tok: str) -> bool:
+def _read_numpy(path: Path, kind: str) -> Table:
+    """A .npy array, or a .npz with ``data`` (+ optional ``columns``, ``units``, ``freq_hz``) or 1-D arrays."""
+    with open(path, "rb") as fh:
+        magic = fh.read(6)
+    if kind == ".npy" and magic != b"\x93NUMPY" and not zipfile.is_zipfile(path):
+        raise DataError(f"{path} is not a NumPy .npy file (no NumPy header); {_NUMPY_HINT}")
+    if kind == ".npz" and not zipfile.is_zipfile(path) and magic != b"\x93NUMPY":
+        raise DataError(f"{path} is not a NumPy .npz archive (not a zip file); {_NUMPY_HINT}")
     try:
-        float(tok)
-        return True
-    except ValueError:
-        return False
+        if kind == ".npy":
+            arr = np.load(path, allow_pickle=False)
+            if not isinstance(arr, np.ndarray):
+                raise DataError(f"{path}: not a .npy array file (a .npz archive?); rename it to .npz")
+            names = None
+            units: dict[str, str] = {}
+            freq = None
+        else:
+            with np.load(path, allow_pickle=False) as z:
+                if not hasattr(z, "files"):
+                    raise DataError(f"{path}: not a .npz archive (a single .npy array?); rename it to .npy")
+                if "data" in z:
+                    arr = z["data"]
+                    names = [str(c) for c in z["columns"]] if "columns" in z else None
+                else:
+                    keys = [k for k in z.files if z[k].ndim == 1 and z[k].size > 1 and z[k].dtype.kind in "iuf"]
+                    if not keys:
+                        raise DataError(f"{path}: no 1-D arrays or 'data' array found (keys: {z.files})")
+                    arr = np.column_stack([z[k] for k in keys])
+                    names = keys
+                raw_units = z["units"] if "units" in z else None
+                freq = float(z["freq_hz"]) if "freq_hz" in z and z["freq_hz"].size == 1 else None
+                units = {}
+                arr = arr.reshape(-1, 1) if arr.ndim == 1 else arr
+                if raw_units is not None and arr.ndim == 2:
+                    cols = names or [str(i) for i in range(arr.shape[1])]
+                    u = np.atleast_1d(raw_units).astype(str)
+                    if u.size == 1:
+                        units = {c: str(u[0]) for c in cols}
+                    elif u.size == len(cols):
+                        units = {c: str(x) for c, x in zip(cols, u)}
+                    else:
+                        raise DataError(
+                            f"{path}: 'units' holds {u.size} entries for {len(cols)} columns; give one per column"
+                        )
+        arr = np.asarray(arr)
+        arr = arr.reshape(-1, 1) if arr.ndim == 1 else arr
+        if arr.ndim != 2:
+            raise DataError(f"{path}: expected a 1-D or 2-D array, got shape {arr.shape}")
+        if arr.dtype.kind not in "iufb":
+            raise DataError(f"{path}: the array holds {arr.dtype} values, not numbers")
+        data = arr.astype(float)
+    except DataError:
+        raise
+    except EOFError as exc:
+        raise DataError(f"{path}: the file ends early (truncated?); {_NUMPY_HINT}") from exc
+    except (ValueError, OSError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
+        reason = "it holds pickled Python objects" if "pickle" in str(exc) else str(exc)
+        raise DataError(f"{path}: not a readable NumPy {kind} file ({reason}); {_NUMPY_HINT}") from exc
+    names = names or [str(i) for i in range(data.shape[1])]
+    if len(names) != data.shape[1]:
+        raise DataError(f"{path}: 'columns' names {len(names)} columns but 'data' has {data.shape[1]}")
+    if freq is not None and not (np.isfinite(freq) and freq > 0):
+        raise DataError(f"{path}: 'freq_hz' must be a positive rate in Hz, got {freq}")
+    return Table(names, data, str(path), 1, units=units, freq_hz=freq)
 
 
 def read_table(path: str | Path) -> Table:
@@ -112,28 +174,10 @@ def read_table(path: str | Path) -> Table:
     if not path.exists():
         raise DataError(f"file not found: {path}")
     suffixes = path.suffixes
-    if suffixes and suffixes[-1] == ".npy":
-        arr = np.load(path, allow_pickle=False)
-        arr = arr.reshape(-1, 1) if arr.ndim == 1 else arr
-        if arr.ndim != 2:
-            raise DataError(f"{path}: expected a 1-D or 2-D array, got shape {arr.shape}")
-        return Table([str(i) for i in range(arr.shape[1])], arr.astype(float), str(path), 1)
-    if suffixes and suffixes[-1] == ".npz":
-        with np.load(path, allow_pickle=False) as z:
-            if "data" in z:
-                arr = z["data"]
-                names = [str(c) for c in z["columns"]] if "columns" in z else None
-            else:
-                keys = [k for k in z.files if z[k].ndim == 1 and z[k].size > 1]
-                if not keys:
-                    raise DataError(f"{path}: no 1-D arrays or 'data' array found (keys: {z.files})")
-                arr = np.column_stack([z[k] for k in keys])
-                names = keys
-        arr = arr.reshape(-1, 1) if arr.ndim == 1 else arr
-        names = names or [str(i) for i in range(arr.shape[1])]
-        return Table(names, arr.astype(float), str(path), 1)
+    if suffixes and suffixes[-1] in (".npy", ".npz"):
+        return _read_numpy(path, suffixes[-1])
 
-    text = _open_text(path)
+    text = read_text(path, "data file")  # binary junk, truncated .gz: one DataError naming the file
     raw_lines = text.splitlines()
     content = [(i + 1, ln) for i, ln in enumerate(raw_lines) if ln.strip() and not ln.lstrip().startswith("#")]
     if not content:
@@ -150,7 +194,7 @@ def read_table(path: str | Path) -> Table:
         return [t.strip() for t in (line.split(delim) if delim else line.split())]
 
     first = split(content[0][1])
-    has_header = not all(_is_number(t) for t in first if t != "")
+    has_header = not all(is_number(t) for t in first if t != "")
     columns = first if has_header else [str(i) for i in range(len(first))]
     rows = content[1:] if has_header else content
     if not rows:
@@ -163,7 +207,7 @@ def read_table(path: str | Path) -> Table:
             toks = split(ln)
             if len(toks) != len(columns):
                 raise DataError(f"{path}, line {lineno}: {len(toks)} fields, expected {len(columns)}") from exc
-            bad = [t for t in toks if not _is_number(t)]
+            bad = [t for t in toks if not is_number(t)]
             if bad:
                 raise DataError(f"{path}, line {lineno}: cannot read {bad[0]!r} as a number") from exc
         raise DataError(f"{path}: {exc}") from exc
@@ -184,6 +228,7 @@ def read_series(
     """
     table = read_table(path)
     idx = table.column_index(column)
+    units = units or table.units.get(table.columns[idx])  # the file's own unit when it states one
     values = np.ascontiguousarray(table.data[:, idx], dtype=float)
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
@@ -203,6 +248,11 @@ def read_series(
 # ----------------------------------------------------------------------------------------------
 # time stamps: sort, duplicates, gaps, rate and jitter
 # ----------------------------------------------------------------------------------------------
+class UnitWarning(UserWarning):
+    """The units of the data are doubtful: no unit given and the values cannot be SI, or the file and
+    the command line disagree."""
+
+
 class TimingWarning(UserWarning):
     """A time-stamp problem that was handled: unsorted stamps sorted, duplicates dropped, gaps found."""
 
@@ -381,7 +431,7 @@ def _exact_integer_column(table: Table, idx: int) -> np.ndarray | None:
     """Column ``idx`` of a text table re-read as int64 (None when it is not all integers)."""
     if table.line_of_row is None or Path(table.path).suffix in (".npy", ".npz"):
         return None
-    text = _open_text(Path(table.path)).splitlines()
+    text = read_text(Path(table.path), "data file").splitlines()
     delim = table.delimiter
     try:
         return np.array(
@@ -415,6 +465,12 @@ def read_columns(
     table = read_table(path)
     cmap = parse_column_map(columns)
     t_idx = table.column_index(time_column) if time_column is not None else None
+    units_from_file = False
+    if table.units:
+        if units is None:
+            units, units_from_file = dict(table.units), True  # the file says (e.g. the ADIS .npz 'units')
+        else:
+            _check_given_units(table, units)
     if cmap is None:
         pairs = [(c, c) for i, c in enumerate(table.columns) if i != t_idx]
     elif isinstance(cmap, Mapping):
@@ -476,4 +532,18 @@ def read_columns(
         column=colname,
         t=t,
         report=report,
+        extra={"freq_hz": table.freq_hz, "units_from_file": units_from_file},
     )
+
+
+def _check_given_units(table: Table, units: str | Mapping[str, str]) -> None:
+    """Warn when a unit given on the command line contradicts the unit the file states for a column."""
+    for col, file_unit in table.units.items():
+        given = unit_for(col, col, units)
+        if given and file_unit and given != file_unit:
+            warnings.warn(
+                f"{table.path}: column {col!r} is in {file_unit} according to the file, but --units says {given}; "
+                "using --units",
+                UnitWarning,
+                stacklevel=3,
+            )

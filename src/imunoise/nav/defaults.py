@@ -115,6 +115,14 @@ class EkfConfig:
     ``fallback`` define the conservative noise used while the SPEC §7 angular-rate gate is open.
     ``zupt_sigma`` (m/s) and ``zupt_every`` (samples) set the zero-velocity updates of the batch run when
     a static mask is given.
+
+    ``scale_factors`` adds six scale-factor error states (gyro x,y,z, accel x,y,z; dimensionless, the
+    21-state filter of KF-GINS): the sensor model is ω̃ = (1 + s_g)ω + b_g, f̃ = (1 + s_a)f + b_a, the
+    increments are compensated as (Δθ − b̂_g Δt)/(1 + ŝ_g). Each s is a first-order Gauss–Markov process
+    with stationary σ ``gyro_scale_std``/``accel_scale_std`` and correlation time ``scale_tau_s``
+    (``math.inf``: a random constant); the initial σ is the stationary σ. Defaults are KF-GINS' (its
+    ``config/kf-gins.yaml``: gsstd = asstd = 1000 ppm, corrtime 1 h, init std = the noise std). Off (the
+    default) the filter is bit-identical to the one without the option.
     """
 
     lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -135,6 +143,10 @@ class EkfConfig:
     zupt_sigma: float = 0.02
     zupt_every: int = 10
     fallback: ImuSpec = field(default_factory=plain_default)
+    scale_factors: bool = False
+    gyro_scale_std: float = 1000e-6
+    accel_scale_std: float = 1000e-6
+    scale_tau_s: float = 3600.0
 
     def with_(self, **kw) -> EkfConfig:
         """Copy with some fields replaced (lever arm as any 3-sequence)."""
@@ -143,20 +155,6 @@ class EkfConfig:
         return replace(self, **kw)
 
 
-_AXIS_KEYS = {
-    "gyro_x": 0,
-    "gyro_y": 1,
-    "gyro_z": 2,
-    "accel_x": 3,
-    "accel_y": 4,
-    "accel_z": 5,
-    "gx": 0,
-    "gy": 1,
-    "gz": 2,
-    "ax": 3,
-    "ay": 4,
-    "az": 5,
-}
 _SI_UNITS = {"gyro": ("rad/s", "rad s^-1", "rad/s/sample"), "accel": ("m/s^2", "m/s²", "m/s2", "m s^-2")}
 
 
@@ -183,46 +181,24 @@ def load_axis_models(src, freq_default: float) -> list[tuple[Model, float]]:
 
     Accepted layouts: the multi-axis model file (``kind: imunoise.imu_model`` with ``axes``),
     ``{"gyro": FIT, "accel": FIT}`` (one model per sensor), ``{"gyro": {"x": FIT, "y":
-    FIT, "z": FIT}, ...}``, or per-axis keys ``gyro_x``…``accel_z`` / ``gx``…``az`` (the simulator's truth
-    JSON). FIT is what ``imunoise fit`` writes (``model``, ``params``, ``freq_hz``, ``unit``); parameters
-    per sample at ``freq_hz`` in SI units. A sensor that is missing gets the plain default (logged).
+    FIT, "z": FIT}, ...}``, per-axis keys ``gyro_x``…``accel_z`` / ``gx``…``az`` (the simulator's truth
+    JSON, also under its ``models`` key), or one FIT alone whose ``extra.column`` names its axis (``imunoise
+    fit --column gyro_x``; the other five axes get the plain default). FIT is what ``imunoise fit`` writes
+    (``model``, ``params``, ``freq_hz``, ``unit``); parameters per sample at ``freq_hz`` in SI units. A
+    sensor that is missing gets the plain default (logged). The file is read and its layout parsed by
+    :func:`imunoise.imu_model.axis_fit_dicts`; this function checks SI units and fills the defaults.
     """
-    import json
     import logging
-    from pathlib import Path
 
-    from imunoise.errors import ModelError
+    from imunoise.imu import AXES
+    from imunoise.imu_model import axis_fit_dicts
 
-    where = "model JSON"
-    if not isinstance(src, dict):
-        where = str(src)
-        try:
-            src = json.loads(Path(src).read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise ModelError(f"{where}: not valid JSON ({exc})") from exc
-    if "imu_models" in src and isinstance(src["imu_models"], dict):
-        src = src["imu_models"]
-    if src.get("kind") == "imunoise.imu_model" and isinstance(src.get("axes"), dict):
-        src = src["axes"]  # the multi-axis file of `imunoise fit --columns` / imunoise.imu_model
+    where = "model JSON" if isinstance(src, dict) else str(src)
+    entries = axis_fit_dicts(src, where)  # every accepted layout, parsed in imunoise.imu_model
     out: list[tuple[Model, float] | None] = [None] * 6
-    for key, val in src.items():
-        k = key.lower()
-        if k in ("gyro", "accel"):
-            base = 0 if k == "gyro" else 3
-            if isinstance(val, dict) and "model" not in val:
-                for j, ax in enumerate("xyz"):
-                    if ax not in val:
-                        raise ModelError(f"{where}: '{key}' needs 'x', 'y', 'z' entries or one fit object")
-                    out[base + j] = _model_from_entry(val[ax], k, f"{where}[{key}][{ax}]", freq_default)
-            else:
-                m = _model_from_entry(val, k, f"{where}[{key}]", freq_default)
-                for j in range(3):
-                    out[base + j] = m
-        elif k in _AXIS_KEYS:
-            a = _AXIS_KEYS[k]
-            out[a] = _model_from_entry(val, "gyro" if a < 3 else "accel", f"{where}[{key}]", freq_default)
-    if all(o is None for o in out):
-        raise ModelError(f"{where}: no IMU axis models found; expected keys 'gyro'/'accel' or gyro_x..accel_z")
+    for a, axis in enumerate(AXES):
+        if axis in entries:
+            out[a] = _model_from_entry(entries[axis], "gyro" if a < 3 else "accel", f"{where}[{axis}]", freq_default)
     default = default_axis_models(freq_default)
     for a in range(6):
         if out[a] is None:

@@ -9,7 +9,18 @@ corrected output is ω̂ − ω = H δx + white. Error dynamics (Shin 2001 Eq. 3
     δṙ = F_rr δr + δv,   δv̇ = F_vr δr + F_vv δv + (f^n×) φ + C_b^n H_a δx_a,
     φ̇ = F_φr δr + F_φv δv − (ω_in^n×) φ − C_b^n H_g δx_g,    δx_{k+1} = Φ_m δx_k + w_m
 
-WN/QN of an axis enter as white noise of δv (accel) or φ (gyro) with PSD ``white_psd``. The covariance is
+WN/QN of an axis enter as white noise of δv (accel) or φ (gyro) with PSD ``white_psd``.
+
+Scale factors (``EkfConfig.scale_factors``; KF-GINS' 21-state filter, its SG/SA states): sensor model
+ω̃ = (1 + s_g)ω + b_g, f̃ = (1 + s_a)f + b_a per axis; the increments are compensated as
+Δθ̂ = (Δθ − ê_g Δt)/(1 + ŝ_g), Δv̂ = (Δv − ê_a Δt)/(1 + ŝ_a) (KF-GINS ``imuCompensate``); with δs = s − ŝ
+the output error is ω̂ − ω ≈ δb + diag(ω̂) δs, so
+
+    δv̇ += C_b^n diag(f̂^b) δs_a,    φ̇ −= C_b^n diag(ω̂^b_ib) δs_g,
+
+(KF-GINS ``insPropagation``: F[V, SA] = C_b^n diag(f), F[PHI, SG] = −C_b^n diag(ω); KF-GINS' feedback
+ŝ += δs is the same sign convention as here), integrated exactly over the covariance interval as
+Σ C̄ diag(Δv̂) and Σ C̄ diag(Δθ̂) from the increments. The covariance is
 propagated every ``cov_every`` samples over the accumulated interval T with Φ = I + FT + ½(FT)² for the
 navigation rows (∫C_b^n dt and ∫f^n dt over the interval are accumulated exactly from the increments) and
 the exact model block Φ_m^k, Q_m^(k) for k nominal steps; P' = Φ(P + Q/2)Φᵀ + Q/2 (trapezoidal Q).
@@ -30,7 +41,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,24 +49,29 @@ from numba import njit
 from imunoise.errors import DataError, ModelError
 from imunoise.nav.defaults import EkfConfig, default_axis_models
 from imunoise.nav.earth import OMEGA_E, dcm_to_euler, gravity, radii
+from imunoise.nav.error_states import AXES, ModelLayout, initial_covariance, scale_spec, swap_map
 from imunoise.nav.mechanization import (
     I_DTH,
+    I_DV,
+    I_PREV,
     I_Q,
-    NAV_LEN,
     make_nav,
     quat_mul,
     quat_to_dcm,
     rotvec_to_quat,
     strapdown_step,
 )
+from imunoise.nav.solution import NavSolution
 
 log = logging.getLogger(__name__)
 
-__all__ = ["InitialState", "ModelLayout", "LooselyCoupledEKF", "EkfResult", "run_ekf", "normalize_axis_models"]
+__all__ = [
+    "AXES", "InitialState", "ModelLayout", "LooselyCoupledEKF", "EkfResult", "run_ekf", "normalize_axis_models",
+]
 
-AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
-ACC_LEN = 16  # accumulator: Σ Δv_f^n (3), Σ C dt (9), T, steps, gate, last dt
-POW_MAX = 64
+ACC_LEN = 34  # accumulator: Σ Δv_f^n (3), Σ C dt (9), T, steps, gate, last dt, Σ C diag(Δθ) (9), Σ C diag(Δv) (9)
+I_CDTH = 16  # Σ C̄[i, a] Δθ̂_a at 16 + 3i + a (gyro scale-factor coupling)
+I_CDV = 25  # Σ C̄[i, a] Δv̂_a at 25 + 3i + a (accel scale-factor coupling)
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -64,7 +79,23 @@ POW_MAX = 64
 # ----------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class InitialState:
-    """Initial navigation state and sensor biases (IMU point, not the antenna)."""
+    """Initial navigation state and sensor biases (IMU point, not the antenna).
+
+    Attributes
+    ----------
+    t : float
+        Time of the state [s].
+    llh : numpy.ndarray
+        Latitude, longitude [rad], height [m].
+    vel_ned : numpy.ndarray
+        Velocity NED [m/s].
+    euler : numpy.ndarray
+        Roll, pitch, yaw [rad].
+    gyro_bias : numpy.ndarray
+        Initial gyro bias estimate [rad/s] (default zero).
+    accel_bias : numpy.ndarray
+        Initial accelerometer bias estimate [m/s²] (default zero).
+    """
 
     t: float
     llh: np.ndarray
@@ -108,70 +139,6 @@ def normalize_axis_models(axis_models, freq: float) -> list[tuple[object, float]
         if not hasattr(m, "state_space"):
             raise ModelError(f"axis model {m!r} has no state_space(dt, freq); pass an imunoise Model")
     return models
-
-
-@dataclass
-class ModelLayout:
-    """The augmented error states of the six axes at a nominal step ``dt`` (all arrays numba-ready)."""
-
-    labels: list[str]
-    axis_of: np.ndarray  # (nm,) int: 0..5
-    kind: np.ndarray  # (nm,) int: 0 bias, 1 AR1, 2 DR
-    hvec: np.ndarray  # (nm,)
-    P0: np.ndarray  # (nm, nm) AR1 stationary variances, bias/DR zero
-    phi_pow: np.ndarray  # (POW_MAX+1, nm, nm): Φ_m^k
-    q_pow: np.ndarray  # (POW_MAX+1, nm, nm): Q_m accumulated over k steps
-    wpsd: np.ndarray  # (6,) white PSD of each axis, unit²·s
-    models: list
-
-    @property
-    def nm(self) -> int:
-        return len(self.labels)
-
-    def index(self, axis: int) -> np.ndarray:
-        return np.flatnonzero(self.axis_of == axis)
-
-    @classmethod
-    def build(cls, models: list[tuple[object, float]], dt: float) -> ModelLayout:
-        labels, axis_of, kind, h = [], [], [], []
-        blocks_phi, blocks_q, blocks_p0, wpsd = [], [], [], np.zeros(6)
-        for a, (m, f) in enumerate(models):
-            ss = m.state_space(dt, f)
-            for lab in ss.labels:
-                labels.append(f"{AXES[a]}.{lab}")
-                kind.append(0 if lab == "bias" else 2 if lab == "DR" else 1)
-            axis_of += [a] * ss.n
-            h += list(np.asarray(ss.H, dtype=float))
-            blocks_phi.append(np.asarray(ss.Phi, dtype=float))
-            blocks_q.append(np.asarray(ss.Q, dtype=float))
-            blocks_p0.append(np.asarray(ss.P0, dtype=float))
-            wpsd[a] = float(ss.white_psd)
-        nm = len(labels)
-        phi1, q1, p0 = np.zeros((nm, nm)), np.zeros((nm, nm)), np.zeros((nm, nm))
-        i = 0
-        for bp, bq, b0 in zip(blocks_phi, blocks_q, blocks_p0):
-            k = bp.shape[0]
-            phi1[i : i + k, i : i + k], q1[i : i + k, i : i + k], p0[i : i + k, i : i + k] = bp, bq, b0
-            i += k
-        if not (np.all(np.isfinite(phi1)) and np.all(np.isfinite(q1)) and np.all(np.isfinite(wpsd))):
-            raise ModelError("error model state space has non-finite entries; check the model parameters")
-        phi_pow = np.empty((POW_MAX + 1, nm, nm))
-        q_pow = np.empty((POW_MAX + 1, nm, nm))
-        phi_pow[0], q_pow[0] = np.eye(nm), 0.0
-        for k in range(1, POW_MAX + 1):
-            phi_pow[k] = phi1 @ phi_pow[k - 1]
-            q_pow[k] = phi1 @ q_pow[k - 1] @ phi1.T + q1
-        return cls(
-            labels,
-            np.array(axis_of, dtype=np.int64),
-            np.array(kind, dtype=np.int64),
-            np.array(h),
-            p0,
-            phi_pow,
-            q_pow,
-            wpsd,
-            [m for m, _ in models],
-        )
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -268,14 +235,20 @@ def _sensor_errors(xm, hvec, axis_of):
 
 
 @njit(cache=True)
-def _step(nav, xm, acc, dth, dv, dt, hvec, axis_of, gate):
-    """Correct one increment with the current error estimate, run the strapdown, accumulate for Φ."""
+def _step(nav, xm, acc, dth, dv, dt, hvec, axis_of, gate, sf_idx):
+    """Correct one increment with the current error estimate (bias, then scale factor where ``sf_idx``
+    has a state), run the strapdown, accumulate for Φ."""
     e = _sensor_errors(xm, hvec, axis_of)
     dthc = np.empty(3)
     dvc = np.empty(3)
     for i in range(3):
         dthc[i] = dth[i] - e[i] * dt
         dvc[i] = dv[i] - e[3 + i] * dt
+    for i in range(3):
+        if sf_idx[i] >= 0:
+            dthc[i] = dthc[i] / (1.0 + xm[sf_idx[i]])
+        if sf_idx[3 + i] >= 0:
+            dvc[i] = dvc[i] / (1.0 + xm[sf_idx[3 + i]])
     C0 = quat_to_dcm(nav[I_Q : I_Q + 4])
     dvn = strapdown_step(nav, dthc, dvc, dt)
     C1 = quat_to_dcm(nav[I_Q : I_Q + 4])
@@ -284,6 +257,13 @@ def _step(nav, xm, acc, dth, dv, dt, hvec, axis_of, gate):
     for i in range(3):
         for j in range(3):
             acc[3 + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dt
+    for j in range(3):
+        if sf_idx[j] >= 0:
+            for i in range(3):
+                acc[I_CDTH + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dthc[j]
+        if sf_idx[3 + j] >= 0:
+            for i in range(3):
+                acc[I_CDV + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dvc[j]
     acc[12] += dt
     acc[13] += 1.0
     if gate:
@@ -354,7 +334,7 @@ def _nav_F(nav, fn):
 
 
 @njit(cache=True)
-def _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom):
+def _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom, sf_idx):
     """Propagate P and the model-state estimates over the accumulated interval; reset the accumulator."""
     T = acc[12]
     if T <= 0.0:
@@ -393,6 +373,19 @@ def _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb
         else:
             for i in range(3):
                 B[3 + i, s] = Cint[i, a - 3] * hvec[s]
+    # scale factors: φ ← −∫C diag(ω̂) dt δs_g, δv ← +∫C diag(f̂) dt δs_a (module docstring)
+    is_sf = np.zeros(nm, dtype=np.bool_)
+    for a in range(3):
+        s = sf_idx[a]
+        if s >= 0:
+            is_sf[s] = True
+            for i in range(3):
+                B[6 + i, s] = -acc[I_CDTH + 3 * i + a]
+        s = sf_idx[3 + a]
+        if s >= 0:
+            is_sf[s] = True
+            for i in range(3):
+                B[3 + i, s] = acc[I_CDV + 3 * i + a]
     FB = _mm(FT, B)
     for i in range(9):
         for s in range(nm):
@@ -434,7 +427,8 @@ def _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb
     qs = q_scale_gate if gate else 1.0
     for i in range(nm):
         for j in range(nm):
-            Qd[9 + i, 9 + j] = QM[i, j] * qs
+            # the gate's conservative noise is for the sensor noise model, not the scale factors
+            Qd[9 + i, 9 + j] = QM[i, j] * (1.0 if is_sf[i] or is_sf[j] else qs)
     # P ← Φ (P + Q/2) Φᵀ + Q/2, with Φ applied through its non-zeros only
     Ph = np.empty((n, n))
     for i in range(n):
@@ -471,8 +465,9 @@ def _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb
     xnew = _mv(PhiM, xm)
     for i in range(nm):
         xm[i] = xnew[i]
-    for i in range(ACC_LEN - 1):
-        acc[i] = 0.0
+    for i in range(ACC_LEN):
+        if i != 15:  # the last dt survives (ZARU)
+            acc[i] = 0.0
 
 
 @njit(cache=True)
@@ -601,6 +596,8 @@ def _run(
     zupt,
     zupt_every,
     zupt_sigma,
+    sf_idx,
+    out_sf,
 ):
     """Batch loop: mechanization + covariance propagation + GNSS (and optional ZUPT) updates."""
     nimu = t.shape[0]
@@ -614,12 +611,12 @@ def _run(
     _std9(P, std)
     for k in range(1, nimu):
         dt = t[k] - t[k - 1]
-        _step(nav, xm, acc, dth[k], dv[k], dt, hvec, axis_of, gate_arr[k])
+        _step(nav, xm, acc, dth[k], dv[k], dt, hvec, axis_of, gate_arr[k], sf_idx)
         if acc[13] >= cov_every or dt > 1.5 * dt_nom * cov_every:
-            _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom)
+            _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom, sf_idx)
             _std9(P, std)
         while gi < ng and gt[gi] <= t[k]:
-            _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom)
+            _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom, sf_idx)
             dz, H = _gnss_innovation(nav, P.shape[0], gllh[gi], lever, t[k] - gt[gi])
             R = np.zeros((3, 3))
             for i in range(3):
@@ -636,7 +633,7 @@ def _run(
             _std9(P, std)
             gi += 1
         if zupt[k] and k % zupt_every == 0:
-            _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom)
+            _propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom, sf_idx)
             Hz = np.zeros((3, P.shape[0]))
             for i in range(3):
                 Hz[i, 3 + i] = 1.0
@@ -655,6 +652,9 @@ def _run(
         out_std[k] = std
         if out_cov.shape[0] == nimu:
             out_cov[k] = P[0:9, 0:9]
+        if out_sf.shape[0] == nimu:
+            for a in range(6):
+                out_sf[k, a] = xm[sf_idx[a]]
     while gi < ng:
         g_status[gi] = -1
         gi += 1
@@ -664,61 +664,53 @@ def _run(
 # Python API
 # ----------------------------------------------------------------------------------------------------
 @dataclass
-class EkfResult:
+class EkfResult(NavSolution):
     """Filter output at every IMU epoch (IMU point): llh [rad, rad, m], vel NED, euler, sensor errors.
 
     ``gyro_error``/``accel_error`` are the total estimated sensor errors (bias + AR1 + ...) in rad/s and
     m/s²; ``std`` the 1σ of [δr (NED), δv, φ]; ``gnss_status`` per GNSS epoch: 1 used, 0 rejected by the
     χ² gate, 2 forced after too many rejections, −1 outside the run.
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        IMU epochs [s], shape (N,).
+    llh : numpy.ndarray
+        Latitude, longitude [rad], height [m], shape (N, 3).
+    vel_ned : numpy.ndarray
+        Velocity NED [m/s], shape (N, 3).
+    euler : numpy.ndarray
+        Roll, pitch, yaw [rad], shape (N, 3).
+    gyro_error : numpy.ndarray
+        Estimated total gyro errors [rad/s], shape (N, 3).
+    accel_error : numpy.ndarray
+        Estimated total accelerometer errors [m/s²], shape (N, 3).
+    std : numpy.ndarray
+        1σ of [δr (NED, m), δv (m/s), φ (rad)], shape (N, 9).
+    gnss_t : numpy.ndarray
+        GNSS epochs [s].
+    gnss_status : numpy.ndarray
+        Status per GNSS epoch (above).
+    gnss_nis : numpy.ndarray
+        Normalised innovation squared per GNSS epoch.
+    elapsed_s : float
+        Wall-clock time of the run [s].
+    labels : list of str
+        Names of the sensor-error states.
+    cov : numpy.ndarray or None
+        9×9 navigation block of P per epoch (``store_cov=True``), shape (N, 9, 9).
+    scale_factors : numpy.ndarray or None
+        Estimated scale factors ŝ (gyro x, y, z, accel x, y, z; dimensionless), shape (N, 6), when
+        ``EkfConfig.scale_factors``; else None.
     """
 
-    t: np.ndarray
-    llh: np.ndarray
-    vel_ned: np.ndarray
-    euler: np.ndarray
-    gyro_error: np.ndarray
-    accel_error: np.ndarray
-    std: np.ndarray
     gnss_t: np.ndarray
     gnss_status: np.ndarray
     gnss_nis: np.ndarray
     elapsed_s: float = 0.0
     labels: list[str] = field(default_factory=list)
     cov: np.ndarray | None = None
-
-    def antenna_llh(self, lever_arm: Sequence[float]) -> np.ndarray:
-        """Positions of a point at ``lever_arm`` (body FRD, m) from the IMU, e.g. the GNSS antenna."""
-        lever = np.asarray(lever_arm, dtype=float)
-        out = self.llh.copy()
-        if not np.any(lever):
-            return out
-        r, p, y = self.euler[:, 0], self.euler[:, 1], self.euler[:, 2]
-        sr, cr, sp, cp, sy, cy = np.sin(r), np.cos(r), np.sin(p), np.cos(p), np.sin(y), np.cos(y)
-        # d = C_b^n(roll, pitch, yaw) · lever, rows of the ZYX matrix of :func:`earth.euler_to_dcm`
-        d_n = cp * cy * lever[0] + (-cr * sy + sr * sp * cy) * lever[1] + (sr * sy + cr * sp * cy) * lever[2]
-        d_e = cp * sy * lever[0] + (cr * cy + sr * sp * sy) * lever[1] + (-sr * cy + cr * sp * sy) * lever[2]
-        d_d = -sp * lever[0] + sr * cp * lever[1] + cr * cp * lever[2]
-        rm, rn = radii(out[:, 0])
-        out[:, 0] += d_n / (rm + out[:, 2])
-        out[:, 1] += d_e / ((rn + out[:, 2]) * np.cos(self.llh[:, 0]))
-        out[:, 2] -= d_d
-        return out
-
-
-def _initial_P(config: EkfConfig, layout: ModelLayout) -> np.ndarray:
-    n = 9 + layout.nm
-    P = np.zeros((n, n))
-    P[0:3, 0:3] = np.diag(np.square(config.sigma_pos0))
-    P[3:6, 3:6] = np.diag(np.square(config.sigma_vel0))
-    P[6:9, 6:9] = np.diag(np.square(config.sigma_att0))
-    P[9:, 9:] = layout.P0
-    for s in range(layout.nm):
-        gyro = layout.axis_of[s] < 3
-        if layout.kind[s] == 0:
-            P[9 + s, 9 + s] = (config.sigma_gyro_bias0 if gyro else config.sigma_accel_bias0) ** 2
-        elif layout.kind[s] == 2:
-            P[9 + s, 9 + s] = (config.sigma_gyro_drift0 if gyro else config.sigma_accel_drift0) ** 2
-    return P
+    scale_factors: np.ndarray | None = None
 
 
 class LooselyCoupledEKF:
@@ -726,12 +718,26 @@ class LooselyCoupledEKF:
 
     ``propagate(dtheta, dv, t)`` takes one IMU increment over (t_prev, t]; ``update_gnss(t, llh, sigma)``
     a fix at time t ≤ the current filter time (it is referred to the filter epoch with the velocity).
+
+    Parameters
+    ----------
+    config : EkfConfig
+        Noise, gating and update settings.
+    axis_models
+        Error model of each sensor axis (:func:`normalize_axis_models`): ``None`` for the defaults,
+        six models or (model, freq) pairs, or ``{"gyro": ..., "accel": ...}``.
+    init : InitialState
+        State at the start.
+    imu_rate_hz : float
+        Nominal IMU rate [Hz]; default rate of models given without one.
     """
 
     def __init__(self, config: EkfConfig, axis_models, init: InitialState, *, imu_rate_hz: float = 100.0):
         self.config = config
         self.dt_nom = 1.0 / float(imu_rate_hz)
-        self.layout = ModelLayout.build(normalize_axis_models(axis_models, imu_rate_hz), self.dt_nom)
+        self.layout = ModelLayout.build(
+            normalize_axis_models(axis_models, imu_rate_hz), self.dt_nom, scale_spec(config)
+        )
         fb = ModelLayout.build(default_axis_models(imu_rate_hz, config.fallback), self.dt_nom)
         self.wpsd_fb = fb.wpsd
         self.t = float(init.t)
@@ -740,7 +746,7 @@ class LooselyCoupledEKF:
         for a in range(6):
             b = self.layout.index(a)[0]
             self.xm[b] = (init.gyro_bias if a < 3 else init.accel_bias)[a % 3]
-        self.P = _initial_P(config, self.layout)
+        self.P = initial_covariance(config, self.layout)
         self.acc = np.zeros(ACC_LEN)
         self.lever = np.asarray(config.lever_arm, dtype=float)
         self.gate_open = False
@@ -749,7 +755,15 @@ class LooselyCoupledEKF:
 
     # -- propagation ------------------------------------------------------------------------------
     def propagate(self, dtheta: np.ndarray, dv: np.ndarray, t: float) -> None:
-        """One IMU increment (Δθ rad, Δv m/s over (t_prev, t]); covariance every ``cov_every`` samples."""
+        """One IMU increment (Δθ rad, Δv m/s over (t_prev, t]); covariance every ``cov_every`` samples.
+
+        Parameters
+        ----------
+        dtheta, dv : numpy.ndarray
+            Angle [rad] and velocity [m/s] increments over (t_prev, t], body FRD, shape (3,).
+        t : float
+            End of the increment [s]; must exceed the filter time.
+        """
         dt = float(t) - self.t
         if not dt > 0:
             raise DataError(f"IMU time must increase: got t={t} after t={self.t}")
@@ -759,12 +773,24 @@ class LooselyCoupledEKF:
             log.warning("non-finite IMU sample at t=%.3f skipped (propagated as zero motion)", t)
             dth, dvv = np.zeros(3), np.zeros(3)
         L = self.layout
-        _step(self.nav, self.xm, self.acc, dth, dvv, dt, L.hvec, L.axis_of, self.gate_open)
+        _step(self.nav, self.xm, self.acc, dth, dvv, dt, L.hvec, L.axis_of, self.gate_open, L.scale_index)
         self.t = float(t)
         if self.acc[13] >= self.config.cov_every or dt > 1.5 * self.dt_nom * self.config.cov_every:
-            self._flush()
+            self.flush()
 
-    def _flush(self) -> None:
+    def prime(self, dtheta: np.ndarray, dv: np.ndarray) -> None:
+        """Give the strapdown the increment before the first one (Δθ rad, Δv m/s) for its two-sample
+        coning/sculling terms; without it the first :meth:`propagate` assumes its own (bias-corrected)
+        increment repeats. Call once, before the first :meth:`propagate`."""
+        if self.nav[I_PREV] != 0.0:
+            raise DataError("prime() must come before the first propagate(); the filter has already started")
+        self.nav[I_DTH : I_DTH + 3] = dtheta
+        self.nav[I_DV : I_DV + 3] = dv
+        self.nav[I_PREV] = 1.0
+
+    def flush(self) -> None:
+        """Propagate the covariance (and the model-state estimates) over the increments accumulated since
+        the last propagation, so P refers to the current epoch. Updates and swaps call it themselves."""
         L = self.layout
         _propagate_cov(
             self.P,
@@ -779,6 +805,7 @@ class LooselyCoupledEKF:
             self.wpsd_fb,
             self.config.gate_q_scale,
             self.dt_nom,
+            L.scale_index,
         )
 
     def set_gate(self, open_: bool) -> None:
@@ -787,7 +814,22 @@ class LooselyCoupledEKF:
 
     # -- measurements -----------------------------------------------------------------------------
     def update_gnss(self, t: float, llh: np.ndarray, sigma_ned: np.ndarray) -> bool:
-        """GNSS antenna position fix (rad, rad, m) with 1σ NED (m). Returns whether it was used."""
+        """GNSS antenna position fix (rad, rad, m) with 1σ NED (m). Returns whether it was used.
+
+        Parameters
+        ----------
+        t : float
+            Time of the fix [s], ≤ the filter time.
+        llh : numpy.ndarray
+            Antenna latitude, longitude [rad], height [m].
+        sigma_ned : numpy.ndarray
+            1σ North, East, Down [m]; non-finite values are replaced by ``config.gnss_sigma_nan``.
+
+        Returns
+        -------
+        bool
+            False when the χ² gate rejected it or the position is not finite.
+        """
         llh = np.asarray(llh, dtype=float)
         sig = np.asarray(sigma_ned, dtype=float).copy()
         if not np.all(np.isfinite(llh)):
@@ -796,7 +838,7 @@ class LooselyCoupledEKF:
         bad = ~np.isfinite(sig)
         sig[bad] = self.config.gnss_sigma_nan
         sig = np.maximum(sig, self.config.gnss_sigma_floor)
-        self._flush()
+        self.flush()
         n = self.P.shape[0]
         dz, H = _gnss_innovation(self.nav, n, llh, self.lever, self.t - float(t))
         force = self._consecutive_reject >= self.config.gate_max_reject
@@ -812,8 +854,19 @@ class LooselyCoupledEKF:
         return bool(ok)
 
     def zupt_update(self, sigma_v: float) -> bool:
-        """Zero-velocity update: v^n = 0 with 1σ ``sigma_v`` (m/s)."""
-        self._flush()
+        """Zero-velocity update: v^n = 0 with 1σ ``sigma_v`` (m/s).
+
+        Parameters
+        ----------
+        sigma_v : float
+            1σ of the zero velocity [m/s].
+
+        Returns
+        -------
+        bool
+            Whether the update was applied.
+        """
+        self.flush()
         n = self.P.shape[0]
         H = np.zeros((3, n))
         H[:, 3:6] = np.eye(3)
@@ -822,8 +875,19 @@ class LooselyCoupledEKF:
         return bool(ok)
 
     def zaru_update(self, sigma_w: float) -> bool:
-        """Zero angular-rate update: corrected ω_ib^b equals the Earth rate in body, 1σ ``sigma_w`` (rad/s)."""
-        self._flush()
+        """Zero angular-rate update: corrected ω_ib^b equals the Earth rate in body, 1σ ``sigma_w`` (rad/s).
+
+        Parameters
+        ----------
+        sigma_w : float
+            1σ of the angular rate [rad/s].
+
+        Returns
+        -------
+        bool
+            Whether the update was applied.
+        """
+        self.flush()
         dt = self.acc[15] if self.acc[15] > 0 else self.dt_nom
         w_meas = self.nav[I_DTH : I_DTH + 3] / dt  # last corrected increment
         C = quat_to_dcm(self.nav[I_Q : I_Q + 4])
@@ -841,42 +905,53 @@ class LooselyCoupledEKF:
         return bool(ok)
 
     # -- model swap -------------------------------------------------------------------------------
-    def swap_model(self, axis_models, *, imu_rate_hz: float | None = None) -> None:
-        """Replace the error models (SPEC §8 hot-swap).
+    def swap_model(self, axis_models, *, preserve: bool = False, imu_rate_hz: float | None = None) -> dict[str, int]:
+        """Replace the error models (SPEC §8 hot-swap); returns ``{"kept": k, "reset": r}``.
 
         Navigation states and their covariance are kept; the new bias state of each axis takes the
         current total error estimate h·x̂ of the old states with variance h P hᵀ and cross-covariances
         P[:, old] hᵀ (an exact linear map); new AR1 states start at 0 with their stationary variance,
-        new DR states at 0 with the configured σ.
+        new DR states at 0 with the configured σ. With ``preserve`` an old AR1/DR state that has a
+        counterpart in the new model (same structure: by position; else an AR1 with the same φ) is carried
+        over 1:1 instead (:func:`~imunoise.nav.error_states.swap_map`); ``kept`` counts those, ``reset``
+        the states that start fresh. ``axis_models``: as for the constructor (:func:`normalize_axis_models`,
+        with ``imu_rate_hz`` as the default rate).
+
+        Parameters
+        ----------
+        axis_models
+            The new error model of each axis.
+        preserve : bool
+            Carry matching AR1/DR states over instead of resetting them.
+        imu_rate_hz : float, optional
+            Rate of models given without one (default: the filter's nominal rate).
+
+        Returns
+        -------
+        dict
+            ``{"kept": k, "reset": r}``, numbers of model states.
         """
-        self._flush()
+        self.flush()
         rate = imu_rate_hz or 1.0 / self.dt_nom
-        new = ModelLayout.build(normalize_axis_models(axis_models, rate), self.dt_nom)
-        old = self.layout
-        n_new = 9 + new.nm
-        # linear map T: new states = T · old states (nav identity, bias = h·x_axis, others zero)
-        T = np.zeros((n_new, 9 + old.nm))
-        T[0:9, 0:9] = np.eye(9)
-        for a in range(6):
-            io = old.index(a)
-            b = new.index(a)[0]
-            T[9 + b, 9 + io] = old.hvec[io]
-        x_old = np.concatenate([np.zeros(9), self.xm])
-        P_new = T @ self.P @ T.T
-        P_init = _initial_P(self.config, new)
-        for s in range(new.nm):
-            if new.kind[s] != 0:
-                P_new[9 + s, :] = 0.0
-                P_new[:, 9 + s] = 0.0
-                P_new[9 + s, 9 + s] = P_init[9 + s, 9 + s]
-        self.xm = (T @ x_old)[9:]
-        self.P = 0.5 * (P_new + P_new.T)
-        self.layout = new
+        new = ModelLayout.build(normalize_axis_models(axis_models, rate), self.dt_nom, scale_spec(self.config))
+        res = swap_map(self.layout, new, self.xm, self.P, initial_covariance(self.config, new), preserve=preserve)
+        self.xm, self.P, self.layout = res.x, res.P, new
+        return {"kept": res.kept, "reset": res.reset}
 
     # -- output -----------------------------------------------------------------------------------
+    def sensor_errors(self) -> np.ndarray:
+        """Current total error estimate of the six axes (gyro x,y,z rad/s, accel x,y,z m/s²): Σ h·x̂ per axis."""
+        return _sensor_errors(self.xm, self.layout.hvec, self.layout.axis_of)
+
+    def scale_factors(self) -> np.ndarray | None:
+        """Current scale-factor estimates ŝ (gyro x,y,z, accel x,y,z; dimensionless), None when they are off."""
+        idx = self.layout.scale_index
+        return None if np.any(idx < 0) else self.xm[idx].copy()
+
     def state(self) -> dict:
-        """Current solution: t, llh, vel_ned, euler, gyro/accel error estimates, 1σ of δr/δv/φ."""
-        e = _sensor_errors(self.xm, self.layout.hvec, self.layout.axis_of)
+        """Current solution: t, llh, vel_ned, euler, gyro/accel error estimates, 1σ of δr/δv/φ, the
+        scale-factor estimates (None when off) and every model state by label."""
+        e = self.sensor_errors()
         return {
             "t": self.t,
             "llh": self.nav[0:3].copy(),
@@ -886,6 +961,7 @@ class LooselyCoupledEKF:
             "accel_error": e[3:],
             "std": np.sqrt(np.abs(np.diag(self.P)[:9])),
             "model_states": dict(zip(self.layout.labels, self.xm.tolist())),
+            "scale_factors": self.scale_factors(),
         }
 
 
@@ -953,6 +1029,35 @@ def run_ekf(
     ``zupt`` (bool per IMU sample, e.g. the static epochs of :func:`imunoise.detect.detect_static`) applies
     a zero-velocity update (σ ``config.zupt_sigma``) every ``config.zupt_every`` samples while true.
     ``store_cov`` keeps the 9×9 navigation block of P at every epoch in ``result.cov`` (for NEES).
+
+    Parameters
+    ----------
+    imu : ImuData
+        IMU increments (:func:`imunoise.io.kfgins.read_imu`), body FRD.
+    gnss : GnssData
+        GNSS antenna fixes (:func:`imunoise.io.kfgins.read_gnss`).
+    init : InitialState
+        State at the start time ``init.t`` (inside the IMU record).
+    config : EkfConfig, optional
+        Filter settings (default ``EkfConfig()``).
+    axis_models : optional
+        Error model of each sensor axis (:func:`normalize_axis_models`): ``None`` for the defaults,
+        six models or (model, freq) pairs, or ``{"gyro": ..., "accel": ...}``.
+    t_end : float, optional
+        Last epoch [s] (default: the end of the IMU data).
+    gate, zupt : numpy.ndarray, optional
+        Boolean per IMU sample, as above.
+    store_cov : bool
+        Keep the navigation covariance per epoch.
+
+    Returns
+    -------
+    EkfResult
+
+    Raises
+    ------
+    DataError
+        For a start outside the IMU data, backward time, too few samples or a non-finite result.
     """
     import time
 
@@ -981,9 +1086,7 @@ def run_ekf(
         raise DataError(f"no IMU samples between the start {init.t:.3f} and the end {t1:.3f}")
     rate = 1.0 / float(np.median(np.diff(t)))
     ekf = LooselyCoupledEKF(config, axis_models, init, imu_rate_hz=rate)
-    ekf.nav[I_DTH : I_DTH + 3] = dth[0]
-    ekf.nav[I_DTH + 3 : I_DTH + 6] = dv[0]
-    ekf.nav[NAV_LEN - 1] = 1.0
+    ekf.prime(dth[0], dv[0])
 
     gt = np.asarray(gnss.t, dtype=float)
     gllh = np.asarray(gnss.llh, dtype=float)
@@ -1014,10 +1117,14 @@ def run_ekf(
     out_err, out_std = np.empty((n, 6)), np.empty((n, 9))
     out_pos[0], out_vel[0], out_att[0] = init.llh, init.vel_ned, init.euler
     L = ekf.layout
-    out_err[0] = _sensor_errors(ekf.xm, L.hvec, L.axis_of)
+    out_err[0] = ekf.sensor_errors()
     out_std[0] = np.sqrt(np.diag(ekf.P)[:9])
     out_cov = np.zeros((n if store_cov else 1, 9, 9))
     out_cov[0] = ekf.P[:9, :9]
+    has_sf = bool(np.all(L.scale_index >= 0))
+    out_sf = np.zeros((n if has_sf else 1, 6))
+    if has_sf:
+        out_sf[0] = ekf.xm[L.scale_index]
     g_status = np.full(gt.size, -1, dtype=np.int64)
     g_nis = np.full(gt.size, np.nan)
     args = [
@@ -1025,11 +1132,11 @@ def run_ekf(
         L.phi_pow, L.q_pow, L.hvec, L.axis_of, L.wpsd, ekf.wpsd_fb, float(config.gate_q_scale), ekf.dt_nom,
         int(config.cov_every), float(config.chi2_gate), int(config.gate_max_reject), float(config.gate_abs_m),
         out_pos, out_vel, out_att, out_err, out_std, g_status, g_nis, out_cov,
-        zupt_arr, int(config.zupt_every), float(config.zupt_sigma),
+        zupt_arr, int(config.zupt_every), float(config.zupt_sigma), L.scale_index, out_sf,
     ]  # fmt: skip
     if not _run.signatures:
         # load (or compile) the kernel on a 2-sample copy so elapsed_s measures the filter only
-        per_sample = (0, 1, 2, 11, 24, 25, 26, 27, 28, 31, 32)
+        per_sample = (0, 1, 2, 11, 24, 25, 26, 27, 28, 31, 32, 36)
         warm = [
             a[:2].copy() if i in per_sample else (a.copy() if isinstance(a, np.ndarray) else a)
             for i, a in enumerate(args)
@@ -1055,6 +1162,7 @@ def run_ekf(
         elapsed,
         list(L.labels),
         out_cov if store_cov else None,
+        out_sf if has_sf else None,
     )
     for name in ("llh", "vel_ned", "euler"):
         if not np.all(np.isfinite(getattr(res, name))):

@@ -55,7 +55,7 @@ def quat_mul(p, q):
 
 @njit(cache=True)
 def rotvec_to_quat(v):
-    """Quaternion of the rotation vector v (rad): [cos(|v|/2), sin(|v|/2) v/|v|] (series near 0)."""
+    """Quaternion of the rotation vector v (rad): [cos(‖v‖/2), sin(‖v‖/2) v/‖v‖] (series near 0)."""
     a2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
     if a2 < 1e-16:
         # Taylor series: exact to double precision below 1e-8 rad

@@ -4,7 +4,7 @@ Errors are taken at the reference epochs. The estimate at a reference epoch t_r 
 epoch t_k ≥ t_r moved back along its velocity, r(t_r) = r(t_k) − v_k (t_k − t_r): after a GNSS update
 at t_k this is the updated state (linear interpolation would mix in the pre-update epoch t_{k−1}).
 NED errors are C_e^n(ref) (x_est − x_ref) in ECEF (exact), ECEF errors x_est − x_ref; horizontal
-= √(N² + E²), vertical = |D|. Outage drift = the error at the last reference epoch inside the window
+= √(N² + E²), vertical = ``|D|``. Outage drift = the error at the last reference epoch inside the window
 (start ≤ t < start + duration).
 """
 
@@ -18,7 +18,7 @@ import numpy as np
 from imunoise.errors import DataError
 from imunoise.nav.earth import llh_to_ecef, radii
 
-__all__ = ["NavErrors", "nav_errors", "summarize", "outage_drift", "section_rms", "rms"]
+__all__ = ["NavErrors", "nav_errors", "summarize", "outage_drift", "mean_end_drift", "section_rms", "rms"]
 
 
 @dataclass(frozen=True)
@@ -93,6 +93,13 @@ def nav_errors(
     else:
         att = _wrap(np.asarray(euler, dtype=float)[k] - ref.euler[m])
     return NavErrors(tr, ned, d_ecef, dvel, att)
+
+
+def mean_end_drift(outages: Sequence[dict]) -> float | None:
+    """Mean horizontal drift [m] at the end of the outages of :func:`outage_drift` that have one; None if none
+    has (no reference epoch inside any window)."""
+    ends = [o["end_horizontal_m"] for o in outages if o["end_horizontal_m"] is not None]
+    return float(np.mean(ends)) if ends else None
 
 
 def outage_drift(err: NavErrors, windows: Sequence[tuple[float, float]]) -> list[dict]:
@@ -172,8 +179,7 @@ def summarize(
     if np.any(np.isfinite(err.att)):
         out["attitude_rms_deg"] = [float(np.degrees(x)) if np.isfinite(x) else None for x in rms(err.att)]
     out["outages"] = outage_drift(err, outages)
-    ends = [o["end_horizontal_m"] for o in out["outages"] if o["end_horizontal_m"] is not None]
-    out["mean_outage_end_horizontal_m"] = float(np.mean(ends)) if ends else None
+    out["mean_outage_end_horizontal_m"] = mean_end_drift(out["outages"])
     if outages:
         inside = np.zeros(err.t.size, dtype=bool)
         for start, dur in outages:

@@ -21,10 +21,11 @@ from typing import Any
 import numpy as np
 from scipy.signal import lfilter
 
-from imunoise.errors import ImunoiseError
+from imunoise.errors import ModelError
+from imunoise.imu import AXES, ImuData
+from imunoise.io.jsonutil import json_default
 from imunoise.io.kfgins import (
     GnssData,
-    ImuData,
     Reference,
     write_gnss,
     write_imu,
@@ -33,7 +34,7 @@ from imunoise.io.kfgins import (
 )
 from imunoise.model import Model
 from imunoise.nav.earth import OMEGA_E, radii
-from imunoise.sim.imu_errors import AXES, models_to_json, resolve_imu_models, simulate_model_errors
+from imunoise.sim.imu_errors import models_to_json, resolve_imu_models, simulate_model_errors
 from imunoise.sim.trajectory import DrivePlan, Kinematics, Ramps, kinematics, simpson_increments
 
 __all__ = ["DriveConfig", "SimulatedDrive", "simulate_drive", "plan_drive"]
@@ -89,26 +90,29 @@ class DriveConfig:
 
     def __post_init__(self) -> None:
         if self.duration_s <= 0 or self.static_s < 0 or self.static_s >= self.duration_s:
-            raise ImunoiseError(
+            raise ModelError(
                 f"need 0 ≤ static_s < duration_s, got static_s={self.static_s}, duration_s={self.duration_s}"
             )
         if self.n_stops < 0:
-            raise ImunoiseError(f"n_stops must be ≥ 0, got {self.n_stops}")
+            raise ModelError(f"n_stops must be ≥ 0, got {self.n_stops}")
         lo, hi = self.stop_range_s
         if not 0 < lo <= hi:
-            raise ImunoiseError(f"stop_range_s must be (min, max) with 0 < min ≤ max, got {self.stop_range_s}")
+            raise ModelError(f"stop_range_s must be (min, max) with 0 < min ≤ max, got {self.stop_range_s}")
         if not self.imu_rate_hz > 0 or not self.gnss_rate_hz > 0:
-            raise ImunoiseError("imu_rate_hz and gnss_rate_hz must be > 0")
+            raise ModelError(f"imu_rate_hz and gnss_rate_hz must be > 0 Hz, got {self.imu_rate_hz}, {self.gnss_rate_hz}")
         if self.gnss_rate_hz > self.imu_rate_hz:
-            raise ImunoiseError("gnss_rate_hz cannot exceed imu_rate_hz")
+            raise ModelError(
+                f"gnss_rate_hz {self.gnss_rate_hz:g} Hz exceeds imu_rate_hz {self.imu_rate_hz:g} Hz; "
+                "GNSS epochs are taken at IMU samples: lower it"
+            )
         if not 0.0 <= self.outlier_rate <= 1.0:
-            raise ImunoiseError(f"outlier_rate must be in [0, 1], got {self.outlier_rate}")
+            raise ModelError(f"outlier_rate must be in [0, 1], got {self.outlier_rate}")
         if min(self.gnss_sigma_m) <= 0:
-            raise ImunoiseError(f"gnss_sigma_m must be > 0, got {self.gnss_sigma_m}")
+            raise ModelError(f"gnss_sigma_m must be > 0, got {self.gnss_sigma_m}")
         self.outages = [(float(s), float(d)) for s, d in self.outages]
         for s, d in self.outages:
             if d <= 0:
-                raise ImunoiseError(f"outage ({s}, {d}): duration must be > 0")
+                raise ModelError(f"outage ({s}, {d}): the duration (second value, s) must be > 0")
 
     @classmethod
     def noise_free(cls, **kw: Any) -> DriveConfig:
@@ -159,7 +163,7 @@ def plan_drive(cfg: DriveConfig, rng: np.random.Generator) -> DrivePlan:
     reserve = 40.0  # final braking and stand
     budget = drive_time - reserve - n * per_stop - 20.0 * (n + 1)
     if budget < n * lo:
-        raise ImunoiseError(
+        raise ModelError(
             f"duration {end:g} s is too short for {n} stops of ≥ {lo:g} s after a {cfg.static_s:g} s static "
             f"start; need about {cfg.static_s + reserve + n * (per_stop + lo) + 20.0 * (n + 1):.0f} s"
         )
@@ -246,7 +250,7 @@ def plan_drive(cfg: DriveConfig, rng: np.random.Generator) -> DrivePlan:
     if speed.level > 0.0:
         t = go(t, 0.0, cfg.brake_mps2)
     if t > end:
-        raise ImunoiseError(f"internal planning error: manoeuvres end at {t:.2f} s after the duration {end:g} s")
+        raise RuntimeError(f"internal planning error: manoeuvres end at {t:.2f} s after the duration {end:g} s")
     statics.append((t, end))
     return DrivePlan(
         duration=end,
@@ -289,7 +293,7 @@ class SimulatedDrive:
     static_mask: np.ndarray
     imu_models: dict[str, Model]
     truth: dict[str, Any]
-    model_errors: np.ndarray  # (n, 6) model sample paths e_{j,k} [rad/s | m/s²], axes gx..az
+    model_errors: np.ndarray  # (n, 6) model sample paths e_{j,k} [rad/s | m/s²], axes imu.AXES
     vibration: np.ndarray  # (n, 6) vibration part of the rate error
 
     @property
@@ -306,11 +310,11 @@ class SimulatedDrive:
         room (if there is none, where the window covers the most road). ``lead_s``: GNSS-aided driving
         before the first window can start."""
         if not lead_s >= 0:
-            raise ImunoiseError(f"lead_s must be ≥ 0 s, got {lead_s}")
+            raise ModelError(f"lead_s must be ≥ 0 s, got {lead_s}")
         a = self.truth["static_intervals"][0][1] + lead_s
         b = self.truth["static_intervals"][-1][0]
         if n < 1 or (b - a) / n < length_s:
-            raise ImunoiseError(
+            raise ModelError(
                 f"cannot fit {n} outages of {length_s:g} s in the {max(b - a, 0.0):.0f} s of driving after the "
                 f"{lead_s:g} s lead; shorten them, use fewer or a longer drive"
             )
@@ -370,17 +374,9 @@ class SimulatedDrive:
         if self.config.outages:
             write_outages(out / "outages.txt", self.outages_sow, comment="start_sow duration_s (simulated drive)")
             manifest["outages"] = "outages.txt"
-        (out / "truth.json").write_text(json.dumps(self.truth, indent=1, default=_json_default))
+        (out / "truth.json").write_text(json.dumps(self.truth, indent=1, default=json_default))
         (out / "dataset.json").write_text(json.dumps(manifest, indent=1))
         return out
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -405,7 +401,7 @@ def _indices_at_rate(n_imu: int, imu_rate: float, rate: float, what: str) -> np.
     if step < 1 or abs(ratio - step) > 1e-9:
         nice = [r for r in (1, 2, 4, 5, 8, 10, 20, 25, 40, 50, 100) if abs(imu_rate / r - round(imu_rate / r)) < 1e-9]
         flag = "--gnss-rate" if what == "GNSS" else "--ref-rate (0 = IMU rate)"
-        raise ImunoiseError(
+        raise ModelError(
             f"{what} rate {rate:g} Hz must divide the IMU rate {imu_rate:g} Hz; e.g. {nice} Hz (CLI {flag})"
         )
     return np.arange(0, n_imu, step)
@@ -421,6 +417,20 @@ def simulate_drive(
     stochastic errors; turn-on bias, scale factor and vibration still follow ``config``). ``seed``
     overrides ``config.seed``; the trajectory, the IMU errors and the GNSS noise use separate streams,
     so changing the IMU model keeps the same trajectory.
+
+    Parameters
+    ----------
+    config : DriveConfig, optional
+        The drive (default ``DriveConfig()``).
+    imu_models : optional
+        Stochastic error model of each IMU axis, e.g. a preset name or ``{"gyro": ..., "accel": ...}``.
+    seed : int, optional
+        Overrides ``config.seed``.
+
+    Returns
+    -------
+    SimulatedDrive
+        IMU with and without errors, GNSS, reference, truth and static mask; ``write(dir)`` saves it.
     """
     cfg = config or DriveConfig()
     seed = cfg.seed if seed is None else int(seed)

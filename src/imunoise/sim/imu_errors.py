@@ -1,6 +1,7 @@
 """IMU error models for the simulator: presets, per-axis model resolution, error injection (SPEC §2, §10).
 
-Sensor axes are named ``gx, gy, gz`` (gyro, rad/s) and ``ax, ay, az`` (accelerometer, m/s²). A model's
+Sensor axes are :data:`imunoise.imu.AXES`: ``gyro_x, gyro_y, gyro_z`` (rad/s) and ``accel_x, accel_y,
+accel_z`` (m/s²); inputs may still use the short names ``gx`` … ``az`` of older truth files. A model's
 parameters are per sample at the IMU rate (SPEC §1). Presets are stored as continuous-time values
 (noise density, random-walk K, Gauss–Markov T_c and σ, rate ramp) and converted at the requested rate:
 
@@ -21,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import ModelError
+from imunoise.imu import ACCEL_AXES, AXES, GYRO_AXES, canonical_axis
 from imunoise.model import Model
 from imunoise.processes import AR1, DR, QN, RW, WN
 
@@ -35,10 +37,6 @@ __all__ = [
     "resolve_imu_models",
     "models_to_json",
 ]
-
-GYRO_AXES = ("gx", "gy", "gz")
-ACCEL_AXES = ("ax", "ay", "az")
-AXES = GYRO_AXES + ACCEL_AXES
 
 _DEG = math.pi / 180.0
 _DPH = _DEG / 3600.0  # °/h in rad/s
@@ -88,9 +86,9 @@ PRESETS["default"] = PRESETS["mems"]
 # "paper" preset pairs these gyros with the accelerometers of the "mems" preset.
 PAPER_TABLE4_RATE_HZ = 125.0
 PAPER_TABLE4_GYRO: dict[str, tuple[list[tuple[float, float]], float, float]] = {
-    "gx": ([(3.009e-9, 0.8574), (1.723e-9, 0.8852), (3.064e-7, 0.7512)], 4.551e-7, 1.276e-11),
-    "gy": ([(7.156e-11, 0.9979), (4.498e-11, 0.9978), (6.96e-8, 0.7611)], 6.264e-7, 4.171e-15),
-    "gz": ([(4.461e-10, 0.9298), (1.871e-10, 0.9961), (2.340e-7, 0.3866)], 1.878e-6, 2.506e-11),
+    "gyro_x": ([(3.009e-9, 0.8574), (1.723e-9, 0.8852), (3.064e-7, 0.7512)], 4.551e-7, 1.276e-11),
+    "gyro_y": ([(7.156e-11, 0.9979), (4.498e-11, 0.9978), (6.96e-8, 0.7611)], 6.264e-7, 4.171e-15),
+    "gyro_z": ([(4.461e-10, 0.9298), (1.871e-10, 0.9961), (2.340e-7, 0.3866)], 1.878e-6, 2.506e-11),
 }
 
 
@@ -167,14 +165,16 @@ def _as_model(spec: Any, sensor: str, rate_hz: float, preset: str) -> Model:
 
 
 def resolve_imu_models(spec: Any, rate_hz: float, *, preset: str = "mems") -> dict[str, Model]:
-    """Per-axis error models ``{"gx": Model, ..., "az": Model}`` with known parameters.
+    """Per-axis error models ``{"gyro_x": Model, ..., "accel_z": Model}`` (keys of :data:`imunoise.imu.AXES`)
+    with known parameters.
 
     ``spec`` may be: ``None`` (no stochastic errors: empty dict); a preset name (``"mems"``,
     ``"tactical"``: 3×AR1 + WN + RW on every axis; ``"paper"``: :func:`paper_models`); a structure string
     such as ``"2*AR1+WN+RW+QN"``
     (parameters taken from ``preset``); a :class:`Model` (used on all six axes as is, or its structure
     with preset values if it has no parameters); a path to a JSON file; or a mapping whose keys are axes
-    (``gx``..``az``) or groups (``gyro``, ``accel``) and whose values are any of the above or a model
+    (``gyro_x``..``accel_z``, or the short ``gx``..``az`` of older files) or groups (``gyro``, ``accel``) and
+    whose values are any of the above or a model
     dict ``{"model": "...", "params": {...}}`` (:meth:`Model.to_dict`). Missing axes get no errors.
     """
     if spec is None:
@@ -201,10 +201,10 @@ def resolve_imu_models(spec: Any, rate_hz: float, *, preset: str = "mems") -> di
             axes = GYRO_AXES if key_l == "gyro" else ACCEL_AXES
             for ax in axes:
                 out.setdefault(ax, _as_model(val, key_l, rate_hz, preset))
-        elif key_l in AXES:
-            out[key_l] = _as_model(val, "gyro" if key_l in GYRO_AXES else "accel", rate_hz, preset)
+        elif (axis := canonical_axis(key_l)) is not None:
+            out[axis] = _as_model(val, "gyro" if axis in GYRO_AXES else "accel", rate_hz, preset)
         else:
-            raise ModelError(f"unknown IMU axis {key!r}; use gx, gy, gz, ax, ay, az, gyro or accel")
+            raise ModelError(f"unknown IMU axis {key!r}; use {', '.join(AXES)} (or gx..az), gyro or accel")
     return out
 
 
@@ -214,7 +214,7 @@ def models_to_json(models: Mapping[str, Model], rate_hz: float) -> dict[str, Any
 
 
 def simulate_model_errors(models: Mapping[str, Model], n: int, seed: int | np.random.SeedSequence) -> np.ndarray:
-    """Per-sample errors (n, 6) in axis order gx..az (zeros where an axis has no model); independent
+    """Per-sample errors (n, 6) in axis order gyro_x..accel_z (zeros where an axis has no model); independent
     random streams per axis derived from ``seed``."""
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     streams = ss.spawn(len(AXES))

@@ -14,19 +14,19 @@ from typing import Any
 
 import numpy as np
 
-from imunoise.errors import ImunoiseError
-from imunoise.io.kfgins import ImuData
+from imunoise.errors import ModelError
+from imunoise.imu import AXES, ImuData
 from imunoise.model import Model
 from imunoise.nav.earth import OMEGA_E, euler_to_dcm, gravity
-from imunoise.sim.imu_errors import AXES, models_to_json, resolve_imu_models, simulate_model_errors
+from imunoise.sim.imu_errors import models_to_json, resolve_imu_models, simulate_model_errors
 
 __all__ = ["StaticRecording", "simulate_static"]
 
 
 @dataclass(eq=False)
 class StaticRecording:
-    """``rates`` (n, 6) = [gx, gy, gz (rad/s), ax, ay, az (m/s²)] with errors; ``rates_true`` the constant
-    Earth-rate/gravity signal; ``errors`` = rates − rates_true (bias + model path); ``imu`` the same as
+    """``rates`` (n, 6) = [gyro_x, gyro_y, gyro_z (rad/s), accel_x, accel_y, accel_z (m/s²)] with errors;
+    ``rates_true`` the constant Earth-rate/gravity signal; ``errors`` = rates − rates_true (bias + model path); ``imu`` the same as
     increments."""
 
     t: np.ndarray
@@ -59,10 +59,13 @@ def simulate_static(
     (anything :func:`~imunoise.sim.imu_errors.resolve_imu_models` accepts) plus optional turn-on biases
     drawn with the given σ (rad/s, m/s²)."""
     if not duration_s > 0 or not rate_hz > 0:
-        raise ImunoiseError(f"need duration_s > 0 and rate_hz > 0, got {duration_s}, {rate_hz}")
+        raise ModelError(f"need duration_s > 0 and rate_hz > 0, got {duration_s}, {rate_hz}")
     n = int(round(duration_s * rate_hz))
     if n < 2:
-        raise ImunoiseError("a static recording needs at least 2 samples")
+        raise ModelError(
+            f"a static recording needs at least 2 samples, got {n} from {duration_s:g} s at {rate_hz:g} Hz; "
+            "give a longer duration or higher rate"
+        )
     dt = 1.0 / rate_hz
     t = start_sow + dt * np.arange(1, n + 1)
     lat, h = math.radians(llh_deg[0]), float(llh_deg[2])

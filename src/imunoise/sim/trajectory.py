@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import cumulative_simpson
 
+from imunoise.errors import ModelError
 from imunoise.nav.earth import OMEGA_E, gravity, radii
 
 __all__ = ["Ramps", "DrivePlan", "Kinematics", "kinematics", "euler_to_dcm_many"]
@@ -72,9 +73,9 @@ class Ramps:
     def add(self, t0: float, dur: float, to: float) -> float:
         """Ramp from the current level to ``to`` over [t0, t0 + dur]; returns the end time."""
         if t0 < self.end - 1e-9:
-            raise ValueError(f"ramp at {t0} overlaps the previous one ending at {self.end}")
+            raise ModelError(f"ramp at {t0} overlaps the previous one ending at {self.end}")
         if dur <= 0:
-            raise ValueError("ramp duration must be > 0")
+            raise ModelError(f"ramp duration must be > 0 s, got {dur}")
         self.starts.append(float(t0))
         self.durs.append(float(dur))
         self.frm.append(self.level)
@@ -219,7 +220,7 @@ def simpson_increments(x: np.ndarray, dx: float, sub: int) -> np.ndarray:
     """Integrals of ``x`` (rows on a uniform grid, step dx) over consecutive blocks of ``sub`` steps
     (composite Simpson, ``sub`` even): row k integrates grid points k·sub .. (k+1)·sub."""
     if sub % 2:
-        raise ValueError("Simpson needs an even number of sub-steps")
+        raise ModelError(f"composite Simpson needs an even number of sub-steps, got sub={sub}")
     n = (x.shape[0] - 1) // sub
     w = np.ones(sub + 1)
     w[1:-1:2] = 4.0

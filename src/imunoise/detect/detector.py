@@ -1,7 +1,9 @@
 """Static (zero-motion) detection with an adaptive threshold and the angular-rate gate (SPEC §7, paper §2.3).
 
-Pipeline per epoch i (all in one numba kernel shared by the batch and the streaming form, so both give
-bit-identical results):
+One implementation: the streaming :class:`StaticDetector` (state carried across calls) drives the numba
+kernel of :mod:`imunoise.detect.kernels` and cuts the segments; :func:`detect_static` is that detector fed the
+record in chunks, and the online engine feeds it per sample (``push_imu``) or per chunk (``run``). So every
+form gives bit-identical results. Pipeline per epoch i:
 
 1. Test statistic, paper Eq. (9): T_i = sample standard deviation (ddof = 1) of the last N samples of
    the horizontal specific force, accel x and y separately, T_i ∈ R². The window is updated in O(1)
@@ -12,7 +14,7 @@ bit-identical results):
    λ_i = (k·λ_{i−1} + 2λ_0 − Δ_i) / (k + 1) when epoch i−1 was static, else λ_i = λ_0;
    clamped to [λ_0/2, 2λ_0]. "T_{i−1} < λ_{i−1}" is read for the two axes as "epoch i−1 was static"
    (both axes below), k is the number of consecutive static epochs ending at i−1, and the jump
-   penalty is Δ_i = max(|T_i,x − T_{i−1,x}|, |T_i,y − T_{i−1,y}|) — the larger change, because a jump
+   penalty is Δ_i = max(``|T_i,x − T_{i−1,x}|``, ``|T_i,y − T_{i−1,y}|``) — the larger change, because a jump
    on either axis is evidence of motion. Consequences: while still the threshold climbs toward 2λ_0
    (a hysteresis: a stop is entered below λ_0 and kept below up to 2λ_0), a sharp change of T pulls it
    down, and the first moving epoch resets it to λ_0.
@@ -20,23 +22,24 @@ bit-identical results):
 4. Segments: runs of static_raw epochs, trimmed by ``margin_s`` at both ends (the trailing window
    makes the start late and the end late, and a false static sample hurts the GMWM more than a
    missed one); kept when the trimmed segment lasts at least ``min_duration_s``.
-5. Angular-rate gate: open when |ω| (norm of the three gyro rates) > 30 °/s (SPEC §7): the
+5. Angular-rate gate: open when ‖ω‖ (norm of the three gyro rates) > 30 °/s (SPEC §7): the
    static-derived noise model is not trusted for that epoch.
 
 A time step longer than ``max_gap_samples`` nominal sample periods, or a non-finite accel sample
-(streaming only; the batch form refuses such data), restarts the window: the detector needs N new
+(streaming only; :func:`detect_static` refuses such data), restarts the window: the detector needs N new
 samples before it can call an epoch static again.
 """
 
 from __future__ import annotations
 
+from bisect import bisect_left, bisect_right
 from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 
-from imunoise.errors import DataError, ImunoiseError
+from imunoise.detect.kernels import N_SF, N_SI, detector_kernel, reset_state
+from imunoise.errors import DataError, ModelError
 
 __all__ = [
     "DetectorConfig",
@@ -75,17 +78,25 @@ class DetectorConfig:
     max_gap_samples: float = 5.0
 
     def __post_init__(self) -> None:
-        if int(self.window) != self.window or self.window < 2:
-            raise ImunoiseError(f"DetectorConfig.window must be an integer ≥ 2 samples, got {self.window!r}")
-        for name in ("lambda0", "gate_rate", "max_gap_samples"):
-            v = float(getattr(self, name))
-            if not np.isfinite(v) or v <= 0:
-                raise ImunoiseError(f"DetectorConfig.{name} must be a positive finite number, got {v!r}")
-        for name in ("min_duration_s", "margin_s"):
-            v = float(getattr(self, name))
-            if not np.isfinite(v) or v < 0:
-                raise ImunoiseError(f"DetectorConfig.{name} must be ≥ 0 s, got {v!r}")
-        object.__setattr__(self, "window", int(self.window))
+        # invalid settings are a malformed detector model: ModelError (a ValueError), naming the field to fix
+        w = self.window
+        if isinstance(w, bool) or not isinstance(w, int | np.integer | float) or not np.isfinite(w) \
+                or int(w) != w or w < 2:
+            raise ModelError(
+                f"DetectorConfig.window must be a whole number of samples ≥ 2 (paper: 100), got {w!r}"
+            )
+        for name, rule in (("lambda0", "> 0 m/s² (paper: 0.02; or learn it with learn_lambda0)"),
+                           ("gate_rate", "> 0 rad/s (SPEC §7: 30 °/s = 0.5236 rad/s)"),
+                           ("max_gap_samples", "> 0 sample periods (default 5)"),
+                           ("min_duration_s", "≥ 0 s (default 2)"), ("margin_s", "≥ 0 s (default 0.5)")):
+            try:
+                v = float(getattr(self, name))
+            except (TypeError, ValueError):
+                v = float("nan")
+            ok = v >= 0 if name in ("min_duration_s", "margin_s") else v > 0
+            if not (np.isfinite(v) and ok):
+                raise ModelError(f"DetectorConfig.{name} must be a finite number {rule}, got {getattr(self, name)!r}")
+        object.__setattr__(self, "window", int(w))
 
 
 @dataclass(frozen=True)
@@ -114,7 +125,7 @@ class Detection:
 
     ``statistic`` (n, 2) T of Eq. (9) for accel x, y [m/s²] (NaN while the window fills);
     ``threshold`` (n,) λ_i [m/s²]; ``static_raw`` the per-epoch test; ``static`` epochs inside the
-    kept (trimmed, long enough) ``segments``; ``gate_open`` |ω| > gate_rate.
+    kept (trimmed, long enough) ``segments``; ``gate_open`` ‖ω‖ > gate_rate.
     """
 
     t: np.ndarray
@@ -135,155 +146,40 @@ class Detection:
 @dataclass(frozen=True, eq=False)
 class ChunkDetection:
     """Per-epoch results of one :meth:`StaticDetector.push_chunk` call (fields as in :class:`Detection`)
-    and the segments completed inside the chunk."""
+    and the segments completed inside the chunk. ``completed_at[j]`` is the index (counted from the
+    detector's first sample) of the sample whose :meth:`StaticDetector.push` would have returned
+    ``segments[j]``: the first non-static sample after its run."""
 
     statistic: np.ndarray
     threshold: np.ndarray
     static_raw: np.ndarray
     gate_open: np.ndarray
     segments: list[StaticSegment]
-
-
-# --------------------------------------------------------------------------------------------------
-# numba kernel. State layout (kept in arrays so that a streaming detector can carry it between calls):
-#   buf (N, 2)   ring buffer of accel x, y
-#   sf  float64: 0 mean_x, 1 mean_y, 2 m2_x, 3 m2_y, 4 T_prev_x, 5 T_prev_y, 6 lam_prev, 7 t_prev
-#   si  int64:   0 count in window, 1 ring position, 2 k (static run length), 3 prev static,
-#                4 has t_prev, 5 has T_prev
-_SF, _SI = 8, 6
-
-
-@njit(cache=True)
-def _reset(sf, si, lambda0):
-    sf[0] = 0.0
-    sf[1] = 0.0
-    sf[2] = 0.0
-    sf[3] = 0.0
-    sf[4] = np.nan
-    sf[5] = np.nan
-    sf[6] = lambda0
-    si[0] = 0
-    si[1] = 0
-    si[2] = 0
-    si[3] = 0
-    si[5] = 0
-
-
-@njit(cache=True)
-def _kernel(t, ax, ay, wnorm, window, lambda0, gate_rate, adaptive, max_gap, buf, sf, si, T, lam, st, gate):
-    n = t.shape[0]
-    lo = 0.5 * lambda0
-    hi = 2.0 * lambda0
-    for i in range(n):
-        x = ax[i]
-        y = ay[i]
-        if si[4] == 1 and t[i] - sf[7] > max_gap:
-            _reset(sf, si, lambda0)
-        sf[7] = t[i]
-        si[4] = 1
-        gate[i] = not (wnorm[i] <= gate_rate)  # NaN rate → gate open (conservative)
-        if not (np.isfinite(x) and np.isfinite(y)):
-            _reset(sf, si, lambda0)
-            T[i, 0] = np.nan
-            T[i, 1] = np.nan
-            lam[i] = lambda0
-            st[i] = False
-            continue
-        pos = si[1]
-        if si[0] < window:
-            # Welford growth while the window fills
-            si[0] += 1
-            c = si[0]
-            d = x - sf[0]
-            sf[0] += d / c
-            sf[2] += d * (x - sf[0])
-            d = y - sf[1]
-            sf[1] += d / c
-            sf[3] += d * (y - sf[1])
-        else:
-            ox = buf[pos, 0]
-            oy = buf[pos, 1]
-            mx = sf[0] + (x - ox) / window
-            sf[2] += (x - ox) * (x - mx + ox - sf[0])
-            sf[0] = mx
-            my = sf[1] + (y - oy) / window
-            sf[3] += (y - oy) * (y - my + oy - sf[1])
-            sf[1] = my
-        buf[pos, 0] = x
-        buf[pos, 1] = y
-        pos += 1
-        if pos == window:
-            pos = 0
-        si[1] = pos
-        if si[0] == window and pos == 0:
-            # exact two-pass recomputation once per lap of the ring buffer (drift control)
-            sx = 0.0
-            sy = 0.0
-            for j in range(window):
-                sx += buf[j, 0]
-                sy += buf[j, 1]
-            sx /= window
-            sy /= window
-            qx = 0.0
-            qy = 0.0
-            for j in range(window):
-                qx += (buf[j, 0] - sx) ** 2
-                qy += (buf[j, 1] - sy) ** 2
-            sf[0] = sx
-            sf[1] = sy
-            sf[2] = qx
-            sf[3] = qy
-        if si[0] < window:
-            T[i, 0] = np.nan
-            T[i, 1] = np.nan
-            lam[i] = lambda0
-            st[i] = False
-            continue
-        tx = np.sqrt(max(sf[2], 0.0) / (window - 1))
-        ty = np.sqrt(max(sf[3], 0.0) / (window - 1))
-        if adaptive and si[5] == 1 and si[3] == 1:
-            k = si[2]
-            jump = max(abs(tx - sf[4]), abs(ty - sf[5]))
-            li = (k * sf[6] + 2.0 * lambda0 - jump) / (k + 1)
-            li = min(max(li, lo), hi)
-        else:
-            li = lambda0
-        s = tx < li and ty < li
-        T[i, 0] = tx
-        T[i, 1] = ty
-        lam[i] = li
-        st[i] = s
-        sf[4] = tx
-        sf[5] = ty
-        sf[6] = li
-        si[5] = 1
-        si[3] = 1 if s else 0
-        si[2] = si[2] + 1 if s else 0
+    completed_at: list[int] = field(default_factory=list)
 
 
 class _KernelState:
-    """Mutable state of :func:`_kernel` (ring buffer + scalars)."""
+    """Mutable state of :func:`imunoise.detect.kernels.detector_kernel` (ring buffer + scalars)."""
 
     def __init__(self, config: DetectorConfig, rate_hz: float):
-        if not np.isfinite(rate_hz) or rate_hz <= 0:
-            raise DataError(f"rate_hz must be a positive sampling rate in Hz, got {rate_hz!r}")
+        try:
+            rate = float(rate_hz)
+        except (TypeError, ValueError):
+            rate = float("nan")
+        if not (np.isfinite(rate) and rate > 0):
+            raise DataError(f"rate_hz must be the positive nominal sampling rate in Hz (e.g. 100.0), got {rate_hz!r}")
         self.config = config
-        self.max_gap = float(config.max_gap_samples) / float(rate_hz)
+        self.max_gap = float(config.max_gap_samples) / rate
         self.buf = np.zeros((config.window, 2))
-        self.sf = np.zeros(_SF)
-        self.si = np.zeros(_SI, dtype=np.int64)
-        _reset(self.sf, self.si, float(config.lambda0))
+        self.sf = np.zeros(N_SF)
+        self.si = np.zeros(N_SI, dtype=np.int64)
+        reset_state(self.sf, self.si, float(config.lambda0))
 
-    def run(self, t, ax, ay, wnorm):
-        n = t.shape[0]
-        T = np.empty((n, 2))
-        lam = np.empty(n)
-        st = np.zeros(n, dtype=np.bool_)
-        gate = np.zeros(n, dtype=np.bool_)
+    def run(self, t, accel, gyro, T, lam, st, gate) -> None:
+        """Advance over ``t`` (m,), ``accel``/``gyro`` (m, 3) C-contiguous; outputs written in place."""
         c = self.config
-        _kernel(t, ax, ay, wnorm, c.window, float(c.lambda0), float(c.gate_rate), bool(c.adaptive),
-                self.max_gap, self.buf, self.sf, self.si, T, lam, st, gate)
-        return T, lam, st, gate
+        detector_kernel(t, accel, gyro, c.window, float(c.lambda0), float(c.gate_rate), bool(c.adaptive),
+                        self.max_gap, self.buf, self.sf, self.si, T, lam, st, gate)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -296,18 +192,23 @@ def moving_std(x: np.ndarray, window: int = 100) -> np.ndarray:
     ``x`` (n,) or (n, m); the first ``window − 1`` outputs are NaN. O(n) via the detector kernel.
     """
     x = np.asarray(x, dtype=float)
+    if x.ndim not in (1, 2):
+        raise DataError(f"moving_std: x must be (n,) or (n, m) samples, got shape {x.shape}")
     one = x.ndim == 1
     x2 = x[:, None] if one else x
     n, m = x2.shape
     out = np.empty((n, m))
     cfg = DetectorConfig(window=window, lambda0=1.0, adaptive=False)
     t = np.arange(n, dtype=float)
-    zeros = np.zeros(n)
+    gyro = np.zeros((n, 3))
+    lam, st, gate = np.empty(n), np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.bool_)
     for j in range(0, m, 2):
         state = _KernelState(cfg, 1.0)
-        a = np.ascontiguousarray(x2[:, j])
-        b = np.ascontiguousarray(x2[:, j + 1]) if j + 1 < m else a
-        T, _, _, _ = state.run(t, a, b, zeros)
+        acc = np.zeros((n, 3))
+        acc[:, 0] = x2[:, j]
+        acc[:, 1] = x2[:, j + 1] if j + 1 < m else x2[:, j]
+        T = np.empty((n, 2))
+        state.run(t, acc, gyro, T, lam, st, gate)
         out[:, j] = T[:, 0]
         if j + 1 < m:
             out[:, j + 1] = T[:, 1]
@@ -346,7 +247,7 @@ def adaptive_threshold(statistic: np.ndarray, lambda0: float = 0.02) -> tuple[np
 
 
 def angular_rate_gate(gyro: np.ndarray, gate_rate: float = float(np.deg2rad(30.0))) -> np.ndarray:
-    """Gate open where |ω| = ‖gyro‖ > ``gate_rate`` [rad/s] (SPEC §7, paper §2.3; NaN → open)."""
+    """Gate open where ‖ω‖ = ‖gyro‖ > ``gate_rate`` [rad/s] (SPEC §7, paper §2.3; NaN → open)."""
     w = np.linalg.norm(np.atleast_2d(np.asarray(gyro, dtype=float)), axis=1)
     return ~(w <= gate_rate)
 
@@ -378,42 +279,19 @@ def learn_lambda0(
             "give a longer known stop (e.g. --learn-from with more seconds)"
         )
     if not np.all(np.isfinite(a[:, :2])):
-        raise DataError("learn_lambda0: static accel contains NaN/Inf")
-    if not (0.0 < quantile <= 1.0) or not factor > 0:
-        raise ImunoiseError(f"learn_lambda0: need 0 < quantile ≤ 1 and factor > 0, got {quantile}, {factor}")
+        raise DataError(
+            "learn_lambda0: the static accel contains NaN/Inf; choose a known stop without gaps or fill them"
+        )
+    if not (0.0 < quantile <= 1.0) or not (factor > 0 and np.isfinite(factor)):
+        raise ModelError(
+            f"learn_lambda0: need 0 < quantile ≤ 1 and a finite factor > 0 (defaults 0.5 and 2), got "
+            f"quantile={quantile!r}, factor={factor!r}"
+        )
     T = moving_std(a[:, :2], window)[window - 1 :]
     lam0 = float(factor * np.quantile(T.ravel(), quantile))
     if not lam0 > 0:
         raise DataError("learn_lambda0: the static accel is constant (T = 0); λ_0 cannot be learned from it")
     return lam0
-
-
-# --------------------------------------------------------------------------------------------------
-# segments
-
-
-def _trim_run(t: np.ndarray, a: int, b: int, config: DetectorConfig) -> StaticSegment | None:
-    """Segment of the static run a..b (inclusive) after trimming, or None if too short."""
-    lo = t[a] + config.margin_s
-    hi = t[b] - config.margin_s
-    i0 = a + int(np.searchsorted(t[a : b + 1], lo, side="left"))
-    i1 = a + int(np.searchsorted(t[a : b + 1], hi, side="right"))  # exclusive
-    if i1 <= i0 or t[i1 - 1] - t[i0] < config.min_duration_s:
-        return None
-    return StaticSegment(float(t[i0]), float(t[i1 - 1]), i0, i1)
-
-
-def _segments_from_raw(t: np.ndarray, static_raw: np.ndarray, config: DetectorConfig) -> list[StaticSegment]:
-    s = np.concatenate([[False], static_raw, [False]]).astype(np.int8)
-    d = np.diff(s)
-    starts = np.flatnonzero(d == 1)
-    ends = np.flatnonzero(d == -1) - 1
-    out = []
-    for a, b in zip(starts, ends, strict=True):
-        seg = _trim_run(t, int(a), int(b), config)
-        if seg is not None:
-            out.append(seg)
-    return out
 
 
 def _check_inputs(t, accel, gyro) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -440,6 +318,11 @@ def _check_inputs(t, accel, gyro) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return t, accel, gyro
 
 
+CHUNK = 65_536
+"""Samples per :meth:`StaticDetector.push_chunk` call in :func:`detect_static` (large enough that the per-call
+overhead is negligible, small enough to stay in cache)."""
+
+
 def detect_static(
     t: np.ndarray,
     accel: np.ndarray,
@@ -449,22 +332,47 @@ def detect_static(
 ) -> Detection:
     """Static detection over a whole record (SPEC §7; paper Eq. 9, our reading of Eq. 10).
 
-    ``t`` (n,) s strictly increasing; ``accel`` (n, 3) m/s² and ``gyro`` (n, 3) rad/s in body axes
-    (x, y horizontal). ``rate_hz`` (default 1/median Δt) only sets the gap that restarts the window.
-    Same per-epoch results as :class:`StaticDetector` fed the same samples.
+    The streaming :class:`StaticDetector` fed the record in chunks of :data:`CHUNK` samples and closed with
+    :meth:`StaticDetector.finish`: the same per-epoch results and segments as feeding it sample by sample.
+
+    Parameters
+    ----------
+    t
+        (n,) time [s], strictly increasing, finite.
+    accel, gyro
+        (n, 3) specific force [m/s²] and angular rate [rad/s] in body axes (x, y horizontal), finite.
+    config
+        Detector settings (SPEC §7).
+    rate_hz
+        Nominal rate [Hz] (default 1/median Δt); only sets the gap that restarts the window.
+
+    Returns
+    -------
+    Detection
+        Per-epoch statistic, threshold, raw test, gate; the kept segments and their mask ``static``.
     """
     t, accel, gyro = _check_inputs(t, accel, gyro)
     n = t.size
     if n < config.window:
-        raise DataError(f"detect_static: {n} samples, fewer than the window N = {config.window}")
+        raise DataError(
+            f"detect_static: {n} samples, fewer than the window N = {config.window}; give a longer record "
+            "or a smaller DetectorConfig.window"
+        )
     if rate_hz is None:
         rate_hz = 1.0 / float(np.median(np.diff(t)))
-    state = _KernelState(config, rate_hz)
-    wnorm = np.linalg.norm(gyro, axis=1)
-    T, lam, st, gate = state.run(
-        t, np.ascontiguousarray(accel[:, 0]), np.ascontiguousarray(accel[:, 1]), wnorm
-    )
-    segments = _segments_from_raw(t, st, config)
+    sd = StaticDetector(config, rate_hz)
+    accel = np.ascontiguousarray(accel)
+    gyro = np.ascontiguousarray(gyro)
+    T = np.empty((n, 2))
+    lam = np.empty(n)
+    st = np.empty(n, dtype=np.bool_)
+    gate = np.empty(n, dtype=np.bool_)
+    segments: list[StaticSegment] = []
+    for a in range(0, n, CHUNK):
+        b = min(a + CHUNK, n)
+        # views into the full-length outputs: the chunks are written in place, no copies
+        segments.extend(sd._advance(t[a:b], accel[a:b], gyro[a:b], T[a:b], lam[a:b], st[a:b], gate[a:b])[0])
+    segments.extend(sd.finish())
     static = np.zeros(n, dtype=bool)
     for s in segments:
         static[s.i0 : s.i1] = True
@@ -472,8 +380,47 @@ def detect_static(
                      gate_open=gate, config=config)
 
 
+def _as_time(t: object, where: str) -> float:
+    try:
+        return float(t)  # type: ignore[arg-type]
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"{where}: time must be a number of seconds, got {t!r}") from exc
+
+
+_PUSH_SHAPE = "StaticDetector.push: accel and gyro must be 3 numbers each (x, y, z; m/s² and rad/s), got "
+
+
+def _shape(x: object) -> tuple[int, ...]:
+    return x.shape if type(x) is np.ndarray else np.shape(x)
+
+
+def _runs(static: np.ndarray) -> tuple[list[int], list[int]]:
+    """First and last index (inclusive) of each run of True in ``static``."""
+    if static.size == 1:  # the per-sample push: skip the array machinery (same result)
+        return ([0], [0]) if static[0] else ([], [])
+    d = np.diff(np.concatenate([[0], static.astype(np.int8), [0]]))
+    return np.flatnonzero(d == 1).tolist(), (np.flatnonzero(d == -1) - 1).tolist()
+
+
+_SHORT = 64
+"""Chunks up to this length are segmented on Python floats (bisect), longer ones on arrays (searchsorted):
+the same comparisons of the same float64 values, chosen only for speed (a per-sample push is a chunk of 1)."""
+
+
+def _searchsorted(ts: np.ndarray | list[float], v: float, right: bool) -> int:
+    """Number of times in the sorted ``ts`` below ``v`` (at or below when ``right``)."""
+    if isinstance(ts, list):
+        return bisect_right(ts, v) if right else bisect_left(ts, v)
+    return int(np.searchsorted(ts, v, side="right" if right else "left"))
+
+
+def _as_list(ts: np.ndarray | list[float]) -> list[float]:
+    return ts if isinstance(ts, list) else ts.tolist()
+
+
 class StaticDetector:
-    """Streaming static detector: one sample at a time (or chunks), same results as :func:`detect_static`.
+    """Streaming static detector (SPEC §7): one sample at a time or chunks; the only detector implementation
+    (:func:`detect_static` feeds it the record in chunks, the online engine per sample or per chunk).
 
     ``push`` returns the segments completed at this sample (trimmed, long enough; usually empty): a
     segment is known when its run of static epochs ends, i.e. at the first non-static sample, so it is
@@ -481,93 +428,121 @@ class StaticDetector:
     to close a run still open. ``is_static`` is the raw per-epoch test of the latest sample (the trimmed
     mask is known only in hindsight); ``gate_open``, ``statistic`` (2,) and ``threshold`` are also for
     the latest sample. A non-finite accel sample restarts the window (counted in ``n_rejected``).
+
+    Parameters
+    ----------
+    config
+        Detector settings.
+    rate_hz
+        Nominal sampling rate [Hz] (> 0); sets the time gap (``max_gap_samples`` periods) that restarts the
+        window.
     """
 
     def __init__(self, config: DetectorConfig = DetectorConfig(), rate_hz: float = 100.0):  # noqa: B008
+        if not isinstance(config, DetectorConfig):
+            raise ModelError(f"StaticDetector: config must be a DetectorConfig, got {type(config).__name__}")
         self.config = config
+        self._state = _KernelState(config, rate_hz)
+        k = self._state
+        self._kargs = (config.window, float(config.lambda0), float(config.gate_rate), bool(config.adaptive),
+                       k.max_gap, k.buf, k.sf, k.si)  # the kernel's settings and state, in its argument order
         self.rate_hz = float(rate_hz)
-        self._state = _KernelState(config, self.rate_hz)
         self._n = 0
         self._t_last = -np.inf
         self.is_static = False
         self.gate_open = False
         self.statistic = np.full(2, np.nan)
         self.threshold = float(config.lambda0)
-        self.n_rejected = 0
         self._run_start: tuple[int, float] | None = None  # (index, t) of the first sample of the run
         self._run_i0: tuple[int, float] | None = None  # first sample at ≥ t_start + margin
         self._run_tail: deque[tuple[int, float]] = deque()  # candidates for the trimmed end
         self._run_last: tuple[int, float] | None = None
-        self._one = {
-            "t": np.zeros(1), "ax": np.zeros(1), "ay": np.zeros(1), "w": np.zeros(1), "T": np.zeros((1, 2)),
-            "lam": np.zeros(1), "st": np.zeros(1, dtype=np.bool_), "gate": np.zeros(1, dtype=np.bool_),
-        }
+        # one-sample buffers of push (no allocation per sample)
+        self._one = (np.zeros(1), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 2)), np.zeros(1),
+                     np.zeros(1, dtype=np.bool_), np.zeros(1, dtype=np.bool_))
 
     @property
     def n_samples(self) -> int:
+        """Samples fed so far."""
         return self._n
 
-    def push(self, t: float, accel: np.ndarray, gyro: np.ndarray) -> list[StaticSegment]:
-        """Feed one sample: ``t`` [s], ``accel`` (3,) m/s², ``gyro`` (3,) rad/s.
+    @property
+    def n_rejected(self) -> int:
+        """Samples with a non-finite accel x or y so far (each restarted the window)."""
+        return int(self._state.si[6])
 
-        About 10 µs per call; for replay prefer :meth:`push_chunk` (same results)."""
-        t = float(t)
+    def push(self, t: float, accel: np.ndarray, gyro: np.ndarray) -> list[StaticSegment]:
+        """Feed one sample: ``t`` [s], ``accel`` (3,) m/s², ``gyro`` (3,) rad/s. Returns the segments
+        completed at this sample. Same code as :meth:`push_chunk` with a chunk of one sample.
+
+        Parameters
+        ----------
+        t : float
+            Time [s]; stamps must increase strictly.
+        accel : numpy.ndarray
+            Specific force [m/s²], shape (3,).
+        gyro : numpy.ndarray
+            Angular rate [rad/s], shape (3,).
+
+        Returns
+        -------
+        list of StaticSegment
+            The segments completed at this sample (usually none).
+        """
+        t = _as_time(t, "StaticDetector.push")
         if not t > self._t_last:
             raise DataError(
-                f"StaticDetector.push: time {t!r} does not follow {self._t_last!r}; stamps must increase"
+                f"StaticDetector.push: time {t!r} does not follow {self._t_last!r}; stamps must increase strictly"
             )
-        ax, ay = float(accel[0]), float(accel[1])
-        gx, gy, gz = float(gyro[0]), float(gyro[1]), float(gyro[2])
-        b = self._one
-        b["t"][0] = t
-        b["ax"][0] = ax
-        b["ay"][0] = ay
-        b["w"][0] = np.sqrt(gx * gx + gy * gy + gz * gz)
-        c, k = self.config, self._state
-        _kernel(b["t"], b["ax"], b["ay"], b["w"], c.window, float(c.lambda0), float(c.gate_rate),
-                bool(c.adaptive), k.max_gap, k.buf, k.sf, k.si, b["T"], b["lam"], b["st"], b["gate"])
-        if not (np.isfinite(ax) and np.isfinite(ay)):
-            self.n_rejected += 1
-        self._t_last = t
-        i = self._n
-        self._n += 1
-        self.statistic = b["T"][0].copy()
-        self.threshold = float(b["lam"][0])
-        self.is_static = bool(b["st"][0])
-        self.gate_open = bool(b["gate"][0])
-        return self._segment_step(i, t, self.is_static)
+        tb, ab, gb, T, lam, st, gate = self._one
+        # shape first: numpy would broadcast a scalar or a 1-element array to the three axes
+        if _shape(accel) != (3,) or _shape(gyro) != (3,):
+            raise DataError(f"{_PUSH_SHAPE}shapes {np.shape(accel)} and {np.shape(gyro)}")
+        try:
+            ab[0] = accel
+            gb[0] = gyro
+        except (TypeError, ValueError) as exc:
+            raise DataError(f"{_PUSH_SHAPE}{accel!r} and {gyro!r}") from exc
+        tb[0] = t
+        return self._advance(tb, ab, gb, T, lam, st, gate)[0]
 
     def push_chunk(self, t: np.ndarray, accel: np.ndarray, gyro: np.ndarray) -> ChunkDetection:
         """Feed a chunk of samples (m,), (m, 3), (m, 3): per-epoch results and completed segments,
-        identical to feeding the samples one by one with :meth:`push`."""
-        t = np.ascontiguousarray(t, dtype=float).reshape(-1)
-        accel = np.asarray(accel, dtype=float).reshape(-1, 3)
-        gyro = np.asarray(gyro, dtype=float).reshape(-1, 3)
+        identical to feeding the samples one by one with :meth:`push`.
+
+        Parameters
+        ----------
+        t : numpy.ndarray
+            Times [s], shape (m,), increasing and after the last sample fed.
+        accel, gyro : numpy.ndarray
+            Specific force [m/s²] and angular rate [rad/s], shape (m, 3).
+
+        Returns
+        -------
+        ChunkDetection
+            Per-epoch statistic, threshold, static and gate flags, and the completed segments.
+        """
+        try:
+            t = np.ascontiguousarray(t, dtype=float).reshape(-1)
+            accel = np.ascontiguousarray(accel, dtype=float)
+            gyro = np.ascontiguousarray(gyro, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise DataError(f"StaticDetector.push_chunk: t, accel, gyro must be numeric arrays ({exc})") from exc
         m = t.size
-        if accel.shape[0] != m or gyro.shape[0] != m:
+        if accel.shape != (m, 3) or gyro.shape != (m, 3):
             raise DataError(
-                f"StaticDetector.push_chunk: {m} times but accel {accel.shape}, gyro {gyro.shape}"
+                f"StaticDetector.push_chunk: accel and gyro must be (m, 3) with m = len(t) = {m}, got "
+                f"{accel.shape} and {gyro.shape}"
             )
         if m == 0:
             e = np.zeros(0, dtype=bool)
-            return ChunkDetection(np.zeros((0, 2)), np.zeros(0), e, e.copy(), [])
-        if not (t[0] > self._t_last and np.all(np.diff(t) > 0)):
-            raise DataError(
-                "StaticDetector.push_chunk: time stamps must increase strictly, also across chunks "
-                f"(chunk starts at {t[0]!r}, previous sample {self._t_last!r})"
-            )
-        ax = np.ascontiguousarray(accel[:, 0])
-        ay = np.ascontiguousarray(accel[:, 1])
-        T, lam, st, gate = self._state.run(t, ax, ay, np.sqrt(np.sum(gyro * gyro, axis=1)))
-        self.n_rejected += int(np.sum(~(np.isfinite(ax) & np.isfinite(ay))))
-        base = self._n
-        self._n += m
-        self._t_last = float(t[-1])
-        self.statistic = T[-1].copy()
-        self.threshold = float(lam[-1])
-        self.is_static = bool(st[-1])
-        self.gate_open = bool(gate[-1])
-        return ChunkDetection(T, lam, st, gate, self._segment_chunk(base, t, st))
+            return ChunkDetection(np.zeros((0, 2)), np.zeros(0), e, e.copy(), [], [])
+        T = np.empty((m, 2))
+        lam = np.empty(m)
+        st = np.empty(m, dtype=np.bool_)
+        gate = np.empty(m, dtype=np.bool_)
+        segs, done = self._advance(t, accel, gyro, T, lam, st, gate)
+        return ChunkDetection(T, lam, st, gate, segs, done)
 
     def push_many(self, t: np.ndarray, accel: np.ndarray, gyro: np.ndarray) -> list[StaticSegment]:
         """Feed a chunk (m,), (m, 3), (m, 3); returns the segments completed inside it."""
@@ -577,58 +552,69 @@ class StaticDetector:
         """Close a run still open at the end of the data (as :func:`detect_static` does)."""
         return self._close_run()
 
-    def _segment_step(self, i: int, t: float, static: bool) -> list[StaticSegment]:
-        c = self.config
-        if static:
-            if self._run_start is None:
-                self._run_start = (i, t)
-                self._run_i0 = None
-                self._run_tail.clear()
-            if self._run_i0 is None and t >= self._run_start[1] + c.margin_s:
-                self._run_i0 = (i, t)
-            tail = self._run_tail
-            tail.append((i, t))
-            # keep the last sample at or before (t_now − margin) and everything after it
-            while len(tail) >= 2 and tail[1][1] <= t - c.margin_s:
-                tail.popleft()
-            self._run_last = (i, t)
-            return []
-        return self._close_run()
+    def _advance(self, t, accel, gyro, T, lam, st, gate) -> tuple[list[StaticSegment], list[int]]:
+        """The one step of every form: run the kernel over the chunk (outputs written into ``T``, ``lam``,
+        ``st``, ``gate``), update the latest-sample attributes, cut the segments. ``t`` (m ≥ 1,) and
+        ``accel``/``gyro`` (m, 3) C-contiguous float arrays."""
+        m = t.size
+        if not (float(t[0]) > self._t_last and (m == 1 or bool(np.all(t[1:] > t[:-1])))):
+            raise DataError(
+                "StaticDetector: time stamps must increase strictly, also across chunks "
+                f"(chunk starts at {t[0]!r}, previous sample {self._t_last!r}); sort them and drop duplicates"
+            )
+        detector_kernel(t, accel, gyro, *self._kargs, T, lam, st, gate)
+        base = self._n
+        self._n += m
+        self._t_last = float(t[-1])
+        self.statistic = T[-1].copy()
+        self.threshold = float(lam[-1])
+        self.is_static = bool(st[-1])
+        self.gate_open = bool(gate[-1])
+        return self._segment_chunk(base, t, st)
 
-    def _segment_chunk(self, base: int, tc: np.ndarray, sc: np.ndarray) -> list[StaticSegment]:
-        """Chunk form of :meth:`_segment_step` (same rules, vectorised over the runs of the chunk)."""
+    def _segment_chunk(self, base: int, tc: np.ndarray, sc: np.ndarray) -> tuple[list[StaticSegment], list[int]]:
+        """Segments completed in the chunk (samples ``base`` …) and the index of the sample completing each.
+
+        A run is trimmed by ``margin_s`` at both ends and kept when the trimmed part lasts ≥ ``min_duration_s``
+        (module docstring, step 4); a run may span chunks (its start and end candidates are carried)."""
         margin = self.config.margin_s
         out: list[StaticSegment] = []
+        done: list[int] = []
         m = tc.size
+        seq = tc.tolist() if m <= _SHORT else tc
         if self._run_start is not None and not sc[0]:
-            out.extend(self._close_run())
-        d = np.diff(np.concatenate([[0], sc.astype(np.int8), [0]]))
-        starts = np.flatnonzero(d == 1)
-        ends = np.flatnonzero(d == -1) - 1
-        for p, q in zip(starts.tolist(), ends.tolist(), strict=True):
+            for s in self._close_run():
+                out.append(s)
+                done.append(base)
+        starts, ends = _runs(sc)
+        for p, q in zip(starts, ends, strict=True):
             if not (p == 0 and self._run_start is not None):
-                self._run_start = (base + p, float(tc[p]))
+                self._run_start = (base + p, float(seq[p]))
                 self._run_i0 = None
                 self._run_tail.clear()
-            ts = tc[p : q + 1]
+            ts = seq[p : q + 1]
+            t_last = float(ts[-1])
             if self._run_i0 is None:
-                j = int(np.searchsorted(ts, self._run_start[1] + margin, side="left"))
-                if j < ts.size:
+                j = _searchsorted(ts, self._run_start[1] + margin, right=False)
+                if j < len(ts):
                     self._run_i0 = (base + p + j, float(ts[j]))
-            hi = ts[-1] - margin
-            cut = int(np.searchsorted(ts, hi, side="right")) - 1  # last sample at or before hi
+            hi = t_last - margin
+            cut = _searchsorted(ts, hi, right=True) - 1  # last sample at or before hi
             tail = self._run_tail
+            # keep the last sample at or before (t_now − margin) and everything after it
             if cut >= 0:
                 tail.clear()
-                tail.extend(zip(range(base + p + cut, base + q + 1), ts[cut:].tolist(), strict=True))
+                tail.extend(zip(range(base + p + cut, base + q + 1), _as_list(ts[cut:]), strict=True))
             else:
-                tail.extend(zip(range(base + p, base + q + 1), ts.tolist(), strict=True))
+                tail.extend(zip(range(base + p, base + q + 1), _as_list(ts), strict=True))
                 while len(tail) >= 2 and tail[1][1] <= hi:
                     tail.popleft()
-            self._run_last = (base + q, float(ts[-1]))
+            self._run_last = (base + q, t_last)
             if q < m - 1:
-                out.extend(self._close_run())
-        return out
+                for s in self._close_run():
+                    out.append(s)
+                    done.append(base + q + 1)
+        return out, done
 
     def _close_run(self) -> list[StaticSegment]:
         if self._run_start is None:

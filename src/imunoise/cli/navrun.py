@@ -1,0 +1,95 @@
+"""What ``imunoise nav`` and ``imunoise online`` share (SPEC §8, §12): the start of a run (inputs resolved, read
+and checked before the work) and its outputs (KF-GINS trajectory file, metrics of a run, outage summary).
+
+Not a command: it has no ``register`` function, so the sub-command discovery of :mod:`imunoise.cli` skips it.
+Light at import (no numpy), like :mod:`imunoise.cli.options`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from imunoise.cli.options import prepare_out_dir, read_json_option, read_nav_files, resolve_nav_inputs
+from imunoise.errors import ModelError
+
+__all__ = ["NavInputs", "read_nav_inputs", "write_trajectory", "run_metrics", "outage_summary"]
+
+
+@dataclass
+class NavInputs:
+    """The inputs of a navigation run, read; paths as given (for the messages), data in SI."""
+
+    dataset: Any  # the --data manifest (imunoise.io.dataset.Dataset) or None
+    imu_path: str
+    gnss_path: str
+    ref_path: str | None
+    outages_path: str | None
+    lever: Any  # np.ndarray (3,), m
+    imu: Any
+    gnss: Any
+    ref: Any  # Reference or None
+    notes: list[str]  # the readers' warnings, for metrics.json
+    windows: list[tuple[float, float]]  # GNSS outage windows (start, duration), s
+
+
+def read_nav_inputs(args: argparse.Namespace, log: logging.Logger) -> NavInputs:
+    """Resolve the files of :func:`~imunoise.cli.options.add_nav_input_options`, refuse an unusable ``--out``,
+    a malformed ``--model`` file and ``--outage-runs`` without windows before the work, then read the files
+    and the outage windows."""
+    from imunoise.io.kfgins import read_outages
+
+    ds, imu_p, gnss_p, ref_p, out_p, lever, offset = resolve_nav_inputs(args)
+    prepare_out_dir(args.out)  # an unusable --out fails before the work
+    if args.model:
+        read_json_option(args.model, "--model")  # a binary / malformed model file: one error naming it
+    if args.outage_runs and not out_p:
+        raise ModelError("--outage-runs needs --outages F (or a dataset.json with 'outages')")
+    imu, gnss, ref, notes = read_nav_files(imu_p, gnss_p, ref_p, offset, log)
+    windows = read_outages(out_p) if out_p else []
+    return NavInputs(ds, imu_p, gnss_p, ref_p, out_p, lever, imu, gnss, ref, notes, windows)
+
+
+def write_trajectory(path: Path, res: Any, ref: Any) -> None:
+    """Write a navigation result (``t``, ``llh``, ``vel_ned``, ``euler``) as a KF-GINS ``.nav`` file; the GPS
+    week is the reference's (0 without one)."""
+    import numpy as np
+
+    from imunoise.io.kfgins import Reference, write_reference
+
+    week = int(ref.week[0]) if ref is not None and ref.week.size else 0
+    write_reference(
+        path, Reference(t=res.t, llh=res.llh, vel_ned=res.vel_ned, euler=res.euler, week=np.full(res.t.size, week))
+    )
+
+
+def run_metrics(
+    res: Any, ref: Any, lever: Any, outages: Sequence[tuple[float, float]], duration_s: float
+) -> tuple[dict, Any]:
+    """The metrics of one run (SPEC §8): with a reference, the errors of the GNSS antenna and the drift over
+    ``outages`` (the windows removed in this run); without one, only the run time.
+
+    Returns
+    -------
+    tuple
+        (metrics dict, :class:`imunoise.nav.metrics.NavErrors` or None without a reference).
+    """
+    from imunoise.nav.metrics import nav_errors, summarize
+
+    if ref is None:
+        speed = {"elapsed_s": res.elapsed_s, "realtime_factor": duration_s / max(res.elapsed_s, 1e-9), "outages": []}
+        return speed, None
+    err = nav_errors(res.t, res.antenna_llh(lever), res.vel_ned, res.euler, ref)
+    return summarize(err, outages=outages, elapsed_s=res.elapsed_s, duration_s=duration_s), err
+
+
+def outage_summary(outs: list[dict]) -> dict:
+    """``metrics.json`` keys of ``--outage-runs``: the drift of each separate run at the end of its window and
+    their mean horizontal end drift."""
+    from imunoise.nav.metrics import mean_end_drift
+
+    return {"outages": outs, "mean_outage_end_horizontal_m": mean_end_drift(outs)}

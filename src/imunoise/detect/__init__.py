@@ -1,0 +1,17 @@
+"""Static (zero-motion) detection (SPEC §7, paper §2.3): Eq. 9 moving std, adaptive threshold, segments, gate.
+
+``kernels``: the numba kernel (one pass over a chunk, state carried between calls). ``detector``: the
+streaming :class:`StaticDetector` (the only detector implementation), :func:`detect_static` (that detector
+fed a whole record in chunks), :func:`learn_lambda0` and helpers. Every public name is importable from
+``imunoise.detect``.
+
+The second stage of the data path (IMU → detection → modelling → filter): it takes SI arrays, imports
+only :mod:`imunoise.errors`, and its segments and masks feed the modelling and the filter's ZUPT/gate.
+"""
+
+from __future__ import annotations
+
+from imunoise.detect import detector
+from imunoise.detect.detector import *  # noqa: F403 - the public names, listed once: in detector.__all__
+
+__all__ = list(detector.__all__)

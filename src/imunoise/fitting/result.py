@@ -1,0 +1,490 @@
+"""The result of a fit (SPEC §4): :class:`GMWMFit`, its confidence intervals, summary and JSON form.
+
+Every estimator (GMWM, refit, model selection, the AV and EM baselines) builds its result with the one
+factory :meth:`GMWMFit.from_problem`, so that WV, Ω, rate and GOF (paper Eq. 8) are always taken from
+the same :class:`~imunoise.fitting.problem.GMWMProblem`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.stats import norm
+
+from imunoise._version import __version__
+from imunoise.errors import DataError, ModelError
+from imunoise.fitting.params import kind_codes, theta_to_u, u_to_theta
+from imunoise.fitting.problem import GMWMProblem
+from imunoise.model import Model
+from imunoise.wv import WaveletVariance, scale_runs
+
+__all__ = [
+    "GMWMFit",
+    "PARAM_UNITS",
+    "CONTINUOUS_UNITS",
+    "unit_text",
+    "band_departures",
+    "departures_text",
+]
+
+# Units of each per-sample parameter and continuous quantity, in terms of the data unit "u".
+PARAM_UNITS = {"phi": "1", "sigma2": "u²", "q2": "u²", "gamma2": "u²", "omega": "u"}
+CONTINUOUS_UNITS = {
+    "noise_density": "u/√Hz",
+    "q_ieee": "u·s",
+    "random_walk": "u/s/√Hz",
+    "rate_ramp": "u/s",
+    "tau_c": "s",
+    "sigma_gm": "u",
+    "q_c": "u²/s",
+}
+
+
+def unit_text(template: str, unit: str) -> str:
+    """Put the data unit into a unit template: 'u²' with 'rad/s' gives '(rad/s)²', not 'rad/s²'.
+
+    Parameters
+    ----------
+    template
+        A unit written in terms of the data unit ``u`` (:data:`PARAM_UNITS`, :data:`CONTINUOUS_UNITS`).
+    unit
+        The data unit.
+
+    Returns
+    -------
+    str
+        The unit text (``"1"`` stays ``"1"``).
+    """
+    compound = any(ch in unit for ch in "/·* ")
+    if compound:
+        template = template.replace("u²", "(u)²").replace("u·", "(u)·")
+    return template.replace("u", unit) if template != "1" else "1"
+
+
+def _ci_text(ci: tuple[float, float] | None, available: bool = True) -> str:
+    # three different statements: no CI was computed (AV/EM fits, singular Ω), the data do not
+    # determine the parameter (infinite variance, see imunoise.fitting.problem.param_cov), or they
+    # barely do (> 6 decades wide)
+    if not available:
+        return f"{'no CI':^29}"
+    if ci is None or not all(math.isfinite(c) for c in ci):
+        return f"{'(not identified)':^29}"
+    lo, hi = ci
+    if lo > 0 and hi / lo > 1e6:
+        return f"{'(CI wider than 10⁶×)':^29}"
+    return f"[{lo:>12.5g}, {hi:>12.5g}]"
+
+
+def band_departures(
+    wv: WaveletVariance, theoretical: np.ndarray, *, min_levels: int = 2
+) -> list[tuple[float, float]]:
+    """Ranges of scales where a model's WV leaves the empirical WV's confidence band (SPEC §3).
+
+    Parameters
+    ----------
+    wv
+        Empirical wavelet variance with its (1 − α) interval ``ci_low``/``ci_high``.
+    theoretical
+        The model's WV at ``wv.scales`` (e.g. :attr:`GMWMFit.theoretical_wv`).
+    min_levels
+        Shortest run of consecutive levels outside the band that is reported. Each level's interval
+        misses the truth with probability α, so a single level outside is expected now and then from a
+        right model (about once in 20 levels at α = 0.05); two adjacent ones rarely are.
+
+    Returns
+    -------
+    list of (tau_lo_s, tau_hi_s)
+        First and last scale τ_j = 2^j/f [s] of each run, finest first; empty when the fit stays inside.
+    """
+    nu = np.asarray(theoretical, dtype=float).reshape(-1)
+    if nu.shape != wv.variance.shape:
+        raise DataError(f"theoretical WV has {nu.size} levels, the empirical WV {wv.variance.size}")
+    outside = ~((nu >= wv.ci_low) & (nu <= wv.ci_high))  # NaN counts as outside
+    tau = wv.scales / wv.freq
+    return [(float(tau[j]), float(tau[k])) for j, k in scale_runs(outside) if k - j + 1 >= min_levels]
+
+
+def departures_text(ranges: list[tuple[float, float]]) -> str:
+    """'0.02–0.04 s, 655 s' for :func:`band_departures` ranges (one number where a range is one level).
+
+    Parameters
+    ----------
+    ranges
+        Output of :func:`band_departures`.
+
+    Returns
+    -------
+    str
+        Comma-separated scale ranges in seconds.
+    """
+    return ", ".join(f"{a:.3g} s" if a == b else f"{a:.3g}–{b:.3g} s" for a, b in ranges)
+
+
+@dataclass
+class GMWMFit:
+    """Result of :func:`imunoise.estimator.gmwm` and the other estimators (SPEC §4).
+
+    ``objective`` is the paper's GOF (Eq. 8). Build one with :meth:`from_problem`.
+
+    Attributes
+    ----------
+    model : Model
+        The fitted model (known parameters, per sample; ``params`` gives them by name).
+    objective : float
+        GOF (ν̂ − ν(θ̂))ᵀ Ω (ν̂ − ν(θ̂)) at the estimate (paper Eq. 8).
+    wv : WaveletVariance
+        The empirical WV the model was fitted to.
+    weights : str
+        How Ω was formed: ``"efficient"``, ``"diagonal"``, ``"fast"``, ``"identity"`` or ``"custom"``.
+    omega_sqrt : numpy.ndarray
+        W with WᵀW = Ω, shape (J, J).
+    converged : bool
+        Whether the solver met its tolerance.
+    elapsed_s : float
+        Wall-clock time of the fit [s].
+    freq : float
+        Sample rate [Hz].
+    unit : str
+        Unit of the data (``u`` in the parameter units).
+    iterations : int
+        Solver iterations.
+    n_starts : int
+        Starting points tried.
+    param_cov_u : numpy.ndarray or None
+        Covariance of the internal (unconstrained) parameters u, for the confidence intervals.
+    method : str
+        The estimator (``"gmwm"``, ``"em"``, ``"av"``, …).
+    extra : dict
+        Estimator-specific details.
+    """
+
+    model: Model
+    objective: float
+    wv: WaveletVariance
+    weights: str
+    omega_sqrt: np.ndarray
+    converged: bool
+    elapsed_s: float
+    freq: float = 1.0
+    unit: str = "u"
+    iterations: int = 0
+    n_starts: int = 0
+    param_cov_u: np.ndarray | None = None  # covariance of the internal parameters u
+    method: str = "gmwm"
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def from_problem(
+        cls,
+        problem: GMWMProblem,
+        model: Model,
+        *,
+        objective: float | None = None,
+        converged: bool = True,
+        method: str = "gmwm",
+        unit: str = "u",
+        iterations: int = 0,
+        n_starts: int = 0,
+        elapsed_s: float = 0.0,
+        param_cov_u: np.ndarray | None = None,
+        extra: dict[str, Any] | None = None,
+    ) -> GMWMFit:
+        """The fit of ``model`` on ``problem``: the one place a :class:`GMWMFit` is assembled (SPEC §4).
+
+        Parameters
+        ----------
+        problem
+            The problem the model was estimated on; its WV, Ω (``W``), weight name and rate are stored.
+        model
+            The estimated model (parameters per sample at ``problem.wv.freq``).
+        objective
+            The GOF (paper Eq. 8); default ``problem.objective(model)``. Model selection passes its own
+            compiled evaluation so that all candidates are compared on numbers computed the same way.
+        converged
+            Whether the estimator reached its stopping rule.
+        method
+            ``"gmwm"``, ``"av"`` (Allan baseline, SPEC §6) or ``"em"`` (EM baseline).
+        unit
+            Data unit named in summaries and JSON (``"u"``: unspecified).
+        iterations, n_starts
+            Solver iterations and starting points tried.
+        elapsed_s
+            Wall time of the estimate [s].
+        param_cov_u
+            Covariance of the unconstrained parameters (:func:`imunoise.fitting.problem.param_cov`).
+        extra
+            Method-specific results (WVIC, Allan reading, EM log-likelihood, data span, ...).
+
+        Returns
+        -------
+        GMWMFit
+        """
+        return cls(
+            model=model,
+            objective=problem.objective(model) if objective is None else objective,
+            wv=problem.wv,
+            weights=problem.weights,
+            omega_sqrt=problem.W,
+            converged=bool(converged),
+            elapsed_s=elapsed_s,
+            freq=float(problem.wv.freq),
+            unit=unit,
+            iterations=iterations,
+            n_starts=n_starts,
+            param_cov_u=param_cov_u,
+            method=method,
+            extra={} if extra is None else extra,
+        )
+
+    # -- basic views ------------------------------------------------------------------------------
+    @property
+    def params(self) -> dict[str, float]:
+        return self.model.params
+
+    @property
+    def theoretical_wv(self) -> np.ndarray:
+        return self.model.wv(self.wv.scales)
+
+    @property
+    def n_params(self) -> int:
+        return self.model.n_params
+
+    @property
+    def omega(self) -> np.ndarray:
+        return self.omega_sqrt.T @ self.omega_sqrt
+
+    def objective_at(self, params: dict[str, float] | Model) -> float:
+        """The same objective (same WV, same Ω; paper Eq. 6/8) at other parameters.
+
+        Parameters
+        ----------
+        params
+            Parameters with canonical names (e.g. ``{"WN.sigma2": 1e-4}``) or a model of the same structure.
+
+        Returns
+        -------
+        float
+            (ν̂ − ν(θ))ᵀΩ(ν̂ − ν(θ)).
+        """
+        model = params if isinstance(params, Model) else self.model.unknown().with_params(params)
+        r = self.omega_sqrt @ (self.wv.variance - model.wv(self.wv.scales))
+        return float(r @ r)
+
+    def continuous(self) -> dict[str, float]:
+        """Continuous-time equivalents, SPEC §1–2 (units in :meth:`continuous_units`)."""
+        return self.model.continuous(self.freq)
+
+    def param_units(self) -> dict[str, str]:
+        return {n: unit_text(PARAM_UNITS[n.split(".")[1]], self.unit) for n in self.model.param_names}
+
+    def continuous_units(self) -> dict[str, str]:
+        return {k: unit_text(CONTINUOUS_UNITS[k.split(".")[1]], self.unit) for k in self.continuous()}
+
+    # -- confidence intervals (delta method in the unconstrained parametrisation) -------------------------
+    def _u(self) -> np.ndarray:
+        return theta_to_u(self.model.vector, kind_codes(self.model), 1.0)
+
+    def _link_values(self, u: np.ndarray) -> dict[str, float]:
+        model = self.model.with_vector(u_to_theta(u, kind_codes(self.model), 1.0))
+        out = {}
+        for name, value in model.params.items():
+            out[name] = (
+                math.log(-math.log(value)) if name.endswith(".phi") else math.log(max(abs(value), 1e-300))
+            )
+        for name, value in model.continuous(self.freq).items():
+            out[name] = math.log(max(abs(value), 1e-300))
+        return out
+
+    def confidence_intervals(self, level: float = 0.95) -> dict[str, tuple[float, float]]:
+        """Asymptotic CIs of every per-sample and continuous quantity (NaN where not available).
+
+        Cov(û) is the GMM sandwich (GᵀΩG)⁻¹GᵀΩVΩG(GᵀΩG)⁻¹ with V the WV covariance; each quantity's CI
+        is taken on a log scale (log(−ln φ) for φ) and mapped back, so it stays in its valid range.
+
+        Parameters
+        ----------
+        level
+            Coverage of the intervals.
+
+        Returns
+        -------
+        dict
+            ``{name: (low, high)}`` for every per-sample parameter and continuous quantity.
+        """
+        names = self.model.param_names + list(self.continuous())
+        if self.param_cov_u is None or np.any(np.isnan(self.param_cov_u)):
+            return {n: (math.nan, math.nan) for n in names}
+        cov = self.param_cov_u
+        free = np.isinf(np.diag(cov))  # not identified (see imunoise.fitting.problem.param_cov)
+        cov_id = np.where(np.isinf(cov), 0.0, cov)
+        z = float(norm.ppf(0.5 + level / 2))
+        u0 = self._u()
+        base = self._link_values(u0)
+        grads = {n: np.zeros(len(u0)) for n in base}
+        for i in range(len(u0)):
+            h = 1e-6 * max(1.0, abs(u0[i]))
+            up, dn = u0.copy(), u0.copy()
+            up[i] += h
+            dn[i] -= h
+            vu, vd = self._link_values(up), self._link_values(dn)
+            for n in base:
+                grads[n][i] = (vu[n] - vd[n]) / (2 * h)
+        values = {**self.params, **self.continuous()}
+        out = {}
+        for n in names:
+            g = grads[n]
+            if np.any(np.abs(g[free]) > 1e-9):
+                out[n] = (math.nan, math.nan)
+                continue
+            se = math.sqrt(max(float(g @ cov_id @ g), 0.0))
+            lo, hi = base[n] - z * se, base[n] + z * se
+            if n.endswith(".phi"):
+                out[n] = (math.exp(-math.exp(hi)), math.exp(-math.exp(lo)))
+            else:
+                sign = -1.0 if values[n] < 0 else 1.0
+                a, b = sign * math.exp(lo), sign * math.exp(hi)
+                out[n] = (min(a, b), max(a, b))
+        return out
+
+    # -- reporting --------------------------------------------------------------------------------------
+    def summary(self, level: float = 0.95) -> str:
+        """Table of every parameter, per sample and continuous, with units and CIs.
+
+        Parameters
+        ----------
+        level
+            Coverage of the confidence intervals.
+
+        Returns
+        -------
+        str
+            Multi-line text (header with GOF, convergence, band departures; then the parameter tables).
+        """
+        ci = self.confidence_intervals(level)
+        has_ci = self.param_cov_u is not None and not np.any(np.isnan(self.param_cov_u))
+        pct = f"{100 * level:.0f}% CI"
+        head = f"per sample (discrete, at {self.freq:g} Hz)"
+        lines = [
+            f"{self.method.upper()} fit of {self.model} at {self.freq:g} Hz "
+            f"(data unit {self.unit}; weights {self.weights})",
+            f"  objective (GOF, Eq. 8) = {self.objective:.6g}   converged = {self.converged}   "
+            f"time = {1e3 * self.elapsed_s:.1f} ms   levels = {len(self.wv.variance)}",
+        ]
+        bad = band_departures(self.wv, self.theoretical_wv)
+        if bad:
+            lines.append(
+                f"  fit outside the {100 * (1 - self.wv.alpha):.0f}% WV band at τ = {departures_text(bad)}"
+            )
+        lines += [
+            "",
+            f"  {head:<40}{'value':>14}  {pct:^29}  unit",
+        ]
+        units = self.param_units()
+        for n, v in self.params.items():
+            lines.append(f"  {n:<40}{v:>14.6g}  {_ci_text(ci.get(n), has_ci)}  {units[n]}")
+        lines += ["", f"  {'continuous-time equivalents':<40}{'value':>14}  {pct:^29}  unit"]
+        cunits = self.continuous_units()
+        for n, v in self.continuous().items():
+            lines.append(f"  {n:<40}{v:>14.6g}  {_ci_text(ci.get(n), has_ci)}  {cunits[n]}")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary()
+
+    # -- serialisation ----------------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: model, parameters (discrete + continuous, units), rate, data span, WV, Ω.
+
+        Returns
+        -------
+        dict
+            ``kind = "imunoise.fit"``; read back by :meth:`from_dict`.
+        """
+        return {
+            "kind": "imunoise.fit",
+            "imunoise_version": __version__,
+            "method": self.method,
+            "model": str(self.model),
+            "params": self.params,
+            "param_units": self.param_units(),
+            "continuous": self.continuous(),
+            "continuous_units": self.continuous_units(),
+            "freq_hz": self.freq,
+            "unit": self.unit,
+            "objective": self.objective,
+            "weights": self.weights,
+            "converged": self.converged,
+            "elapsed_s": self.elapsed_s,
+            "iterations": self.iterations,
+            "n_starts": self.n_starts,
+            "data_span": dict(self.extra.get("data_span", {})),
+            "wv": self.wv.to_dict(),
+            "omega_sqrt": self.omega_sqrt.tolist(),
+            "param_cov_u": None if self.param_cov_u is None else self.param_cov_u.tolist(),
+            "extra": self.extra,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> GMWMFit:
+        """The fit written by :meth:`to_dict`.
+
+        Parameters
+        ----------
+        d
+            A dict with ``kind = "imunoise.fit"`` (else ``ModelError``).
+
+        Returns
+        -------
+        GMWMFit
+        """
+        if d.get("kind") != "imunoise.fit":
+            raise ModelError("not an imunoise fit JSON (missing kind 'imunoise.fit')")
+        model = Model.parse(d["model"]).with_params(d["params"])
+        cov = d.get("param_cov_u")
+        return cls(
+            model=model,
+            objective=float(d["objective"]),
+            wv=WaveletVariance.from_dict(d["wv"]),
+            weights=d["weights"],
+            omega_sqrt=np.array(d["omega_sqrt"], dtype=float),
+            converged=bool(d["converged"]),
+            elapsed_s=float(d["elapsed_s"]),
+            freq=float(d["freq_hz"]),
+            unit=d.get("unit", "u"),
+            iterations=int(d.get("iterations", 0)),
+            n_starts=int(d.get("n_starts", 0)),
+            param_cov_u=None if cov is None else np.array(cov, dtype=float),
+            method=d.get("method", "gmwm"),
+            extra=dict(d.get("extra", {})),
+        )
+
+    def save(self, path: str) -> None:
+        """Write :meth:`to_dict` as JSON.
+
+        Parameters
+        ----------
+        path
+            Output file.
+        """
+        with open(path, "w") as fh:
+            json.dump(self.to_dict(), fh, indent=1)
+
+    @classmethod
+    def load(cls, path: str) -> GMWMFit:
+        """Read a fit saved by :meth:`save`.
+
+        Parameters
+        ----------
+        path
+            A JSON file of :meth:`to_dict`.
+
+        Returns
+        -------
+        GMWMFit
+        """
+        with open(path) as fh:
+            return cls.from_dict(json.load(fh))

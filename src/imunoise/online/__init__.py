@@ -1,0 +1,44 @@
+"""Online GMWM INS/GNSS engine (SPEC §0, §9; paper Fig. 1): static detection → online GMWM → model hot-swap in
+the EKF. The last stage of the data path IMU → detection → modelling → filter: it drives the detector, the
+estimators and the filter, and imports from all three, never the other way. One concept per module, every public
+name importable from ``imunoise.online``:
+
+``config``
+    :class:`OnlineConfig` (the engine's settings), ``COMPLETE``, ``NEGLIGIBLE``, :func:`config_summary`.
+``to_filter``
+    The one fit → filter-noise mapping: :func:`ekf_axis_model` (one axis), :func:`filter_axis_models` (six
+    axes), :func:`data_horizon`, :func:`dr_equivalent_rw`.
+``jobs``
+    The modelling job (:func:`model_job`: identification or refit per axis, plausibility check), a pure
+    function run inline or in a worker thread.
+``result``
+    :class:`ModelUpdate`, :class:`OnlineResult` and the per-epoch :class:`EpochStore`.
+``navigator``
+    :class:`OnlineNavigator` (streaming and batch; the engine, its docstring explains the modelling, the
+    mapping, the swap and the worker with the measurements behind them) and :func:`run_online`.
+"""
+
+from __future__ import annotations
+
+from imunoise.online.config import COMPLETE, NEGLIGIBLE, OnlineConfig, config_summary
+from imunoise.online.jobs import model_job
+from imunoise.online.navigator import OnlineNavigator, run_online
+from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
+from imunoise.online.to_filter import data_horizon, dr_equivalent_rw, ekf_axis_model, filter_axis_models
+
+__all__ = [
+    "OnlineConfig",
+    "OnlineNavigator",
+    "OnlineResult",
+    "ModelUpdate",
+    "ekf_axis_model",
+    "filter_axis_models",
+    "dr_equivalent_rw",
+    "data_horizon",
+    "run_online",
+    "COMPLETE",
+    "NEGLIGIBLE",
+    "config_summary",
+    "model_job",
+    "EpochStore",
+]

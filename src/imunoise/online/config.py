@@ -1,0 +1,103 @@
+"""Settings of the online engine: :class:`OnlineConfig` (SPEC §9), the complete model the structure is
+identified from (``COMPLETE``), the threshold below which a fitted component counts as absent in the filter
+(``NEGLIGIBLE``) and the settings summary written in the ``start`` event (:func:`config_summary`). What the
+settings do: :mod:`imunoise.online.navigator` (the engine) and :mod:`imunoise.online.to_filter` (the fit →
+filter mapping)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from imunoise.detect import DetectorConfig
+from imunoise.errors import ModelError
+from imunoise.nav.defaults import EkfConfig
+
+__all__ = ["COMPLETE", "NEGLIGIBLE", "OnlineConfig", "config_summary"]
+
+COMPLETE = "4*AR1 + DR + WN + QN + RW"
+NEGLIGIBLE = 1e-12  # relative stationary variance below which a fitted AR1 is treated as absent
+
+
+@dataclass(frozen=True)
+class OnlineConfig:
+    """Settings of :class:`OnlineNavigator` (SI units; times in s).
+
+    ``detector``: static detector settings; ``None`` learns λ_0 from the first ``learn_lambda0_s`` of the
+    IMU stream (which must be a stop, as for the alignment; :func:`imunoise.detect.learn_lambda0`).
+    ``min_static_s``: static data needed before the structure identification (paper: the first long
+    stop). ``complete``/``criterion``/``top``: the selection (SPEC §5). ``modelling=False`` runs the EKF
+    with its initial models only (the plain/AV/EM baselines use this with ``initial_models``).
+    ``latency``: fixed delay from a stop's completion to the model's effect (``None``: measured compute
+    time). ``worker``: ``"inline"`` (replay) or ``"thread"``. ``gate``: use the 30 °/s angular-rate gate.
+    ``zupt``: zero-velocity and zero-angular-rate updates every ``zupt_every`` samples while the
+    detector has been static for ``zupt_after`` samples and the filter's horizontal speed is below
+    ``zupt_max_speed`` (default ∞: a finite guard, e.g. 1 m/s, blocks false ZUPTs on a car cruising smoothly
+    but also the ZUPTs that matter most, at stops inside a GNSS outage when the drifting filter believes it
+    moves: measured on the simulator, mean outage drift 47 → 105 m with a 1 m/s guard) (σ ``zupt_sigma_v``
+    m/s; the ZARU σ: see :meth:`_zaru_sigma`); a ZUPT whose NIS exceeds ``zupt_chi2`` (3 dof; default 0 =
+    off) is skipped and logged once per stop (``zupt_rejected``). Measured: a 21.1 gate rejects the valid
+    ZUPTs of an overconfident filter at stops inside outages (drive_0708 plain + ZUPT 247 → 342 m) and does
+    not cure the false static detections of a noisy IMU, so it is off. ``floor``/``fold_tau_s``/
+    ``dr``/``qn``: the mapping of a fit to filter noise (module docstring). ``warm_up``: compile (or load
+    from numba's on-disk cache) the modelling kernels at construction (:func:`imunoise.fitting.warm.warm_up`;
+    inline, or in the worker thread with ``worker="thread"``) and log it as a ``warm_up`` event, so the first
+    identification does not wait for the compiler (8–10 s of CPU in a fresh clone, measured on drive_0708).
+    """
+
+    ekf: EkfConfig = field(default_factory=EkfConfig)
+    detector: DetectorConfig | None = None
+    learn_lambda0_s: float = 10.0
+    min_static_s: float = 20.0
+    complete: str = COMPLETE
+    criterion: str = "wvic"
+    top: int = 3
+    weights: str = "efficient"
+    modelling: bool = True
+    latency: float | None = None
+    worker: str = "inline"
+    gate: bool = True
+    zupt: bool = False
+    zupt_every: int = 10
+    zupt_after: int = 50
+    zupt_sigma_v: float = 0.02
+    zupt_max_speed: float = math.inf
+    zupt_chi2: float = 0.0
+    zaru_sigma_w: float = 1e-3
+    floor: str = "default"
+    fold_tau_s: float = 1.0
+    dr: str = "rw"
+    qn: str = "white"
+    swap: str = "preserve"
+    store: bool = True
+    warm_up: bool = True
+
+    def __post_init__(self) -> None:
+        if self.criterion not in ("gof", "wvic"):
+            raise ModelError(f"criterion must be 'gof' or 'wvic', got {self.criterion!r}")
+        if self.worker not in ("inline", "thread"):
+            raise ModelError(f"worker must be 'inline' or 'thread', got {self.worker!r}")
+        if self.swap not in ("preserve", "reset"):
+            raise ModelError(f"swap must be 'preserve' or 'reset', got {self.swap!r}")
+        if self.qn not in ("drop", "white"):
+            raise ModelError(f"qn must be 'drop' or 'white', got {self.qn!r}")
+        if self.dr not in ("rw", "drop", "state"):
+            raise ModelError(f"dr must be 'rw', 'drop' or 'state', got {self.dr!r}")
+        if self.floor not in ("default", "none"):
+            raise ModelError(f"floor must be 'default' or 'none', got {self.floor!r}")
+        if self.latency is not None and not (math.isfinite(self.latency) and self.latency >= 0):
+            raise ModelError(f"latency must be ≥ 0 s or None, got {self.latency!r}")
+        if not self.min_static_s > 0:
+            raise ModelError(f"min_static_s must be > 0 s, got {self.min_static_s}")
+
+    def with_(self, **kw: Any) -> OnlineConfig:
+        return replace(self, **kw)
+
+
+def config_summary(c: OnlineConfig) -> dict:
+    return {
+        "min_static_s": c.min_static_s, "complete": c.complete, "criterion": c.criterion, "latency": c.latency,
+        "worker": c.worker, "gate": c.gate, "zupt": c.zupt, "floor": c.floor, "fold_tau_s": c.fold_tau_s,
+        "modelling": c.modelling,
+    }

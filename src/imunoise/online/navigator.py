@@ -1,0 +1,708 @@
+"""Online engine: static detection → online GMWM → model hot-swap in the EKF (SPEC §0, §9; paper Fig. 1).
+
+Per IMU sample the navigator (1) feeds the static detector (SPEC §7), (2) sets the angular-rate gate,
+(3) propagates the loosely coupled EKF (SPEC §8) and applies queued GNSS fixes, (4) optionally applies
+ZUPT/ZARU while the detector says "static", (5) applies a new error model whose effect time has come.
+
+Modelling (paper §2.2–2.3). Every completed static segment (trimmed, bias removed = segment mean, all six
+axes) is added to one :class:`~imunoise.wv.WVAccumulator` per axis (pooled WV, no junction crosses two
+stops). Once ``min_static_s`` of static data exist, the structure is identified per axis over every
+sub-model of ``complete`` (:func:`imunoise.selection.select_model`, criterion ``"wvic"``, the
+library's default, or ``"gof"`` as the paper); after every later stop the fixed structure is re-estimated
+on all static data so far, warm-started from the previous fit (:func:`imunoise.estimator.refit`). A fit is
+rejected (the current model is kept and the reason logged) when it has non-finite parameters or when its
+GOF on the new WV is worse than the current parameters' GOF on the same WV and Ω.
+
+From a GMWM fit to filter noise (``ekf_axis_model``). The static fit describes the sensor at rest; the
+EKF needs a model of the error that drives the navigation states while driving. Everything that does not
+become a Gauss–Markov state goes through :func:`imunoise.equivalent_noise.equivalent_noise`, the one
+model → (white, random walk) mapping the export uses too (with ``white_below_s = fold_tau_s``). The mapping:
+
+* WN → white noise of δv/φ (density N² = σ²/f);
+* AR1 with T_c ≥ ``fold_tau_s`` → an augmented Gauss–Markov state; faster AR1 → white noise with the
+  same low-frequency density (per sample σ²/(1 − φ)², the AR1 spectrum at f = 0): a state that decorrelates
+  between two covariance steps carries no information the filter can use, and folding keeps the
+  state vector small;
+* QN → white noise with the per-sample variance 2Q² (as ``Model.white_variance``), by default
+  (``qn="white"``). True quantisation noise has zero density at f = 0 (its integral is bounded), which
+  ``qn="drop"`` models; but on a car standing with its engine running the τ⁻² part of the WV is engine
+  vibration (2.4 °/s per sample on gyro y of the shared drive), and while driving the vibration is larger
+  still. Measured on the shared drive (five 60 s outages): mean end drift 338 m plain, 337 m with QN
+  dropped, 226 m with QN as white; the simulator (no QN in the truth) is indifferent.
+* AR1 with T_c·f beyond the longest Haar scale of the static data → the random walk matched to its WV over
+  [1/f, horizon] (≈ the AR1's innovation variance: the same WV at every scale the data has). Kept as a
+  state, such a fit (T_c = 3·10⁵ s, σ_GM = 1 °/s on a simulated gyro) entered the filter with its
+  extrapolated stationary σ as initial uncertainty; two GNSS fixes before an outage moved that bias and the
+  outage ended 3 km off;
+* DR → the random walk with the same Haar WV at the longest scale of the static data (``dr="rw"``, the
+  default; :func:`dr_equivalent_rw`). On seconds-long stops a rate random walk and a ramp are two readings
+  of the same rising WV (GOF often picks DR where the truth is RW); a ramp state would extrapolate one
+  fitted slope, and dropping it (``dr="drop"``, the earlier behaviour) throws away the evidence that the
+  bias wanders. RW → bias random walk.
+* ``floor="default"`` (the default): white density, RW and the slow Gauss–Markov bias of the plain
+  default model (``EkfConfig.fallback``) are lower bounds. The static model never makes the filter more
+  confident than the plain filter about the low-frequency error it cannot see in seconds-long stops,
+  nor about the white noise of a moving car (vibration grows with speed). ``floor="none"`` uses the
+  static model as is (measured in the experiments: overconfident on the real drive).
+
+Swap (``swap="preserve"``, default; :meth:`LooselyCoupledEKF.swap_model` with ``preserve=True``): a refit
+of the same structure keeps every augmented state (estimate and covariance) and only changes Φ and Q; on the
+first swap the floor's slow Gauss–Markov state, common to the plain default and the new model, is kept too.
+``swap="reset"`` uses ``preserve=False`` (every new AR1 starts at 0 with its stationary variance): measured on
+20 simulated drives that reset at every stop costs +30 % mean outage drift against plain (6 drives:
+128 m reset, 105 m preserve, 109 m plain); on the real drive 225 m reset vs 215 m preserve.
+
+Criterion. GOF always prefers the biggest nested model; WVIC (GOF + 2·#identifiable parameters) penalises
+size. Measured (20 simulated drives, real drive): GOF 88 m vs WVIC 96 m vs plain 92 m mean outage drift on the
+simulator (before the collapse rule below, excluding one GOF divergence), 209 m vs 216 m vs 338 m on the
+real drive. With GOF, components that collapsed to the parameter bound (σ² ~ 1e-57, kept by the nesting
+guarantee of the selection) are dropped from the filter model (``NEGLIGIBLE``): kept, they made P
+ill-conditioned and the filter diverged on one simulated drive (4 km drift). Default: ``"gof"``.
+
+Worker. ``worker="inline"`` (replay, deterministic): a model is computed at the stop's completion and takes
+effect at that time plus ``latency`` (a fixed delay; ``None`` = the measured compute time, as the paper's
+Table 6 time-taken). ``worker="thread"`` (live use): the fit runs in a background thread and the filter
+never waits; the model takes effect at the first sample after the thread finished.
+
+``run(imu, gnss)`` (batch) and ``push_imu``/``push_gnss``/``solution`` (streaming) run the same code: both feed
+the one streaming :class:`~imunoise.detect.StaticDetector`, batch in chunks (:meth:`StaticDetector.push_chunk`,
+which also says at which sample each segment was completed; identical to per-sample pushes, checked in
+tests/test_detect_paths.py), and batch interleaves the GNSS fixes by time (a fix at t_g is applied after the
+first IMU sample with t ≥ t_g, as in :func:`imunoise.nav.ekf.run_ekf`).
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+import math
+import time
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from imunoise.detect import DetectorConfig, StaticDetector, StaticSegment, learn_lambda0
+from imunoise.errors import DataError, ImunoiseError, ModelError
+from imunoise.estimator import GMWMFit
+from imunoise.model import Model
+from imunoise.nav.defaults import default_axis_models
+from imunoise.nav.ekf import AXES, InitialState, LooselyCoupledEKF
+from imunoise.nav.mechanization import I_Q
+from imunoise.online.config import OnlineConfig, config_summary
+from imunoise.online.jobs import model_job
+from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
+from imunoise.online.to_filter import filter_axis_models
+from imunoise.wv import WVAccumulator
+
+log = logging.getLogger(__name__)
+_RUN_CHUNK = 4096  # IMU samples per StaticDetector.push_chunk call in OnlineNavigator.run
+
+__all__ = ["OnlineNavigator", "run_online"]
+
+
+# --------------------------------------------------------------------------------------------------
+# navigator
+# --------------------------------------------------------------------------------------------------
+class OnlineNavigator:
+    """Online GMWM INS/GNSS navigator (SPEC §9). See the module docstring.
+
+    Parameters
+    ----------
+    config : OnlineConfig
+        Detection, modelling, swap and filter settings.
+    init : InitialState
+        Initial state at ``init.t`` (samples at or before it only feed the detector and the modeller).
+    imu_rate_hz : float
+        Nominal IMU rate [Hz].
+    initial_models : optional
+        The filter's models until the first identification (default: the plain default,
+        ``EkfConfig.fallback``), e.g. an AV or EM model for the baselines with ``modelling=False``.
+    job_cache : dict, optional
+        Shared by replays of the *same IMU record* (e.g. the per-window outage runs of an experiment): a
+        modelling job on the same static segments with the same settings is computed once, and its
+        measured compute time is reused so the model takes effect at the same time in every replay
+        (inline worker only).
+    """
+
+    def __init__(self, config: OnlineConfig, init: InitialState, *, imu_rate_hz: float = 100.0,
+                 initial_models=None, job_cache: dict | None = None):
+        if not (math.isfinite(imu_rate_hz) and imu_rate_hz > 0):
+            raise DataError(f"imu_rate_hz must be a positive rate in Hz, got {imu_rate_hz!r}")
+        self.config = config
+        self.rate = float(imu_rate_hz)
+        self.dt_nom = 1.0 / self.rate
+        self.init = init
+        models = initial_models if initial_models is not None else default_axis_models(self.rate,
+                                                                                        config.ekf.fallback)
+        self.ekf = LooselyCoupledEKF(config.ekf, models, init, imu_rate_hz=self.rate)
+        self._floor = [m for m, _ in default_axis_models(self.rate, config.ekf.fallback)]
+        self._started = False  # first sample after init.t seen
+        self._t_last = -math.inf  # time of the last sample the filter/detector processed
+        self._t_in = -math.inf  # time of the last sample pushed (held while λ0 is learned)
+        self._n = 0
+        self.detector: StaticDetector | None = None
+        self.lambda0: float | None = None
+        self._stop_start_n = -1
+        self._zupt_rejected = False
+        if config.detector is not None:
+            self._make_detector(config.detector)
+        self._learn: list[np.ndarray] = []
+        self._learn_t0: float | None = None
+        self._pending_samples: list[tuple[float, np.ndarray, np.ndarray]] = []
+        self._rows: list[np.ndarray] = []  # raw samples (rates) kept for the segments
+        self._raw_t0 = 0  # absolute index of _rows[0]
+        self._gnss: list[tuple[float, np.ndarray, np.ndarray]] = []
+        self._acc = [WVAccumulator(freq=self.rate) for _ in range(6)]
+        self.static_s = 0.0
+        self.segments: list[StaticSegment] = []
+        self.fits: list[GMWMFit | None] = [None] * 6
+        self.updates: list[ModelUpdate] = []
+        self._scheduled: list[tuple[float, ModelUpdate]] = []
+        self._executor: ThreadPoolExecutor | None = None
+        self._future: Future | None = None
+        self._future_meta: tuple[str, float, float] | None = None
+        self._dirty = False  # new static data arrived while a thread job runs
+        self.events: list[dict] = []
+        self._gate = False
+        self._static_run = 0
+        self._store = EpochStore() if config.store else None
+        self._static_raw: list[bool] = []
+        self._sample_t: list[float] = []
+        self._gate_log: list[bool] = []
+        self._elapsed = 0.0
+        self.current_models = models
+        self._job_cache = job_cache
+        self._ekf_models_log: list[tuple[float, list[str]]] = []
+        self._event("start", init.t, lambda0=self.lambda0, config=config_summary(config))
+        self._warm: Future | None = None
+        if config.modelling and config.warm_up:
+            self._start_warm_up()
+
+    # -- helpers ----------------------------------------------------------------------------------
+    def _event(self, event: str, t: float, **kw: Any) -> None:
+        e = {"t": float(t), "event": event}
+        e.update(kw)
+        self.events.append(e)
+
+    def _start_warm_up(self) -> None:
+        """Compile or load the modelling kernels before the first stop (:func:`imunoise.fitting.warm.warm_up`):
+        inline here, or as the worker thread's first job (the identification queues behind it, so its
+        measured compute time never includes the warm-up)."""
+        from imunoise.fitting.warm import warm_up
+
+        if self.config.worker == "thread":
+            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="imunoise-gmwm")
+            self._warm = self._executor.submit(warm_up)
+            return
+        try:
+            info = warm_up()
+        except Exception as exc:  # noqa: BLE001 - a failed warm-up only means compiling later, in the first fit
+            info = {"error": f"{type(exc).__name__}: {exc}"}
+        self._event("warm_up", self.init.t, worker="inline", **info)
+
+    def _collect_warm_up(self, t: float) -> None:
+        fut, self._warm = self._warm, None
+        try:
+            info = fut.result()
+        except Exception as exc:  # noqa: BLE001 - see _start_warm_up
+            info = {"error": f"{type(exc).__name__}: {exc}"}
+        self._event("warm_up", t, worker="thread", **info)
+
+    def _make_detector(self, cfg: DetectorConfig) -> None:
+        self.detector = StaticDetector(cfg, self.rate)
+        self.lambda0 = float(cfg.lambda0)
+        self._stop_start_n = int(math.ceil((cfg.min_duration_s + 2 * cfg.margin_s) * self.rate)) + 1
+
+    # -- streaming API ----------------------------------------------------------------------------
+    def push_gnss(self, t: float, llh_rad: np.ndarray, sigma_ned_m: np.ndarray) -> None:
+        """A GNSS antenna fix, applied after the first IMU sample with time ≥ t (immediately, referred back
+        with the velocity, if that sample was already pushed).
+
+        Parameters
+        ----------
+        t
+            Fix time (s), same time base as the IMU samples.
+        llh_rad
+            (latitude rad, longitude rad, height m) of the antenna (SPEC §1: SI inside). Degrees are
+            refused: a latitude beyond ±π/2 or a longitude beyond ±π raises :class:`DataError` (convert
+            with ``np.radians``); so do non-finite values (skip fixes without a position).
+        sigma_ned_m
+            1σ of the fix along north, east, down (m), ≥ 0. A NaN σ is handled by the filter (replaced by
+            ``EkfConfig.gnss_sigma_nan``, logged), as in the batch EKF.
+        """
+        try:
+            t = float(t)
+        except (TypeError, ValueError) as exc:
+            raise DataError(f"push_gnss: time must be a number of seconds, got {t!r}") from exc
+        llh = np.asarray(llh_rad, dtype=float).reshape(-1).copy()
+        sig = np.asarray(sigma_ned_m, dtype=float).reshape(-1).copy()
+        if llh.size != 3 or sig.size != 3:
+            raise DataError(
+                f"push_gnss: llh_rad must be (lat rad, lon rad, h m) and sigma_ned_m 3 values (m), got "
+                f"{np.shape(llh_rad)} and {np.shape(sigma_ned_m)}"
+            )
+        if not (math.isfinite(t) and np.all(np.isfinite(llh))):
+            raise DataError(
+                f"push_gnss: non-finite fix (t={t!r}, llh_rad={llh.tolist()}); skip fixes without a position"
+            )
+        if abs(llh[0]) > math.pi / 2 or abs(llh[1]) > math.pi:
+            raise DataError(
+                f"push_gnss: latitude {llh[0]!r}, longitude {llh[1]!r} cannot be radians (|lat| ≤ π/2, |lon| ≤ π); "
+                "they look like degrees: convert with np.radians(lat), np.radians(lon)"
+            )
+        if np.any(sig < 0):
+            raise DataError(f"push_gnss: sigma_ned_m must be ≥ 0 m (1σ per axis), got {sig.tolist()}")
+        fix = (t, llh, sig)
+        if t <= self._t_last:
+            if self._started and t > self.init.t:
+                self.ekf.update_gnss(*fix)
+            return
+        self._gnss.append(fix)
+
+    def push_imu(self, t: float, dtheta: np.ndarray, dv: np.ndarray) -> None:
+        """One IMU increment (Δθ rad, Δv m/s over (t_prev, t], body FRD): ``dtheta`` and ``dv`` three
+        values each (else :class:`DataError`). Non-finite values are logged and handled by the filter.
+
+        Parameters
+        ----------
+        t : float
+            End of the increment [s]; stamps must increase strictly.
+        dtheta, dv : numpy.ndarray
+            Angle [rad] and velocity [m/s] increments, shape (3,).
+        """
+        t0 = time.perf_counter()
+        try:
+            t = float(t)
+        except (TypeError, ValueError) as exc:
+            raise DataError(f"push_imu: time must be a number of seconds, got {t!r}") from exc
+        if not t > self._t_in:
+            raise DataError(f"push_imu: time {t!r} does not follow {self._t_in!r}; stamps must increase")
+        dth = np.asarray(dtheta, dtype=float)
+        dvv = np.asarray(dv, dtype=float)
+        if dth.shape != (3,) or dvv.shape != (3,):
+            raise DataError(
+                f"push_imu: dtheta and dv must be 3 increments each (x, y, z; rad and m/s), got shapes "
+                f"{dth.shape} and {dvv.shape}"
+            )
+        dt = t - self._t_in if math.isfinite(self._t_in) else self.dt_nom
+        self._t_in = t
+        gyro, accel = dth / dt, dvv / dt
+        if self.detector is None:
+            self._learn_push(t, dth, dvv, gyro, accel)
+        else:
+            segs = self.detector.push(t, accel, gyro)
+            self._sample(t, dth, dvv, gyro, accel, self.detector.is_static, self.detector.gate_open, segs)
+        self._elapsed += time.perf_counter() - t0
+
+    def solution(self) -> dict:
+        """Current filter solution (IMU point): see :meth:`LooselyCoupledEKF.state`."""
+        return self.ekf.state()
+
+    def fork(self, *others: Any, share: tuple = ()) -> tuple:
+        """A branch of the running navigator: an independent copy that continues from the same state.
+
+        Used to run one GNSS outage per window from the same aided state (the dense-window protocol of
+        :mod:`imunoise.experiments.dense`). Needs ``worker="inline"``: a thread cannot be copied.
+
+        Parameters
+        ----------
+        *others : object
+            Objects copied together with the navigator, so references between them and it stay consistent
+            (e.g. a baseline's refit state that holds the navigator).
+        share : tuple
+            Objects the branch shares instead of copying (large read-only arrays). The modelling-job cache is
+            always shared.
+
+        Returns
+        -------
+        tuple
+            ``(navigator, *others)``, copied. The branch's stored epochs start empty, so its result holds
+            only the epochs after the fork.
+        """
+        if self.config.worker != "inline":
+            raise ModelError("fork() needs OnlineConfig(worker='inline'): a worker thread cannot be copied")
+        memo = {id(o): o for o in share}
+        if self._job_cache is not None:
+            memo[id(self._job_cache)] = self._job_cache
+        nav, *rest = copy.deepcopy((self, *others), memo)
+        if nav._store is not None:
+            nav._store = EpochStore()
+        return (nav, *rest)
+
+    def finish(self) -> OnlineResult:
+        """Close the stream: flush samples held for λ_0 learning, wait for a running thread job, and
+        return the result.
+
+        Returns
+        -------
+        OnlineResult
+        """
+        t0 = time.perf_counter()
+        if self.detector is None and self._pending_samples:
+            self._learn_finish()
+        if self._warm is not None:
+            self._warm.exception()  # wait; _collect_warm_up logs the outcome
+            self._collect_warm_up(self._t_last)
+        if self._future is not None:
+            self._future.result()
+            self._collect_thread(self._t_last)
+        if self._executor is not None:
+            self._executor.shutdown(wait=True)
+        if self.detector is not None:
+            self.detector.finish()
+        self._elapsed += time.perf_counter() - t0
+        self._event("end", self._t_last, static_s=self.static_s, n_updates=len(self.updates))
+        return self._result()
+
+    # -- batch ------------------------------------------------------------------------------------
+    def run(self, imu, gnss, *, progress: Any = None) -> OnlineResult:
+        """Replay a whole record (ImuData increments, GnssData); same result as pushing every sample and
+        fix in time order through the streaming API. ``progress(n_done, n_total)`` is called now and then.
+
+        Parameters
+        ----------
+        imu : ImuData
+            IMU increments (:func:`imunoise.io.kfgins.read_imu`).
+        gnss : GnssData
+            GNSS antenna fixes (:func:`imunoise.io.kfgins.read_gnss`).
+        progress : callable, optional
+            ``progress(n_done, n_total)``.
+
+        Returns
+        -------
+        OnlineResult
+        """
+        t0 = time.perf_counter()
+        t = np.asarray(imu.t, dtype=float)
+        dth_all, dv_all = imu.increments() if hasattr(imu, "increments") else (imu.dtheta, imu.dv)
+        if t.size < 2:
+            raise DataError("the IMU record needs at least 2 samples")
+        if np.any(np.diff(t) <= 0):
+            k = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
+            raise DataError(f"IMU time stamps must increase strictly (sample {k}: {t[k]!r} after {t[k - 1]!r})")
+        dt = np.diff(t, prepend=t[0] - self.dt_nom)
+        gyro = dth_all / dt[:, None]
+        accel = dv_all / dt[:, None]
+        gt = np.asarray(gnss.t, dtype=float)
+        order = np.argsort(gt, kind="stable")
+        gt, gllh, gsig = gt[order], np.asarray(gnss.llh)[order], np.asarray(gnss.sigma_ned)[order]
+        if self.detector is None:
+            lam_mask = t < t[0] + self.config.learn_lambda0_s
+            self._learn_from(accel[lam_mask], t[0])
+        self._elapsed += time.perf_counter() - t0
+        gi = 0
+        n = t.size
+        every = max(n // 100, 1)
+        base = self.detector.n_samples
+        for a in range(0, n, _RUN_CHUNK):
+            # the same streaming detector as push_imu, fed a chunk: per-sample results and, for each segment,
+            # the sample whose push would have completed it (identical to per-sample pushes)
+            t1 = time.perf_counter()
+            b = min(a + _RUN_CHUNK, n)
+            det = self.detector.push_chunk(t[a:b], accel[a:b], gyro[a:b])
+            done_at: dict[int, list[StaticSegment]] = {}
+            for s, k in zip(det.segments, det.completed_at, strict=True):
+                done_at.setdefault(k - base, []).append(s)
+            self._elapsed += time.perf_counter() - t1
+            for k in range(a, b):
+                tk = t[k]
+                t1 = time.perf_counter()
+                while gi < gt.size and gt[gi] <= tk:
+                    self.push_gnss(gt[gi], gllh[gi], gsig[gi])
+                    gi += 1
+                self._sample(tk, dth_all[k], dv_all[k], gyro[k], accel[k], bool(det.static_raw[k - a]),
+                             bool(det.gate_open[k - a]), done_at.get(k, []))
+                self._elapsed += time.perf_counter() - t1
+                if progress is not None and k % every == 0:
+                    progress(k, n)
+        while gi < gt.size:
+            self.push_gnss(gt[gi], gllh[gi], gsig[gi])
+            gi += 1
+        if progress is not None:
+            progress(n, n)
+        return self.finish()
+
+    # -- λ0 learning --------------------------------------------------------------------------------
+    def _learn_push(self, t, dth, dvv, gyro, accel) -> None:
+        if self._learn_t0 is None:
+            self._learn_t0 = t
+        if t < self._learn_t0 + self.config.learn_lambda0_s:
+            self._pending_samples.append((t, dth, dvv, gyro, accel))
+            return
+        self._learn_finish()
+        self._after_learning(t, dth, dvv, gyro, accel)
+
+    def _after_learning(self, t, dth, dvv, gyro, accel) -> None:
+        segs = self.detector.push(t, accel, gyro)
+        self._sample(t, dth, dvv, gyro, accel, self.detector.is_static, self.detector.gate_open, segs)
+
+    def _learn_finish(self) -> None:
+        held = self._pending_samples
+        self._pending_samples = []
+        acc = np.array([s[4] for s in held]) if held else np.zeros((0, 3))
+        self._learn_from(acc, self._learn_t0 if self._learn_t0 is not None else 0.0)
+        for s in held:
+            self._after_learning(*s)
+
+    def _learn_from(self, accel_static: np.ndarray, t0: float) -> None:
+        base = DetectorConfig()
+        try:
+            lam = learn_lambda0(accel_static, window=base.window)
+            src = f"learned from the first {self.config.learn_lambda0_s:g} s"
+        except ImunoiseError as exc:
+            lam = base.lambda0
+            src = f"default (could not learn: {exc})"
+        self._make_detector(replace(base, lambda0=lam))
+        self._event("lambda0", t0, lambda0=lam, source=src)
+
+    # -- one sample -----------------------------------------------------------------------------------
+    def _sample(self, t, dth, dvv, gyro, accel, is_static: bool, gate_open: bool, segs) -> None:
+        cfg = self.config
+        self._rows.append(np.concatenate([gyro, accel]))
+        self._static_raw.append(is_static)
+        self._sample_t.append(t)
+        self._t_last = t
+        self._n += 1
+        self._static_run = self._static_run + 1 if is_static else 0
+        if not is_static:
+            self._zupt_rejected = False
+        if self._static_run == self._stop_start_n and self.detector is not None:
+            # the raw static run is now long enough to become a segment: a stop has started
+            self._event("stop_start", t, t0=self._sample_t[-self._static_run])
+        gate = bool(gate_open) and cfg.gate
+        if gate != self._gate:
+            self._gate = gate
+            self._event("gate_open" if gate else "gate_closed", t)
+        self._gate_log.append(gate)
+        if t > self.init.t:
+            if not self._started:
+                self._started = True
+                # previous increment for the coning/sculling terms, as run_ekf does
+                self.ekf.prime(dth, dvv)
+            self.ekf.set_gate(gate)
+            self.ekf.propagate(dth, dvv, t)
+            while self._gnss and self._gnss[0][0] <= t:
+                fix = self._gnss.pop(0)
+                if fix[0] > self.init.t:
+                    self.ekf.update_gnss(*fix)
+            if cfg.zupt and self._static_run >= cfg.zupt_after and self._static_run % cfg.zupt_every == 0 \
+                    and not gate and math.hypot(self.ekf.nav[3], self.ekf.nav[4]) < cfg.zupt_max_speed:
+                if self._zupt_consistent(cfg.zupt_sigma_v):
+                    self.ekf.zupt_update(cfg.zupt_sigma_v)
+                    self.ekf.zaru_update(self._zaru_sigma())
+                elif not self._zupt_rejected:
+                    self._zupt_rejected = True
+                    self._event("zupt_rejected", t, speed_mps=float(np.linalg.norm(self.ekf.nav[3:6])))
+        else:
+            while self._gnss and self._gnss[0][0] <= t:
+                self._gnss.pop(0)
+        for s in segs:
+            self._segment(s, t)
+        self._poll(t)
+        if self._store is not None and self._started:
+            e = self.ekf.sensor_errors()
+            row = np.empty(EpochStore.COLS)
+            row[0] = t
+            row[1:7] = self.ekf.nav[0:6]
+            row[7:11] = self.ekf.nav[I_Q:I_Q + 4]
+            row[11:17] = e
+            row[17:26] = np.sqrt(np.abs(np.diag(self.ekf.P)[:9]))
+            self._store.add(row)
+        # raw samples are needed only back to the start of a possible segment
+        if not is_static and len(self._rows) > 4096:
+            drop = len(self._rows) - 16
+            del self._rows[:drop]
+            self._raw_t0 += drop
+
+    def _zupt_consistent(self, sigma_v: float) -> bool:
+        """χ² test of the zero-velocity pseudo-measurement, NIS = vᵀ(P_vv + σ²I)⁻¹v ≤ ``zupt_chi2`` (3 dof):
+        a detector false positive on a moving car (a noisy IMU's learned λ0 lets smooth cruising pass
+        Eq. 9) would otherwise be forced into the filter."""
+        if not self.config.zupt_chi2 > 0:
+            return True
+        self.ekf.flush()
+        v = self.ekf.nav[3:6]
+        S = self.ekf.P[3:6, 3:6] + sigma_v**2 * np.eye(3)
+        try:
+            nis = float(v @ np.linalg.solve(S, v))
+        except np.linalg.LinAlgError:
+            return False
+        return math.isfinite(nis) and nis <= self.config.zupt_chi2
+
+    def _zaru_sigma(self) -> float:
+        """σ of one ZARU sample: the larger of the configured σ, the current gyro model's per-sample white σ
+        and the gyro scatter measured over this stop so far (the update uses a single increment, whose noise
+        on a vibrating car is the vibration, not the datasheet's)."""
+        s = self.config.zaru_sigma_w
+        for m, _ in self.current_models[:3]:
+            s = max(s, math.sqrt(m.white_variance()))
+        n = min(self._static_run, 200, len(self._rows))
+        if n >= 10:
+            g = np.array(self._rows[-n:])[:, :3]
+            s = max(s, float(np.max(np.std(g, axis=0))))
+        return s
+
+    # -- modelling ------------------------------------------------------------------------------------
+    def _segment(self, seg: StaticSegment, t_now: float) -> None:
+        a, b = seg.i0 - self._raw_t0, seg.i1 - self._raw_t0
+        if a < 0:
+            log.warning("static segment %.2f–%.2f s starts before the kept raw data; skipped", seg.t0, seg.t1)
+            return
+        data = np.array(self._rows[a:b])
+        ok = np.all(np.isfinite(data), axis=1)
+        # a non-finite sample splits the segment (no wavelet coefficient may span it)
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
+        pieces = [data[p:q] for p, q in zip(edges[::2], edges[1::2]) if q - p >= 16]
+        if not ok.all():
+            self._event("rejected", t_now, reason=f"{int((~ok).sum())} non-finite samples in the stop "
+                        f"{seg.t0:.2f}–{seg.t1:.2f} s; used the {len(pieces)} finite pieces")
+        for piece in pieces:
+            piece = piece - piece.mean(axis=0)  # bias removal (SPEC §7)
+            for ax in range(6):
+                self._acc[ax].add(piece[:, ax])
+        self.static_s += seg.duration
+        self.segments.append(seg)
+        self._event("stop_end", t_now, t0=seg.t0, t1=seg.t1, duration_s=seg.duration, static_total_s=self.static_s)
+        if not self.config.modelling:
+            return
+        if self.static_s < self.config.min_static_s:
+            self._event("waiting", t_now, static_total_s=self.static_s, need_s=self.config.min_static_s)
+            return
+        kind = "identify" if all(f is None for f in self.fits) else "refit"
+        if self.config.worker == "thread":
+            if self._future is not None:
+                self._dirty = True
+                return
+            self._submit(kind, t_now)
+            return
+        self._run_inline(kind, t_now)
+
+    def _wvs(self, t_now: float) -> list | None:
+        """The per-axis WVs of the static data so far, or None after a 'rejected' event when one fails."""
+        try:
+            return [acc.result() for acc in self._acc]
+        except ImunoiseError as exc:
+            self._event("rejected", t_now, reason=f"wavelet variance: {exc}")
+            return None
+
+    def _run_inline(self, kind: str, t_now: float) -> None:
+        wvs = self._wvs(t_now)
+        if wvs is None:
+            return
+        key = None
+        if self._job_cache is not None:
+            c = self.config
+            key = (kind, tuple((sg.i0, sg.i1) for sg in self.segments), c.criterion, c.complete, c.weights, c.top,
+                   tuple(None if f is None else (str(f.model), tuple(f.model.vector)) for f in self.fits))
+        out = self._job_cache.get(key) if key is not None else None
+        if out is None:
+            out = model_job(kind, wvs, self.fits, self.config, self.rate)
+            if key is not None:
+                self._job_cache[key] = out
+        delay = self.config.latency if self.config.latency is not None else float(sum(out["elapsed"]))
+        self._accept(kind, t_now, out, t_now + delay)
+
+    def _submit(self, kind: str, t_now: float) -> None:
+        wvs = self._wvs(t_now)
+        if wvs is None:
+            return
+        if self._executor is None:
+            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="imunoise-gmwm")
+        self._future = self._executor.submit(model_job, kind, wvs, list(self.fits), self.config, self.rate)
+        self._future_meta = (kind, t_now, self.static_s)
+        self._dirty = False
+
+    def _collect_thread(self, t_now: float) -> None:
+        fut, (kind, t_stop, _) = self._future, self._future_meta
+        self._future = None
+        try:
+            out = fut.result()
+        except Exception as exc:  # noqa: BLE001 - a worker failure must never stop the filter
+            self._event("rejected", t_now, reason=f"worker failed: {type(exc).__name__}: {exc}")
+            return
+        self._accept(kind, t_stop, out, t_now)
+        if self._dirty:
+            self._submit("refit" if any(f is not None for f in self.fits) else "identify", t_now)
+
+    def _accept(self, kind: str, t_stop: float, out: dict, t_effect: float) -> None:
+        fits = out["fits"]
+        for a, reason in enumerate(out["rejected"]):
+            if reason:
+                self._event("rejected", t_stop, axis=AXES[a], job=kind, reason=reason)
+                log.info("%s fit of %s rejected: %s", kind, AXES[a], reason)
+        ok = any(f is not None for f in fits)
+        upd = ModelUpdate(kind, t_stop, t_effect if ok else None, self.static_s, fits, out["elapsed"],
+                          out["rankings"], out["rejected"])
+        self.updates.append(upd)
+        per_axis = {
+            AXES[a]: {"structure": str(f.model), "gof": f.objective, "time_s": out["elapsed"][a],
+                      "wvic": f.extra.get("wvic")}
+            for a, f in enumerate(fits) if f is not None
+        }
+        self._event("identified" if kind == "identify" else "refit", t_stop, static_total_s=self.static_s,
+                    axes=per_axis, elapsed_s=float(sum(out["elapsed"])), t_effect=upd.t_effect)
+        if ok:
+            for a, f in enumerate(fits):
+                if f is not None:
+                    self.fits[a] = f
+            self._scheduled.append((upd.t_effect, upd))
+            self._scheduled.sort(key=lambda x: x[0])
+
+    def _poll(self, t: float) -> None:
+        if self._warm is not None and self._warm.done():
+            self._collect_warm_up(t)
+        if self._future is not None and self._future.done():
+            self._collect_thread(t)
+        while self._scheduled and self._scheduled[0][0] <= t:
+            _, upd = self._scheduled.pop(0)
+            self._swap(t, upd)
+
+    def filter_models(self) -> list[tuple[Model, float]]:
+        """The six (model, freq) the filter gets from the current fits (plain default where none)."""
+        return filter_axis_models(self.fits, self.rate, self.config, floor=self._floor)
+
+    def _swap(self, t: float, upd: ModelUpdate) -> None:
+        models = self.filter_models()
+        counts = self.ekf.swap_model(models, preserve=self.config.swap == "preserve", imu_rate_hz=self.rate)
+        self.current_models = models
+        self._ekf_models_log.append((t, [str(m) for m, _ in models]))
+        self._event("swap", t, job=upd.kind, t_stop=upd.t_stop, filter_models=[str(m) for m, _ in models],
+                    **counts)
+
+    # -- result ---------------------------------------------------------------------------------------
+    def _result(self) -> OnlineResult:
+        if self._store is not None and self._store.n:
+            t, pos, vel, eul, eg, ea, std = self._store.arrays()
+        else:
+            z = np.zeros((0, 3))
+            t, pos, vel, eul, eg, ea, std = np.zeros(0), z, z, z, z, z, np.zeros((0, 9))
+        return OnlineResult(
+            t=t, llh=pos, vel_ned=vel, euler=eul, gyro_error=eg, accel_error=ea, std=std,
+            events=self.events, updates=self.updates, segments=list(self.segments),
+            gate_open=np.array(self._gate_log, dtype=bool), static_raw=np.array(self._static_raw, dtype=bool),
+            lambda0=float(self.lambda0) if self.lambda0 is not None else float("nan"),
+            elapsed_s=self._elapsed, final_models=list(self.current_models), fits=list(self.fits),
+            sample_t=np.array(self._sample_t),
+        )
+
+
+def run_online(imu, gnss, init: InitialState, config: OnlineConfig | None = None, *, initial_models=None,
+               progress: Any = None) -> OnlineResult:
+    """Batch convenience: ``OnlineNavigator(config, init).run(imu, gnss)``.
+
+    Parameters
+    ----------
+    imu, gnss, init, initial_models, progress
+        As for :class:`OnlineNavigator` and :meth:`OnlineNavigator.run`; the rate is ``imu.rate_hz``.
+    config : OnlineConfig, optional
+        Default ``OnlineConfig()``.
+
+    Returns
+    -------
+    OnlineResult
+    """
+    config = config or OnlineConfig()
+    nav = OnlineNavigator(config, init, imu_rate_hz=float(imu.rate_hz), initial_models=initial_models)
+    return nav.run(imu, gnss, progress=progress)

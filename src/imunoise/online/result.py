@@ -1,0 +1,101 @@
+"""What the online engine returns: one :class:`ModelUpdate` per modelling job, the :class:`OnlineResult` of a
+run (trajectory, sensor errors, σ, events, updates) and the :class:`EpochStore` the navigator fills per epoch."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from imunoise.detect import StaticSegment
+from imunoise.estimator import GMWMFit
+from imunoise.io.jsonutil import json_default as _json_default
+from imunoise.model import Model
+from imunoise.nav.earth import dcm_to_euler
+from imunoise.nav.mechanization import quat_to_dcm
+from imunoise.nav.solution import NavSolution
+
+__all__ = ["ModelUpdate", "OnlineResult", "EpochStore"]
+
+
+# --------------------------------------------------------------------------------------------------
+# results
+# --------------------------------------------------------------------------------------------------
+@dataclass
+class ModelUpdate:
+    """One modelling job: ``kind`` "identify" or "refit"; ``t_stop`` completion time of the stop that
+    triggered it; ``t_effect`` when the filter used it (None if rejected on every axis); ``fits`` the six
+    accepted fits (or None per axis when rejected); ``elapsed_s`` per axis compute times."""
+
+    kind: str
+    t_stop: float
+    t_effect: float | None
+    static_s: float
+    fits: list[GMWMFit | None]
+    elapsed_s: list[float]
+    rankings: list[Any] = field(default_factory=list)
+    rejected: list[str | None] = field(default_factory=list)
+
+
+@dataclass
+class OnlineResult(NavSolution):
+    """Output of the online run at every IMU epoch the filter processed (IMU point)."""
+
+    events: list[dict]
+    updates: list[ModelUpdate]
+    segments: list[StaticSegment]
+    gate_open: np.ndarray
+    static_raw: np.ndarray
+    lambda0: float
+    elapsed_s: float
+    final_models: list[tuple[Model, float]]
+    fits: list[GMWMFit | None] = field(default_factory=list)
+    sample_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def timing(self) -> dict[str, Any]:
+        """``identification_s`` (total and per axis) and ``refit_s`` (per job, max over axes)."""
+        ident = [u for u in self.updates if u.kind == "identify"]
+        refits = [u for u in self.updates if u.kind == "refit"]
+        return {
+            "identification_s": float(sum(ident[0].elapsed_s)) if ident else None,
+            "identification_per_axis_s": list(ident[0].elapsed_s) if ident else [],
+            "refit_s": [float(sum(u.elapsed_s)) for u in refits],
+            "refit_max_axis_s": [float(max(u.elapsed_s)) for u in refits],
+        }
+
+
+    def write_events(self, path: str | Path) -> Path:
+        """JSON lines, one event per line (SPEC §9, §11)."""
+        p = Path(path)
+        with p.open("w") as fh:
+            for e in self.events:
+                fh.write(json.dumps(e, default=_json_default) + "\n")
+        return p
+
+
+class EpochStore:
+    """Growing per-epoch storage (t, position, velocity, quaternion, sensor errors, σ)."""
+
+    COLS = 1 + 3 + 3 + 4 + 6 + 9
+
+    def __init__(self, capacity: int = 65536):
+        self.buf = np.empty((max(capacity, 16), self.COLS))
+        self.n = 0
+
+    def add(self, row: np.ndarray) -> None:
+        if self.n == self.buf.shape[0]:
+            self.buf = np.concatenate([self.buf, np.empty_like(self.buf)])
+        self.buf[self.n] = row
+        self.n += 1
+
+    def arrays(self):
+        b = self.buf[: self.n]
+        eul = np.empty((self.n, 3))
+        for k in range(self.n):
+            eul[k] = dcm_to_euler(quat_to_dcm(b[k, 7:11]))
+        return b[:, 0].copy(), b[:, 1:4].copy(), b[:, 4:7].copy(), eul, b[:, 11:14].copy(), b[:, 14:17].copy(), \
+            b[:, 17:26].copy()

@@ -1,0 +1,157 @@
+"""Dense outage protocol (imunoise.experiments.dense), GNSS regimes and the evidence CLI."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from imunoise.errors import ImunoiseError
+from imunoise.experiments import dense
+from imunoise.experiments.common import load_real, repo_data_dir, run_filter
+from imunoise.experiments.gnss_regimes import GnssRegime, parse_gnss
+from imunoise.io.kfgins import GnssData
+from imunoise.nav.earth import radii
+from imunoise.nav.metrics import nav_errors
+
+
+def test_parse_outages_and_gnss(tmp_path):
+    kind, spec = dense.parse_outages("dense:60:20")
+    assert kind == "dense" and spec == dense.DenseSpec(60.0, 20.0, 60.0)
+    assert dense.parse_outages("dense:30:10:45")[1] == dense.DenseSpec(30.0, 10.0, 45.0)
+    assert dense.parse_outages("4") == ("count", 4)
+    f = tmp_path / "o.txt"
+    f.write_text("100 60\n")
+    assert dense.parse_outages(str(f)) == ("file", f)
+    for bad in ("dense:0:20", "dense:a:b", str(tmp_path / "missing.txt")):
+        with pytest.raises(ImunoiseError):
+            dense.parse_outages(bad)
+    assert parse_gnss("rtk") == GnssRegime()
+    g = parse_gnss("noise:1.5,3,1")
+    assert (g.sigma_h, g.sigma_v, g.rate_hz, g.tau_s) == (1.5, 3.0, 1.0, 0.0) and g.label == "noise:1.5,3,1"
+    assert parse_gnss("noise:1,2,,30").tau_s == 30.0
+    for bad in ("noise:1", "noise:-1,2", "noise:1,2,0", "gps"):
+        with pytest.raises(ImunoiseError):
+            parse_gnss(bad)
+    assert dense.parse_pairs("gmwm/av, gmwm/em") == [("gmwm", "av"), ("gmwm", "em")]
+    with pytest.raises(ImunoiseError):
+        dense.parse_pairs("gmwm-av")
+
+
+def _fixes(n, rate):
+    t = 1000.0 + np.arange(n) / rate
+    llh = np.column_stack([np.full(n, 0.6), np.full(n, 0.2), np.full(n, 100.0)])
+    return GnssData(t=t, llh=llh, sigma_ned=np.full((n, 3), 0.02))
+
+
+def _ned_noise(orig, noisy, keep):
+    llh0 = orig.llh[keep]
+    rm, rn = radii(llh0[:, 0])
+    dn = (noisy.llh[:, 0] - llh0[:, 0]) * (rm + llh0[:, 2])
+    de = (noisy.llh[:, 1] - llh0[:, 1]) * (rn + llh0[:, 2]) * np.cos(llh0[:, 0])
+    dd = -(noisy.llh[:, 2] - llh0[:, 2])
+    return np.column_stack([dn, de, dd])
+
+
+def test_white_noise_regime_has_the_requested_sigma_and_rate():
+    g = _fixes(40000, 4.0)
+    reg = parse_gnss("noise:1.5,3,1")
+    a = reg.apply(g, seed=3)
+    assert len(a) == 10000 and np.allclose(np.diff(a.t), 1.0)  # 4 Hz thinned to 1 Hz
+    e = _ned_noise(g, a, np.arange(0, 40000, 4))
+    assert np.std(e, axis=0) == pytest.approx([1.5, 1.5, 3.0], rel=0.03)
+    assert abs(np.corrcoef(e[1:, 0], e[:-1, 0])[0, 1]) < 0.03  # white
+    assert np.all(a.sigma_ned == [1.5, 1.5, 3.0])
+    assert np.array_equal(reg.apply(g, seed=3).llh, a.llh) and not np.array_equal(reg.apply(g, seed=4).llh, a.llh)
+    assert GnssRegime().apply(g) is g
+
+
+def test_gauss_markov_regime_has_the_requested_correlation_time():
+    g = _fixes(40000, 1.0)
+    a = parse_gnss("noise:2,1,,10").apply(g, seed=1)
+    e = _ned_noise(g, a, np.arange(40000))
+    assert np.std(e, axis=0) == pytest.approx([2.0, 2.0, 1.0], rel=0.06)
+    rho = np.mean([np.corrcoef(e[1:, k], e[:-1, k])[0, 1] for k in range(3)])
+    assert rho == pytest.approx(math.exp(-0.1), abs=0.01)  # lag 1 s, τ = 10 s
+
+
+@pytest.fixture(scope="module")
+def short_drive():
+    """The shipped drive cut to its first 200 s (the initial 29 s stop, then driving)."""
+    try:
+        sc = load_real(repo_data_dir())
+    except Exception as exc:  # noqa: BLE001
+        pytest.skip(f"data/drive_0708 not available: {exc}")
+    t1 = sc.init.t + 200.0
+    sc.imu = sc.imu.slice(sc.imu.t[0], t1)
+    sc.gnss = sc.gnss.slice(sc.gnss.t[0], t1)
+    return sc
+
+
+def test_dense_windows_follow_the_protocol(short_drive):
+    sc = short_drive
+    w = dense.dense_windows(sc, dense.DenseSpec(60, 20, 60))
+    starts = np.array([s for s, _ in w])
+    assert starts[0] == pytest.approx(sc.init.t + 60) and np.allclose(np.diff(starts), 20.0)
+    assert starts[-1] + 60 <= sc.imu.t[-1] - dense.BRANCH_MARGIN_S
+    # a gap of the recorded fixes removes the windows whose lead contains it
+    gap = (sc.init.t + 100.0, 5.0)
+    sc2 = replace(sc, gnss=sc.gnss.without([gap]))
+    w2 = dense.dense_windows(sc2, dense.DenseSpec(60, 20, 60))
+    assert [x for x in w if not (x[0] - 60 < gap[0] + gap[1] and gap[0] < x[0])] == w2
+
+
+def test_branch_equals_a_run_without_the_windows_gnss(short_drive):
+    """One aided run with a branch per window = a full run with that window's GNSS removed (to 1e-9 m)."""
+    sc = short_drive
+    w = (sc.init.t + 100.0, 60.0)
+    cfg, models, upd = dense.method_setup("plain", sc)
+    r = dense.run_windows(sc, cfg, sc.gnss, [w, (w[0] + 20.0, 30.0)], initial_models=models)
+    f = run_filter(sc, cfg, initial_models=models, windows=[w])
+    ref = dense.window_metrics(nav_errors(f.t, f.antenna_llh(sc.lever), f.vel_ned, f.euler, sc.ref), *w)
+    got = r["windows"][0]
+    assert ref["drift"] > 10.0  # a real outage, not a trivial zero
+    assert got["drift"] == pytest.approx(ref["drift"], abs=1e-9)
+    assert got["rms"] == pytest.approx(ref["rms"], abs=1e-9)
+    assert got["aided_rms"] < 0.2  # the aided run over the same span (RTK)
+    # an online baseline (static variance refitted at each stop) branches with its refit state
+    cfg, models, upd = dense.method_setup("static_var", sc)
+    r1 = dense.run_windows(sc, cfg, sc.gnss, [w], initial_models=models, updater=upd)
+    cfg, models, upd = dense.method_setup("static_var", sc)
+    r2 = dense.run_windows(sc, cfg, sc.gnss.without([w]), [w], initial_models=models, updater=upd)
+    assert r1["windows"][0]["rms"] == pytest.approx(r2["windows"][0]["aided_rms"], abs=1e-9)
+    assert r1["windows"][0]["rms"] != pytest.approx(got["rms"], abs=1e-6)  # the model did change
+
+
+def test_static_var_model_is_the_variance_as_white_noise():
+    rng = np.random.default_rng(0)
+    segs = [rng.normal(5.0, 2.0, (4000, 6)), rng.normal(-3.0, 2.0, (3000, 6))]
+    models = dense.static_var_models(segs)
+    for m in models:
+        assert str(m).startswith("WN") and len(m.components) == 1
+        assert m.components[0].values[0] == pytest.approx(4.0, rel=0.05)  # segment means removed
+
+
+def test_cli_evidence_on_two_simulated_drives(tmp_path):
+    from imunoise.cli import main
+
+    out = tmp_path / "ev"
+    rc = main(["experiment", "online", "--sim", "--seeds", "2", "--duration", "200", "--stops", "1",
+               "--outages", "dense:30:30:60", "--methods", "plain,static_var", "--pairs", "plain/static_var",
+               "--workers", "1", "--bootstrap", "200", "--out", str(out)])
+    assert rc == 0
+    res = json.loads((out / "results.json").read_text())
+    keys = {"method", "baseline", "metric", "ratio", "ci", "n_windows", "n_drives"}
+    assert res["paired"] and all(keys <= set(e) for e in res["paired"])
+    got = {(e["method"], e["baseline"], e["metric"]) for e in res["paired"]}
+    for m in ("drift", "rms", "aided_rms"):
+        assert {("static_var", "plain", m), ("plain", "static_var", m)} <= got
+    e = next(e for e in res["paired"] if e["metric"] == "drift" and e["method"] == "static_var")
+    inv = next(e for e in res["paired"] if e["metric"] == "drift" and e["method"] == "plain")
+    assert inv["ratio"] == pytest.approx(1.0 / e["ratio"], rel=1e-12)  # log-ratios change sign
+    assert e["n_drives"] == 2 and e["n_windows"] == res["n_windows"] and e["ci"][0] <= e["ratio"] <= e["ci"][1]
+    md = (out / "report.md").read_text()
+    assert md.index("Paired ratios") < md.index("Paper-style view")

@@ -1,0 +1,95 @@
+"""Paired statistics for overlapping windows (imunoise.experiments.stats): identities and CI coverage."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from imunoise.experiments.stats import (
+    bootstrap_ratio,
+    default_block,
+    drive_log_ratios,
+    log_ratios,
+    n_independent,
+    paired_entry,
+)
+
+
+def _overlap_series(rng, n, mean, lag=3, scale=0.1):
+    # windows of L = lag·S: each window's log-ratio sums the effects of `lag` consecutive S-long stretches
+    e = rng.normal(size=n + lag - 1)
+    return mean + scale * np.convolve(e, np.ones(lag), mode="valid")
+
+
+def test_identical_methods_give_ratio_one_and_degenerate_ci():
+    vals = {"a": [[10.0, 20.0, 30.0, 5.0]], "b": [[10.0, 20.0, 30.0, 5.0]]}
+    e = paired_entry("a", "b", "drift", vals, 3, n_independent_total=2, n_boot=200)
+    assert e["ratio"] == 1.0 and e["ci"] == [1.0, 1.0]
+    assert not e["significant"] and e["n_windows"] == 4 and e["n_drives"] == 1
+
+
+def test_constant_ratio_is_exact_and_significant():
+    vals = {"a": [[20.0, 40.0, 2.0], [8.0]], "b": [[10.0, 20.0, 1.0], [4.0]]}
+    e = paired_entry("a", "b", "rms", vals, 2, n_independent_total=4, n_boot=200)
+    assert e["ratio"] == pytest.approx(2.0, rel=1e-12)
+    assert e["ci"][0] == pytest.approx(2.0, rel=1e-12) and e["ci"][1] == pytest.approx(2.0, rel=1e-12)
+    assert e["n_drives"] == 2 and e["n_windows"] == 4
+
+
+def test_missing_and_nonpositive_values_are_dropped():
+    lr = log_ratios([1.0, None, 0.0, 4.0, math.nan], [2.0, 1.0, 1.0, 1.0, 1.0])
+    assert lr[0] == pytest.approx(math.log(0.5)) and lr[3] == pytest.approx(math.log(4.0))
+    assert np.isnan(lr[[1, 2, 4]]).all()
+
+
+def test_realisations_are_averaged_per_window_not_counted():
+    # two noise seeds of the same two windows: log-ratios averaged per window (geometric mean of the ratios)
+    a = [[2.0, 1.0], [8.0, 1.0]]
+    b = [[1.0, 1.0], [1.0, 4.0]]
+    lr = drive_log_ratios(a, b)
+    assert lr.shape == (2,)
+    assert lr[0] == pytest.approx(0.5 * (math.log(2) + math.log(8)))
+    assert lr[1] == pytest.approx(0.5 * math.log(0.25))
+
+
+def test_block_and_independent_counts():
+    assert default_block(60, 20) == 3 and default_block(60, 60) == 1 and default_block(60, 25) == 3
+    starts = np.arange(23) * 20.0
+    assert n_independent(starts, 60.0) == 8  # 0, 60, ..., 420
+    assert n_independent([0, 30, 59, 61], 60.0) == 2
+
+
+def test_seed_reproducible():
+    g = [np.random.default_rng(0).normal(0.1, 0.2, 20)]
+    assert bootstrap_ratio(g, 3, seed=4, n_boot=300) == bootstrap_ratio(g, 3, seed=4, n_boot=300)
+
+
+@pytest.mark.parametrize("drives,n,lo", [(1, 22, 0.84), (5, 12, 0.90)])
+def test_ci_coverage_on_overlapping_windows(drives, n, lo):
+    """Synthetic log-ratios with a known mean and the correlation of windows opened every L/3: the 95 % CI
+    covers the true geometric-mean ratio in about 95 % of 300 replications (measured 88 % for one drive of
+    22 windows, 97 % for five drives; the one-drive interval is knowingly a little optimistic)."""
+    rng = np.random.default_rng(7)
+    mu = 0.1
+    hits = 0
+    reps = 300
+    for r in range(reps):
+        groups = [_overlap_series(rng, n, mu) for _ in range(drives)]
+        ni = sum(n_independent(np.arange(n) * 20.0, 60.0) for _ in range(drives))
+        res = bootstrap_ratio(groups, default_block(60, 20), n_boot=300, seed=r, n_indep=ni)
+        hits += res["ci"][0] <= math.exp(mu) <= res["ci"][1]
+    cov = hits / reps
+    assert lo <= cov <= 0.995, cov
+
+
+def test_window_paired_of_the_official_windows():
+    from imunoise.experiments.online_exp import window_paired
+
+    ends = {"plain": [[100.0, 200.0, 50.0]], "gmwm": [[50.0, 100.0, 25.0]], "static_var": [[100.0, 200.0, 50.0]]}
+    out = window_paired(ends, [[(0.0, 60.0), (100.0, 60.0), (200.0, 60.0)]], n_boot=100)
+    got = {(e["method"], e["baseline"]): e for e in out}
+    assert set(got) == {("gmwm", "plain"), ("static_var", "plain"), ("gmwm", "static_var")}
+    assert got[("gmwm", "plain")]["ratio"] == pytest.approx(0.5) and got[("gmwm", "plain")]["significant"]
+    assert got[("static_var", "plain")]["ci"] == [1.0, 1.0] and got[("gmwm", "plain")]["n_independent"] == 3
