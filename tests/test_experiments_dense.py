@@ -9,7 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from imunoise.errors import ImunoiseError
+from imunoise.errors import ImunoiseError, ModelError
 from imunoise.experiments import dense
 from imunoise.experiments.common import load_real, repo_data_dir, run_filter
 from imunoise.experiments.gnss_regimes import GnssRegime, parse_gnss
@@ -155,3 +155,22 @@ def test_cli_evidence_on_two_simulated_drives(tmp_path):
     assert e["n_drives"] == 2 and e["n_windows"] == res["n_windows"] and e["ci"][0] <= e["ratio"] <= e["ci"][1]
     md = (out / "report.md").read_text()
     assert md.index("Paired ratios") < md.index("Paper-style view")
+
+
+def test_sf_suffix_adds_the_scale_factor_states_to_the_same_method(short_drive):
+    """NAME+sf is NAME's noise model in the 21-state filter (scale factors on); everything else equal."""
+    from imunoise.cli.experiment import select_methods
+
+    sc = short_drive
+    cfg0, models0, _ = dense.method_setup("plain", sc)
+    cfg1, models1, _ = dense.method_setup("plain+sf", sc)
+    assert not cfg0.ekf.scale_factors and cfg1.ekf.scale_factors
+    assert cfg1.with_(ekf=cfg1.ekf.with_(scale_factors=False)) == cfg0 and models1 == models0
+    w = [(sc.init.t + 100.0, 60.0)]
+    r0 = dense.run_windows(sc, cfg0, sc.gnss, w, initial_models=models0)
+    r1 = dense.run_windows(sc, cfg1, sc.gnss, w, initial_models=models1)
+    d0, d1 = r0["windows"][0]["drift"], r1["windows"][0]["drift"]
+    assert np.isfinite(d1) and d1 != pytest.approx(d0, rel=1e-6)  # the extra states changed the outage
+    assert select_methods("online", False, "gmwm,gmwm+sf", evidence=True) == ("gmwm", "gmwm+sf")
+    with pytest.raises(ModelError, match="unknown method"):
+        select_methods("online", False, "bogus+sf", evidence=True)

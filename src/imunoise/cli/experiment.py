@@ -83,6 +83,8 @@ def select_methods(which: str, sim: bool, methods: str | None, evidence: bool = 
     if evidence:
         allowed = tuple(dict.fromkeys((*allowed, "static_var_hindsight", *(("oracle",) if sim else ()))))
     chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else default
+    if evidence:  # any evidence method with the scale-factor states: NAME+sf
+        allowed = (*allowed, *(m + dense.SF_SUFFIX for m in allowed))
     bad = [m for m in chosen if m not in allowed]
     if bad or not chosen:
         raise ModelError(f"unknown method(s) {bad or [methods]}; choose from {', '.join(allowed)}")

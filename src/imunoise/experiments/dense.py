@@ -26,7 +26,9 @@ max(static variance, plain white); ``static_var_hindsight`` the same on all stat
 on the stops detected so far (refit after every stop once ``min_static_s`` of static data exist, like the
 online engine, and swapped into the filter at the stop's completion, keeping every state whose structure
 is unchanged); ``gmwm`` (the online engine, the paper's GOF); ``gmwm_hindsight`` (GMWM, GOF, on all static
-data); ``oracle`` on the simulator.
+data); ``oracle`` on the simulator. Any method with the suffix ``+sf`` (e.g. ``gmwm+sf``) is the same
+method in the filter with the six scale-factor states (``EkfConfig.scale_factors``, the 21-state filter of
+KF-GINS), so ``--pairs gmwm+sf/gmwm`` pairs scale factors on against off window by window.
 
 Noise seeds. The GNSS regimes with noise (:mod:`imunoise.experiments.gnss_regimes`) are run for several
 noise seeds. The seeds are realisations of the aiding on the *same* IMU data, not independent drives, so
@@ -54,12 +56,13 @@ from imunoise.online import OnlineConfig, OnlineNavigator
 
 log = logging.getLogger(__name__)
 
-__all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "method_setup", "run_windows",
+__all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "SF_SUFFIX", "method_setup", "run_windows",
            "run_real", "run_sim", "paired_list", "METRICS"]
 
 EVIDENCE_METHODS = ("plain", "static_var", "av", "em", "av_online", "em_online", "gmwm", "gmwm_hindsight")
 SIM_EXTRA = ("oracle",)
 ONLINE_BASELINES = {"static_var": "static_var", "av_online": "av", "em_online": "em"}
+SF_SUFFIX = "+sf"  # a method with the scale-factor states in the filter
 METRICS = ("drift", "rms", "aided_rms")
 MAX_GAP_S = 2.0
 BRANCH_MARGIN_S = 1.0
@@ -215,6 +218,10 @@ def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None,
     from imunoise.experiments.online_exp import method_config
 
     cache = cache if cache is not None else {}
+    if name.endswith(SF_SUFFIX):
+        # the noise model is the method's own; only the filter's state vector gains the scale factors
+        cfg, models, upd = method_setup(name[: -len(SF_SUFFIX)], sc, base, cache)
+        return cfg.with_(ekf=cfg.ekf.with_(scale_factors=True)), models, upd
     plain_cfg, _ = method_config("plain", sc, base)
     if name in ONLINE_BASELINES:
         gyro, accel = sc.imu.rates()
@@ -357,8 +364,8 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = DenseSpec(), regimes: Se
     paper = list(sc.windows) if paper_windows else []
     _REAL.update(sc=sc, regimes=list(regimes), windows=dense + paper, base=base, cache={})
     for m in methods:  # fixed fits once, before forking: the workers inherit them
-        if m in ("av", "em", "gmwm_hindsight", "static_var_hindsight"):
-            hindsight_fits(sc, m, _REAL["cache"])
+        if m.removesuffix(SF_SUFFIX) in ("av", "em", "gmwm_hindsight", "static_var_hindsight"):
+            hindsight_fits(sc, m.removesuffix(SF_SUFFIX), _REAL["cache"])
     jobs = [(m, ri, s) for ri, rg in enumerate(regimes) for s in (noise_seeds if rg.random else [0])
             for m in methods]
     jobs.sort(key=lambda j: not j[0].startswith(("gmwm", "em")))  # long jobs first

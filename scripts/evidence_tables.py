@@ -1,0 +1,72 @@
+"""Markdown tables of a dense-window evidence run (``imunoise experiment online --outages dense:...``).
+
+Reads ``results.json`` of one or more runs and prints, per run and GNSS regime, the paired geometric-mean
+ratios of every method against ``plain`` and ``static_var`` (drift, RMS inside the window, aided RMS) with
+their 95 % CIs, **bold** where the CI excludes 1, then the extra pairs asked with ``--pairs``. Used for the
+tables in docs/acceptance/.
+
+    python scripts/evidence_tables.py out/evidence/results.json [more/results.json ...]
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+METRICS = (("drift", "drift"), ("rms", "rms"), ("aided_rms", "aided RMS"))
+
+
+def _cell(e: dict | None) -> str:
+    if e is None:
+        return "–"
+    lo, hi = e["ci"]
+    text = f"{e['ratio']:.3f} [{lo:.3f}, {hi:.3f}]"
+    return f"**{text}**" if e.get("significant") else text
+
+
+def tables(res: dict) -> str:
+    """The markdown of one run's ``paired`` list."""
+    by = {(e.get("gnss", ""), e["method"], e["baseline"], e["metric"]): e for e in res["paired"]}
+    lines = []
+    where = f"seeds {res['seeds'][0]}–{res['seeds'][-1]}" if res.get("seeds") else res.get("data", "")
+    lines.append(f"{res['n_drives']} drive(s) ({where}), {res['n_windows']} windows, {res['n_independent']} "
+                 f"independent, protocol {res['protocol']['outages']}; scenario {res.get('scenario', '')}")
+    for g in res["gnss"]:
+        lines += ["", f"#### GNSS {g}", ""]
+        heads = ["method"] + [f"{lab} vs {b}" for _, lab in METRICS for b in ("plain", "static_var")]
+        lines.append("| " + " | ".join(heads) + " |")
+        lines.append("|" + "---|" * len(heads))
+        for m in res["methods"]:
+            if m == "plain":
+                continue
+            cells = [_cell(by.get((g, m, b, k))) if m != b else "–" for k, _ in METRICS for b in ("plain", "static_var")]
+            lines.append(f"| {m} | " + " | ".join(cells) + " |")
+        extra = sorted({(e["method"], e["baseline"]) for e in res["paired"] if e.get("gnss", "") == g
+                        and e["baseline"] not in ("plain", "static_var")})
+        extra += sorted({(e["method"], e["baseline"]) for e in res["paired"] if e.get("gnss", "") == g
+                         and e["baseline"] in ("plain", "static_var") and e["method"] in ("plain", "static_var")
+                         and (e["method"], e["baseline"]) != ("plain", "static_var")} - set(extra))
+        extra += [p for p in sorted({(e["method"], e["baseline"]) for e in res["paired"]
+                                     if e.get("gnss", "") == g and "+sf" in e["method"]}) if p not in extra]
+        if extra:
+            lines += ["", "| pair | " + " | ".join(lab for _, lab in METRICS) + " |", "|---|---|---|---|"]
+            for a, b in extra:
+                lines.append(f"| {a} / {b} | " + " | ".join(_cell(by.get((g, a, b, k))) for k, _ in METRICS) + " |")
+    return "\n".join(lines)
+
+
+def main(paths: list[str]) -> int:
+    if not paths:
+        print(__doc__.strip().splitlines()[-1].strip(), file=sys.stderr)
+        return 2
+    for p in paths:
+        res = json.loads(Path(p).read_text())
+        print(f"### {p}\n")
+        print(tables(res))
+        print()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))
