@@ -59,6 +59,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="simulator: IMU error models: preset (paper, mems, tactical), structure, or model JSON "
                    "(imunoise.sim.resolve_imu_models; default: paper = gyros of paper Table 4 and mems "
                    "accelerometers, 3*AR1+WN+RW per axis)")
+    p.add_argument("--motion-noise", default=None, metavar="PRESET|none",
+                   help="simulator: motion law of the IMU errors (imunoise.sim.motion): drive0708 (default: white "
+                   "noise and gyro y/z bias wander grow while moving, calibrated on the real drive) or none "
+                   "(moving = static, the paper's premise)")
     p.add_argument("--static-hours", type=float, default=2.0, help="denial --sim: static recording [h] (default 2)")
     p.add_argument("--methods", help="comma-separated subset of the methods")
     p.add_argument("--start", type=float, help="real data: navigation start [s, data time base]")
@@ -111,6 +115,7 @@ def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     from imunoise.cli.options import prepare_out_dir
 
+    args.motion_noise = _motion_arg(args)  # checked before the output folder is made
     out = prepare_out_dir(args.out)
     t0 = time.perf_counter()
     from imunoise.experiments.dense import parse_outages
@@ -134,6 +139,7 @@ def run(args: argparse.Namespace) -> int:
         kw = {"duration_s": args.duration, "n_stops": args.stops, "n_outages": 4 if outages is None else outages}
         if args.imu:
             kw["imu_models"] = args.imu
+        kw["motion_noise"] = args.motion_noise
         if args.which == "denial":
             res = denial.run_sim(seeds, methods=methods, workers=args.workers,
                                  static_recording_s=3600.0 * args.static_hours, progress=step, **kw)
@@ -162,6 +168,18 @@ def run(args: argparse.Namespace) -> int:
     print_headline(headline_rows(res), fmt)
     print(f"\nreport: {html.resolve()}  ({time.perf_counter() - t0:.1f} s)")
     return 0
+
+
+def _motion_arg(args: argparse.Namespace) -> str | None:
+    """The preset name of ``--motion-noise`` (default :data:`imunoise.sim.motion.DEFAULT_MOTION`) on the
+    simulator; checked before any run. Real data have their own motion: the option is refused there."""
+    if not args.sim:
+        if args.motion_noise is not None:
+            raise ModelError("--motion-noise belongs to the simulator (--sim); real data have their own motion")
+        return None
+    from imunoise.sim.motion import DEFAULT_MOTION, resolve_motion
+
+    return resolve_motion(args.motion_noise or DEFAULT_MOTION).name
 
 
 def print_headline(rows, fmt) -> None:
@@ -211,6 +229,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
         scen = {"duration_s": args.duration, "n_stops": args.stops}
         if args.imu:
             scen["imu_models"] = args.imu
+        scen["motion_noise"] = args.motion_noise
         res = dense.run_sim(seeds, progress=step, **kw, **scen)
         title = f"imunoise: dense-window evidence, {len(seeds)} simulated drives"
     else:

@@ -22,6 +22,7 @@ EXAMPLES = """examples:
   imunoise simulate --duration 900 --stops 5 --imu-model mems --gnss-rate 1 --outages outages.txt --out out/sim/d2
   imunoise simulate --imu-model models.json --clean --out out/sim/noisefree
   imunoise simulate --static --duration 7200 --imu-model mems --seed 3 --out out/sim/static2h
+  imunoise simulate --motion-noise none --seed 1 --out out/sim/static_law   # moving errors = static model
 
 --imu-model accepts a preset name (mems, tactical: 3*AR1+WN+RW with consumer/tactical values; paper: the gyros
 of paper Table 4 with mems accelerometers), a structure
@@ -32,7 +33,8 @@ Outage files hold "start duration" per line in s from the start of the drive (or
 is at or after --start-sow).
 
 written files: imu.txt (KF-GINS increments with errors), imu_true.txt, gnss.txt, ref.nav (IMU origin),
-outages.txt, truth.json (models, turn-on biases, stops, turns, speed profile), dataset.json (SPEC §12).
+outages.txt, truth.json (models, moving-regime models under the motion law, turn-on biases, stops, turns,
+speed profile), dataset.json (SPEC §12).
 --static writes imu.txt, imu_rate.csv (sow,gx,gy,gz,ax,ay,az) and truth.json."""
 
 
@@ -56,6 +58,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--static-start", type=float, default=60.0, help="static period at the start, s (default 60)")
     p.add_argument("--imu-model", default="mems", help="preset, structure, JSON file or 'none' (default mems)")
+    p.add_argument(
+        "--motion-noise",
+        default=None,
+        metavar="PRESET|none",
+        help="motion law of the IMU errors (imunoise.sim.motion): drive0708 (default: white noise and gyro y/z "
+        "bias wander grow with speed, calibrated on the real drive; replaces the vibration term) or none "
+        "(errors while moving = the static model; the default with --clean)",
+    )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--imu-rate", type=float, default=100.0, help="IMU rate, Hz (default 100)")
     p.add_argument("--gnss-rate", type=float, default=1.0, help="GNSS rate, Hz (default 1)")
@@ -94,7 +104,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="start position: lat, lon [deg], ellipsoidal height [m] (default 40.0966 -105.147 1601)",
     )
     p.add_argument("--start-sow", type=float, default=100000.0, help="GPS SOW of the first sample")
-    p.add_argument("--clean", action="store_true", help="no turn-on bias, vibration or outliers")
+    p.add_argument("--clean", action="store_true", help="no turn-on bias, vibration, motion noise or outliers")
     p.add_argument("--gzip", action="store_true", help="gzip imu.txt, imu_true.txt and ref.nav")
     p.add_argument("--static", action="store_true", help="write a static recording instead of a drive")
     p.add_argument(
@@ -110,9 +120,12 @@ def _models_arg(text: str):
 def run(args: argparse.Namespace) -> int:
     from imunoise.io.kfgins import read_outages, write_imu
     from imunoise.sim import DriveConfig, simulate_drive, simulate_static
+    from imunoise.sim.motion import DEFAULT_MOTION, resolve_motion
 
     t0 = time.perf_counter()
     models = _models_arg(args.imu_model)
+    # a bad preset fails before anything is written
+    motion = resolve_motion(args.motion_noise or ("none" if args.clean else DEFAULT_MOTION)).name
     prepare_out_dir(args.out)  # an unusable --out fails before the simulation
     if args.static:
         rec = simulate_static(models, args.duration, args.imu_rate, args.seed, start_sow=args.start_sow)
@@ -149,6 +162,7 @@ def run(args: argparse.Namespace) -> int:
         start_sow=args.start_sow,
         start_llh=tuple(args.start_llh),
         seed=args.seed,
+        motion_noise=motion,
     )
     cfg = DriveConfig.noise_free(**kw) if args.clean else DriveConfig(**kw)
     if outages and max(s + d for s, d in outages) > cfg.duration_s:
@@ -163,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"simulated drive: {cfg.duration_s:g} s, {tr['distance_m'] / 1000:.2f} km, max speed "
         f"{tr['max_speed_mps']:.1f} m/s, max turn rate {tr['max_turn_rate_deg_s']:.0f} °/s, "
-        f"stops [s]: {stops}; IMU model: {_describe(drive.imu_models)} -> {out} "
+        f"stops [s]: {stops}; IMU model: {_describe(drive.imu_models)}, motion noise {motion} -> {out} "
         f"({time.perf_counter() - t0:.1f} s)"
     )
     return 0

@@ -34,10 +34,13 @@ log = logging.getLogger(__name__)
 __all__ = [
     "Scenario", "load_real", "simulate_scenario", "static_segments", "baseline_fits", "filter_models",
     "run_filter", "evaluate", "evaluate_full", "evaluate_outages", "combine",
-    "paired_ci", "map_seeds", "METHOD_LABELS", "SIM_IMU", "repo_data_dir",
+    "paired_ci", "map_seeds", "METHOD_LABELS", "SIM_IMU", "SIM_MOTION", "repo_data_dir",
 ]
 
 SIM_IMU = "paper"  # gyros of paper Table 4 (3*AR1+WN+RW per axis), accelerometers of the "mems" preset
+# motion law of the simulated errors: imunoise.sim.motion.DEFAULT_MOTION (calibrated on the real drive; named
+# here so that importing the experiments does not import the simulator)
+SIM_MOTION = "drive0708"
 KFGINS_DRIVE0708 = [335.5, 520.9, 42.7, 398.6, 310.8]  # m, README of the shared drive
 
 METHOD_LABELS = {
@@ -132,10 +135,13 @@ def load_real(data_dir: str | Path, *, start: float | None = None, static_durati
 
 def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4, n_outages: int = 4,
                       imu_models: Any = SIM_IMU, outage_s: float = 60.0, outage_lead_s: float = 60.0,
-                      match_bias_prior: bool = True, **drive_kw: Any) -> Scenario:
+                      match_bias_prior: bool = True, motion_noise: Any = SIM_MOTION, **drive_kw: Any) -> Scenario:
     """A simulated urban drive (SPEC §10) with ``n_outages`` windows of ``outage_s`` (all in one run), the first
     no earlier than ``outage_lead_s`` of GNSS-aided driving after the static start. ``match_bias_prior``: the
     filter's initial bias σ is set to the simulated turn-on bias σ (else the :class:`EkfConfig` defaults).
+    ``motion_noise``: the motion law of the IMU errors (:mod:`imunoise.sim.motion`; default the preset
+    calibrated on the real drive, ``"none"``: moving = static); ``truth_models`` are the moving-regime models
+    (what the ``oracle`` method filters with), ``extra["static_models"]`` the static ones.
 
     Why the lead (default 60 s): the online model exists only after the first stop (the static start, 60 s),
     and a window that opens seconds after the car starts moving tests the alignment, not the error model:
@@ -144,7 +150,7 @@ def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4,
     from imunoise.nav.align import coarse_align
     from imunoise.sim import DriveConfig, simulate_drive
 
-    cfg = DriveConfig(duration_s=duration_s, n_stops=n_stops, seed=seed, **drive_kw)
+    cfg = DriveConfig(duration_s=duration_s, n_stops=n_stops, seed=seed, motion_noise=motion_noise, **drive_kw)
     drive = simulate_drive(cfg, imu_models, seed=seed)
     windows = drive.outage_windows(n_outages, outage_s, lead_s=outage_lead_s) if n_outages else []
     # the filter's initial bias σ = the simulated turn-on σ (what a datasheet tells the user), where there is one
@@ -155,8 +161,9 @@ def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4,
     init = coarse_align(drive.imu, drive.gnss, t_start, static_window=(a, b), lever_arm=cfg.lever_arm_m)
     return Scenario(f"simulated drive (seed {seed})", drive.imu, drive.gnss, drive.reference,
                     np.asarray(cfg.lever_arm_m, dtype=float), init, windows, outage_runs=False,
-                    static_truth=drive.static_mask, truth_models=drive.imu_models,
-                    extra={"stops": drive.truth["stops"], "seed": seed, "ekf": ekf})
+                    static_truth=drive.static_mask, truth_models=drive.moving_models,
+                    extra={"stops": drive.truth["stops"], "seed": seed, "ekf": ekf, "static_models": drive.imu_models,
+                           "motion_noise": drive.truth["motion_noise"]})
 
 
 # --------------------------------------------------------------------------------------------------

@@ -72,8 +72,8 @@ def method_config(name: str, sc: Scenario, base: OnlineConfig | None = None,
     if name == "gmwm_zupt":
         return base.with_(zupt=True), None
     if name == "oracle":
-        # the simulator's true per-axis models through the same fit → filter mapping, without the floor:
-        # the best any static-data model can do, the ceiling of every method here
+        # the simulator's true per-axis models through the same fit → filter mapping, without the floor: the
+        # moving-regime models of the motion law (the outages are driven), the ceiling of every method here
         if not sc.truth_models:
             raise ModelError("the oracle method needs a simulated scenario (true IMU models)")
         from imunoise.imu import AXES

@@ -314,9 +314,12 @@ def write_sim(results: dict, out: Path, *, title: str) -> Path:
     methods = list(results["methods"])
     rep = Report(title)
     n = len(results["seeds"])
+    scen = results.get("scenario") or {}
+    motion = scen.get("motion_noise", "drive0708")
     rep.paragraph(
         f"Monte Carlo over {n} simulated urban drives (SPEC §10; IMU truth 3*AR1+WN+RW per axis, the simulator's "
-        "consumer-MEMS preset, plus turn-on biases and motion vibration; stops of 5–90 s; 60 s outages, all "
+        f"{scen.get('imu_models', 'paper')} preset, plus turn-on biases; motion law of the errors: {motion} "
+        "(imunoise.sim.motion); stops of 5–90 s; 60 s outages, all "
         "windows removed in one run). Values are means over seeds; the differences are paired per seed with "
         "Student-t 95 % confidence intervals."
     )

@@ -8,6 +8,13 @@ with r_k = Δθ_k/Δt (or Δv_k/Δt) the true mean rate over (t_{k−1}, t_k], s
 turn-on bias, e_{j,k} a sample path of the axis' :class:`~imunoise.model.Model` (per-sample parameters at
 the IMU rate), and w_k·a_j(v) broadband vibration (white, std a_j·min(1, v/3 m/s), exactly zero on the
 static epochs). The output increments are r̃_k Δt.
+
+Motion-dependent errors (``DriveConfig.motion_noise``, :mod:`imunoise.sim.motion`): with a motion law the
+path e_{j,k} is drawn with per-sample multipliers of its white and bias-process noise that grow with speed
+and turn rate (1 on the static epochs), and the law replaces the vibration term (w_k·a_j ≡ 0: the law's
+white multiplier is the vibration). ``motion_noise="none"`` makes the errors while moving exactly the static
+model (nothing extra to learn in motion); ``None`` (the default of :class:`DriveConfig`) keeps the
+vibration term alone, as before the motion laws.
 """
 
 from __future__ import annotations
@@ -35,6 +42,7 @@ from imunoise.io.kfgins import (
 from imunoise.model import Model
 from imunoise.nav.earth import OMEGA_E, radii
 from imunoise.sim.imu_errors import models_to_json, resolve_imu_models, simulate_model_errors
+from imunoise.sim.motion import MotionNoise, modulated_errors, oracle_models, resolve_motion
 from imunoise.sim.trajectory import DrivePlan, Kinematics, Ramps, kinematics, simpson_increments
 
 __all__ = ["DriveConfig", "SimulatedDrive", "simulate_drive", "plan_drive"]
@@ -85,8 +93,11 @@ class DriveConfig:
     gyro_bias_sigma: float = 200.0 * _DEG / 3600.0  # rad/s, turn-on bias σ (200 °/h)
     accel_bias_sigma: float = 0.05  # m/s², turn-on bias σ (≈5 mg)
     scale_factor_sigma: float = 0.0  # dimensionless σ (1e-3 = 1000 ppm)
-    gyro_vibration: float = 0.1 * _DEG  # rad/s std while moving at ≥ 3 m/s (0.1 °/s)
-    accel_vibration: float = 0.05  # m/s² std while moving at ≥ 3 m/s
+    gyro_vibration: float = 0.1 * _DEG  # rad/s std while moving at ≥ 3 m/s (0.1 °/s); only when motion_noise is None
+    accel_vibration: float = 0.05  # m/s² std while moving at ≥ 3 m/s; only when motion_noise is None
+    # motion law of the stochastic errors (imunoise.sim.motion): a preset ("none", "drive0708") or a
+    # MotionNoise; it replaces the vibration term. None: the vibration term alone (the earlier simulator).
+    motion_noise: str | MotionNoise | None = None
 
     def __post_init__(self) -> None:
         if self.duration_s <= 0 or self.static_s < 0 or self.static_s >= self.duration_s:
@@ -110,6 +121,8 @@ class DriveConfig:
         if min(self.gnss_sigma_m) <= 0:
             raise ModelError(f"gnss_sigma_m must be > 0, got {self.gnss_sigma_m}")
         self.outages = [(float(s), float(d)) for s, d in self.outages]
+        if self.motion_noise is not None:
+            resolve_motion(self.motion_noise)  # an unknown preset fails here, not after the trajectory
         for s, d in self.outages:
             if d <= 0:
                 raise ModelError(f"outage ({s}, {d}): the duration (second value, s) must be > 0")
@@ -295,6 +308,9 @@ class SimulatedDrive:
     truth: dict[str, Any]
     model_errors: np.ndarray  # (n, 6) model sample paths e_{j,k} [rad/s | m/s²], axes imu.AXES
     vibration: np.ndarray  # (n, 6) vibration part of the rate error
+    # moving-regime per-axis models under the motion law (imunoise.sim.motion.oracle_models over this drive's
+    # moving samples); the static models when there is no law or it is "none"
+    moving_models: dict[str, Model] = field(default_factory=dict)
 
     @property
     def bias_true(self) -> np.ndarray:
@@ -459,13 +475,25 @@ def simulate_drive(
 
     # ---- IMU errors
     models = resolve_imu_models(imu_models, cfg.imu_rate_hz)
-    err = simulate_model_errors(models, n, ss_imu)
+    law = None if cfg.motion_noise is None else resolve_motion(cfg.motion_noise)
+    moving_models = dict(models)
+    if law is None or law.is_static:
+        err = simulate_model_errors(models, n, ss_imu)
+    else:
+        # body turn rate = norm of the Euler-angle rates: zero at rest, unlike ω_ib (Earth rate)
+        turn = np.sqrt(kin.yaw_rate**2 + kin.pitch_rate**2 + kin.roll_rate**2)[at]
+        m_white, m_bias = law.multipliers(spd[at], turn, static_mask)
+        err = modulated_errors(models, n, ss_imu, m_white, m_bias)
+        moving_models = oracle_models(models, law, spd[at][~static_mask], turn[~static_mask])
     rb = np.random.default_rng(ss_bias)
     bias = np.concatenate([rb.normal(0, cfg.gyro_bias_sigma, 3), rb.normal(0, cfg.accel_bias_sigma, 3)])
     scale = rb.normal(0, cfg.scale_factor_sigma, 6) if cfg.scale_factor_sigma > 0 else np.zeros(6)
-    env = np.where(static_mask, 0.0, np.minimum(1.0, spd[at] / 3.0))
-    vib_std = np.array([cfg.gyro_vibration] * 3 + [cfg.accel_vibration] * 3)
-    vib = rb.standard_normal((n, 6)) * vib_std * env[:, None]
+    if law is None:
+        env = np.where(static_mask, 0.0, np.minimum(1.0, spd[at] / 3.0))
+        vib_std = np.array([cfg.gyro_vibration] * 3 + [cfg.accel_vibration] * 3)
+        vib = rb.standard_normal((n, 6)) * vib_std * env[:, None]
+    else:  # the law's white multiplier is the vibration
+        vib = np.zeros((n, 6))
     rate_true = np.column_stack([dth, dv]) / dt
     rate_meas = (1.0 + scale) * rate_true + bias + err + vib
     imu = ImuData(t=t, dtheta=rate_meas[:, :3] * dt, dv=rate_meas[:, 3:] * dt)
@@ -516,6 +544,11 @@ def simulate_drive(
     gnss = gnss_full.without([(cfg.start_sow + s, d) for s, d in cfg.outages]) if cfg.remove_outages else gnss_full
 
     truth = _truth(cfg, seed, plan, kin, at, models, bias, scale, t[ig][is_out], static_mask, t)
+    truth["motion_noise"] = None if law is None else law.to_dict()
+    truth["models_moving"] = models_to_json(moving_models, cfg.imu_rate_hz)
+    if law is not None:
+        truth["vibration_std_at_speed"] = {"gyro_rad_s": 0.0, "accel_m_s2": 0.0, "full_at_mps": 3.0,
+                                           "note": "replaced by the motion law's white multiplier"}
     return SimulatedDrive(
         config=cfg,
         imu=imu,
@@ -530,6 +563,7 @@ def simulate_drive(
         truth=truth,
         model_errors=err,
         vibration=vib,
+        moving_models=moving_models,
     )
 
 
