@@ -40,7 +40,8 @@ def tables(res: dict) -> str:
         for m in res["methods"]:
             if m == "plain":
                 continue
-            cells = [_cell(by.get((g, m, b, k))) if m != b else "–" for k, _ in METRICS for b in ("plain", "static_var")]
+            cells = [_cell(by.get((g, m, b, k))) if m != b else "–"
+                     for k, _ in METRICS for b in ("plain", "static_var")]
             lines.append(f"| {m} | " + " | ".join(cells) + " |")
         extra = sorted({(e["method"], e["baseline"]) for e in res["paired"] if e.get("gnss", "") == g
                         and e["baseline"] not in ("plain", "static_var")})

@@ -56,7 +56,8 @@ from imunoise.online import OnlineConfig, OnlineNavigator
 
 log = logging.getLogger(__name__)
 
-__all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "SF_SUFFIX", "method_setup", "run_windows",
+__all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "SF_SUFFIX", "method_setup",
+           "run_windows",
            "run_real", "run_sim", "paired_list", "METRICS"]
 
 EVIDENCE_METHODS = ("plain", "static_var", "av", "em", "av_online", "em_online", "gmwm", "gmwm_hindsight")
