@@ -43,13 +43,9 @@ def tables(res: dict) -> str:
             cells = [_cell(by.get((g, m, b, k))) if m != b else "–"
                      for k, _ in METRICS for b in ("plain", "static_var")]
             lines.append(f"| {m} | " + " | ".join(cells) + " |")
+        # the pairs asked with --pairs and every NAME+sf against NAME (the rows above hold the rest)
         extra = sorted({(e["method"], e["baseline"]) for e in res["paired"] if e.get("gnss", "") == g
-                        and e["baseline"] not in ("plain", "static_var")})
-        extra += sorted({(e["method"], e["baseline"]) for e in res["paired"] if e.get("gnss", "") == g
-                         and e["baseline"] in ("plain", "static_var") and e["method"] in ("plain", "static_var")
-                         and (e["method"], e["baseline"]) != ("plain", "static_var")} - set(extra))
-        extra += [p for p in sorted({(e["method"], e["baseline"]) for e in res["paired"]
-                                     if e.get("gnss", "") == g and "+sf" in e["method"]}) if p not in extra]
+                        and (e["baseline"] not in ("plain", "static_var") or e["method"] == e["baseline"] + "+sf")})
         if extra:
             lines += ["", "| pair | " + " | ".join(lab for _, lab in METRICS) + " |", "|---|---|---|---|"]
             for a, b in extra:
