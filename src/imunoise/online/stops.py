@@ -110,7 +110,9 @@ def stop_verdict(speed: np.ndarray, sigma: np.ndarray, aided: np.ndarray, nis: n
     tested_v = aided & np.isfinite(speed)
     tested_n = ~aided & np.isfinite(nis) if chi2 > 0 else np.zeros(n, dtype=bool)
     bad_v = tested_v & (speed > limit)
-    bad_n = tested_n & (nis > chi2)
+    # both tests must contradict without GNSS: the NIS alone rejected true stops of a drifting, overconfident
+    # filter inside outages (a stop_max_speed floor as on the aided samples)
+    bad_n = tested_n & (nis > chi2) & (speed > max_speed)
     bad = bad_v | bad_n
     if tested_v.any():
         j = int(np.argmax(np.where(tested_v, speed, -np.inf)))
