@@ -92,7 +92,8 @@ def simulator(seeds: int, presets: list[str], workers: int, out: Path) -> list[s
             pf, rf = _pr([r[name]["full"] for r in res])
             po, ro = _pr([r[name]["outages"] for r in res])
             drift = float(np.mean([r[name]["drift_m"] for r in res]))
-            rows.append(f"| {preset} | {name} | {pf:.3f} | {rf:.3f} | {po:.3f} | {ro:.3f} | {drift:.1f} | {plain:.1f} |")
+            rows.append(f"| {preset} | {name} | {pf:.3f} | {rf:.3f} | {po:.3f} | {ro:.3f} | {drift:.1f} "
+                        f"| {plain:.1f} |")
     return rows
 
 

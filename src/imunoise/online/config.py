@@ -109,12 +109,9 @@ class OnlineConfig:
                            ("stop_edge_s", "≥ 0 s (default 3)"), ("stop_sigma_k", "≥ 0 (default 3)"),
                            ("stop_chi2", "≥ 0 (0 = off)")):
             v = getattr(self, name)
-            try:
-                x = float(v)
-            except (TypeError, ValueError):
-                x = math.nan
+            x = float(v) if isinstance(v, int | float) and not isinstance(v, bool) else math.nan
             ok = x > 0 if name in ("stop_max_speed", "stop_aided_s") else x >= 0
-            if isinstance(v, bool) or not (math.isfinite(x) and ok):
+            if not (math.isfinite(x) and ok):
                 raise ModelError(f"{name} must be a finite number {rule}, got {v!r}")
 
     def with_(self, **kw: Any) -> OnlineConfig:
