@@ -13,6 +13,9 @@ name importable from ``imunoise.online``:
     function run inline or in a worker thread.
 ``result``
     :class:`ModelUpdate`, :class:`OnlineResult` and the per-epoch :class:`EpochStore`.
+``stops``
+    Which detected stops are modelled: :func:`stop_verdict` (the navigation check of a static segment,
+    ``OnlineConfig.stop_guard``) and its :class:`StopVerdict`.
 ``navigator``
     :class:`OnlineNavigator` (streaming and batch; the engine, its docstring explains the modelling, the
     mapping, the swap and the worker with the measurements behind them) and :func:`run_online`.
@@ -24,6 +27,7 @@ from imunoise.online.config import COMPLETE, NEGLIGIBLE, OnlineConfig, config_su
 from imunoise.online.jobs import model_job
 from imunoise.online.navigator import OnlineNavigator, run_online
 from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
+from imunoise.online.stops import StopVerdict, stop_verdict
 from imunoise.online.to_filter import data_horizon, dr_equivalent_rw, ekf_axis_model, filter_axis_models
 
 __all__ = [
@@ -41,4 +45,6 @@ __all__ = [
     "config_summary",
     "model_job",
     "EpochStore",
+    "StopVerdict",
+    "stop_verdict",
 ]

@@ -44,6 +44,13 @@ class OnlineConfig:
     from numba's on-disk cache) the modelling kernels at construction (:func:`imunoise.fitting.warm.warm_up`;
     inline, or in the worker thread with ``worker="thread"``) and log it as a ``warm_up`` event, so the first
     identification does not wait for the compiler (8–10 s of CPU in a fresh clone, measured on drive_0708).
+    ``stop_guard``: ``"nav"`` (default) models a detected stop only where the navigation solution agrees
+    (:mod:`imunoise.online.stops`): while GNSS-aided (a fix used within ``stop_aided_s``) the horizontal speed
+    must stay below max(``stop_max_speed``, ``stop_sigma_k``·σ_h); unaided samples are tested by the
+    zero-velocity NIS ≤ ``stop_chi2`` (3 dof, σ ``zupt_sigma_v``) when > 0, else not at all; a violation within
+    ``stop_edge_s`` of a segment end trims the segment. A rejected segment never reaches the wavelet variance
+    (``stop_rejected`` event, :attr:`OnlineResult.rejected_segments`). ``"none"``: every detected stop is
+    modelled (the IMU-only test; a noisy IMU's learned λ_0 lets smooth cruising pass it).
     """
 
     ekf: EkfConfig = field(default_factory=EkfConfig)
@@ -72,6 +79,12 @@ class OnlineConfig:
     swap: str = "preserve"
     store: bool = True
     warm_up: bool = True
+    stop_guard: str = "nav"
+    stop_max_speed: float = 1.0
+    stop_aided_s: float = 3.0
+    stop_edge_s: float = 3.0
+    stop_sigma_k: float = 3.0
+    stop_chi2: float = 0.0
 
     def __post_init__(self) -> None:
         if self.criterion not in ("gof", "wvic"):
@@ -90,6 +103,16 @@ class OnlineConfig:
             raise ModelError(f"latency must be ≥ 0 s or None, got {self.latency!r}")
         if not self.min_static_s > 0:
             raise ModelError(f"min_static_s must be > 0 s, got {self.min_static_s}")
+        if self.stop_guard not in ("nav", "none"):
+            raise ModelError(f"stop_guard must be 'nav' or 'none', got {self.stop_guard!r}")
+        for name, rule in (("stop_max_speed", "> 0 m/s (default 1)"), ("stop_aided_s", "> 0 s (default 3)"),
+                           ("stop_edge_s", "≥ 0 s (default 3)"), ("stop_sigma_k", "≥ 0 (default 3)"),
+                           ("stop_chi2", "≥ 0 (0 = off)")):
+            v = getattr(self, name)
+            x = float(v) if isinstance(v, int | float) and not isinstance(v, bool) else math.nan
+            ok = x > 0 if name in ("stop_max_speed", "stop_aided_s") else x >= 0
+            if not (math.isfinite(x) and ok):
+                raise ModelError(f"{name} must be a finite number {rule}, got {v!r}")
 
     def with_(self, **kw: Any) -> OnlineConfig:
         return replace(self, **kw)
@@ -99,5 +122,5 @@ def config_summary(c: OnlineConfig) -> dict:
     return {
         "min_static_s": c.min_static_s, "complete": c.complete, "criterion": c.criterion, "latency": c.latency,
         "worker": c.worker, "gate": c.gate, "zupt": c.zupt, "floor": c.floor, "fold_tau_s": c.fold_tau_s,
-        "modelling": c.modelling,
+        "modelling": c.modelling, "stop_guard": c.stop_guard,
     }

@@ -93,6 +93,7 @@ from imunoise.nav.mechanization import I_Q
 from imunoise.online.config import OnlineConfig, config_summary
 from imunoise.online.jobs import model_job
 from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
+from imunoise.online.stops import stop_verdict
 from imunoise.online.to_filter import filter_axis_models
 from imunoise.wv import WVAccumulator
 
@@ -157,6 +158,15 @@ class OnlineNavigator:
         self._acc = [WVAccumulator(freq=self.rate) for _ in range(6)]
         self.static_s = 0.0
         self.segments: list[StaticSegment] = []
+        self.detected_segments: list[StaticSegment] = []  # every completed detector segment, before the guard
+        self.rejected_segments: list[StaticSegment] = []  # the parts of them the stop guard dropped
+        self._t_aided = -math.inf  # filter time of the last GNSS fix the filter used
+        # navigation solution at each sample of the current raw static run (rows: speed, σ_h, aided, NIS) for
+        # the stop guard, in a growing array (a 2 h static record would be 720k rows); _run_i0 = absolute index
+        # of the run's first sample
+        self._run_nav = np.empty((1024, 4))
+        self._run_len = 0
+        self._run_i0 = 0
         self.fits: list[GMWMFit | None] = [None] * 6
         self.updates: list[ModelUpdate] = []
         self._scheduled: list[tuple[float, ModelUpdate]] = []
@@ -256,8 +266,8 @@ class OnlineNavigator:
             raise DataError(f"push_gnss: sigma_ned_m must be ≥ 0 m (1σ per axis), got {sig.tolist()}")
         fix = (t, llh, sig)
         if t <= self._t_last:
-            if self._started and t > self.init.t:
-                self.ekf.update_gnss(*fix)
+            if self._started and t > self.init.t and self.ekf.update_gnss(*fix):
+                self._t_aided = self._t_last
             return
         self._gnss.append(fix)
 
@@ -466,6 +476,10 @@ class OnlineNavigator:
         self._t_last = t
         self._n += 1
         self._static_run = self._static_run + 1 if is_static else 0
+        if self._static_run == 1:
+            # a new raw static run: the previous run's segments were completed at its first non-static sample
+            self._run_len = 0
+            self._run_i0 = self._n - 1
         if not is_static:
             self._zupt_rejected = False
         if self._static_run == self._stop_start_n and self.detector is not None:
@@ -485,8 +499,10 @@ class OnlineNavigator:
             self.ekf.propagate(dth, dvv, t)
             while self._gnss and self._gnss[0][0] <= t:
                 fix = self._gnss.pop(0)
-                if fix[0] > self.init.t:
-                    self.ekf.update_gnss(*fix)
+                if fix[0] > self.init.t and self.ekf.update_gnss(*fix):
+                    self._t_aided = t
+            if is_static and cfg.stop_guard == "nav":
+                self._record_nav(t)
             if cfg.zupt and self._static_run >= cfg.zupt_after and self._static_run % cfg.zupt_every == 0 \
                     and not gate and math.hypot(self.ekf.nav[3], self.ekf.nav[4]) < cfg.zupt_max_speed:
                 if self._zupt_consistent(cfg.zupt_sigma_v):
@@ -498,6 +514,8 @@ class OnlineNavigator:
         else:
             while self._gnss and self._gnss[0][0] <= t:
                 self._gnss.pop(0)
+            if is_static and cfg.stop_guard == "nav":
+                self._run_row(math.nan, math.nan, 0.0, math.nan)
         for s in segs:
             self._segment(s, t)
         self._poll(t)
@@ -515,6 +533,60 @@ class OnlineNavigator:
             drop = len(self._rows) - 16
             del self._rows[:drop]
             self._raw_t0 += drop
+
+    def _record_nav(self, t: float) -> None:
+        """The navigation solution at this static sample, before any ZUPT (a ZUPT would make a false stop
+        look still): horizontal speed, its σ from the (lazily propagated) covariance, whether a GNSS fix was
+        used within ``stop_aided_s``, and with ``stop_chi2`` > 0 the zero-velocity NIS (3 dof). P is read as
+        is, never flushed here, so the guard does not change the filter's numbers."""
+        cfg = self.config
+        v = self.ekf.nav[3:6]
+        P = self.ekf.P
+        nis = math.nan
+        if cfg.stop_chi2 > 0:
+            try:
+                nis = float(v @ np.linalg.solve(P[3:6, 3:6] + cfg.zupt_sigma_v**2 * np.eye(3), v))
+            except np.linalg.LinAlgError:
+                nis = math.inf
+        self._run_row(math.hypot(v[0], v[1]), math.sqrt(max(P[3, 3] + P[4, 4], 0.0)),
+                      float(t - self._t_aided <= cfg.stop_aided_s), nis)
+
+    def _run_row(self, speed: float, sigma: float, aided: float, nis: float) -> None:
+        if self._run_len == self._run_nav.shape[0]:
+            self._run_nav = np.concatenate([self._run_nav, np.empty_like(self._run_nav)])
+        self._run_nav[self._run_len] = (speed, sigma, aided, nis)
+        self._run_len += 1
+
+    def _guard(self, seg: StaticSegment, t_now: float) -> list[StaticSegment]:
+        """The pieces of a detected segment the navigation solution agrees are a stop (:func:`stop_verdict`):
+        ``[seg]`` when nothing contradicts it; otherwise a ``stop_rejected`` event, the dropped pieces added to
+        ``rejected_segments``, and the kept pieces (possibly none)."""
+        cfg = self.config
+        if cfg.stop_guard != "nav":
+            return [seg]
+        a, b = seg.i0 - self._run_i0, seg.i1 - self._run_i0
+        if a < 0 or b > self._run_len:  # cannot happen: a segment lies inside the raw run that just ended
+            log.warning("static segment %.2f–%.2f s outside the recorded run; not guarded", seg.t0, seg.t1)
+            return [seg]
+        rows = self._run_nav[a:b]
+        v = stop_verdict(rows[:, 0], rows[:, 1], rows[:, 2] > 0, rows[:, 3], rate_hz=self.rate,
+                         max_speed=cfg.stop_max_speed, sigma_k=cfg.stop_sigma_k, chi2=cfg.stop_chi2,
+                         edge_s=cfg.stop_edge_s, min_duration_s=self.detector.config.min_duration_s)
+        if v.whole:
+            return [seg]
+        ts = self._sample_t
+
+        def piece(p: int, q: int) -> StaticSegment:
+            return StaticSegment(ts[seg.i0 + p], ts[seg.i0 + q - 1], seg.i0 + p, seg.i0 + q)
+
+        kept = [piece(p, q) for p, q in v.keep]
+        dropped = [piece(p, q) for p, q in v.drop]
+        self.rejected_segments.extend(dropped)
+        self._event("stop_rejected", t_now, t0=seg.t0, t1=seg.t1, duration_s=seg.duration, reason=v.reason,
+                    max_speed_mps=v.max_speed_mps, threshold_mps=v.threshold_mps, max_nis=v.max_nis,
+                    rejected_s=float(sum(d.i1 - d.i0 for d in dropped) / self.rate),
+                    kept=[(k.t0, k.t1) for k in kept])
+        return kept
 
     def _zupt_consistent(self, sigma_v: float) -> bool:
         """χ² test of the zero-velocity pseudo-measurement, NIS = vᵀ(P_vv + σ²I)⁻¹v ≤ ``zupt_chi2`` (3 dof):
@@ -546,10 +618,33 @@ class OnlineNavigator:
 
     # -- modelling ------------------------------------------------------------------------------------
     def _segment(self, seg: StaticSegment, t_now: float) -> None:
-        a, b = seg.i0 - self._raw_t0, seg.i1 - self._raw_t0
-        if a < 0:
+        if seg.i0 - self._raw_t0 < 0:
             log.warning("static segment %.2f–%.2f s starts before the kept raw data; skipped", seg.t0, seg.t1)
             return
+        self.detected_segments.append(seg)
+        kept = self._guard(seg, t_now)
+        for s in kept:
+            self._add_static(s, t_now)
+        if not kept:
+            return
+        if not self.config.modelling:
+            return
+        if self.static_s < self.config.min_static_s:
+            self._event("waiting", t_now, static_total_s=self.static_s, need_s=self.config.min_static_s)
+            return
+        kind = "identify" if all(f is None for f in self.fits) else "refit"
+        if self.config.worker == "thread":
+            if self._future is not None:
+                self._dirty = True
+                return
+            self._submit(kind, t_now)
+            return
+        self._run_inline(kind, t_now)
+
+    def _add_static(self, seg: StaticSegment, t_now: float) -> None:
+        """Pool one modelled segment into the per-axis wavelet variances (bias removed, split at non-finite
+        samples) and log its ``stop_end``."""
+        a, b = seg.i0 - self._raw_t0, seg.i1 - self._raw_t0
         data = np.array(self._rows[a:b])
         ok = np.all(np.isfinite(data), axis=1)
         # a non-finite sample splits the segment (no wavelet coefficient may span it)
@@ -565,19 +660,6 @@ class OnlineNavigator:
         self.static_s += seg.duration
         self.segments.append(seg)
         self._event("stop_end", t_now, t0=seg.t0, t1=seg.t1, duration_s=seg.duration, static_total_s=self.static_s)
-        if not self.config.modelling:
-            return
-        if self.static_s < self.config.min_static_s:
-            self._event("waiting", t_now, static_total_s=self.static_s, need_s=self.config.min_static_s)
-            return
-        kind = "identify" if all(f is None for f in self.fits) else "refit"
-        if self.config.worker == "thread":
-            if self._future is not None:
-                self._dirty = True
-                return
-            self._submit(kind, t_now)
-            return
-        self._run_inline(kind, t_now)
 
     def _wvs(self, t_now: float) -> list | None:
         """The per-axis WVs of the static data so far, or None after a 'rejected' event when one fails."""
@@ -684,7 +766,8 @@ class OnlineNavigator:
             gate_open=np.array(self._gate_log, dtype=bool), static_raw=np.array(self._static_raw, dtype=bool),
             lambda0=float(self.lambda0) if self.lambda0 is not None else float("nan"),
             elapsed_s=self._elapsed, final_models=list(self.current_models), fits=list(self.fits),
-            sample_t=np.array(self._sample_t),
+            sample_t=np.array(self._sample_t), rejected_segments=list(self.rejected_segments),
+            detected_segments=list(self.detected_segments),
         )
 
 

@@ -42,7 +42,12 @@ class ModelUpdate:
 
 @dataclass
 class OnlineResult(NavSolution):
-    """Output of the online run at every IMU epoch the filter processed (IMU point)."""
+    """Output of the online run at every IMU epoch the filter processed (IMU point).
+
+    ``detected_segments``: every segment the static detector completed (IMU only); ``segments``: what was
+    modelled of them (all, or the pieces the stop guard kept, ``OnlineConfig.stop_guard``);
+    ``rejected_segments``: the pieces the navigation solution contradicted, never modelled;
+    ``static_raw``/``sample_t``: the detector's per-sample test over every pushed sample."""
 
     events: list[dict]
     updates: list[ModelUpdate]
@@ -54,6 +59,8 @@ class OnlineResult(NavSolution):
     final_models: list[tuple[Model, float]]
     fits: list[GMWMFit | None] = field(default_factory=list)
     sample_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rejected_segments: list[StaticSegment] = field(default_factory=list)
+    detected_segments: list[StaticSegment] = field(default_factory=list)
 
     @property
     def timing(self) -> dict[str, Any]:

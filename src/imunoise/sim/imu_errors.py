@@ -77,6 +77,26 @@ PRESETS: dict[str, dict[str, dict[str, Any]]] = {
             "DR": 1e-7,
         },
     },
+    # A cheap MEMS noisier than "mems" (accel 500 µg/√Hz: 0.049 m/s² per sample at 100 Hz, about the simulated
+    # cruising vibration of 0.05 m/s²). A λ_0 learned at its first stop (≈ 2σ) lets smooth cruising pass the
+    # IMU-only static test (measured: epoch precision 0.5–0.6 on 600 s simulated drives, 1.0 with "mems"): the
+    # stress case for the online engine's stop guard (OnlineConfig.stop_guard).
+    "noisy": {
+        "gyro": {
+            "WN": 0.015 * _DEG,  # rad/s/√Hz (ARW 0.9 °/√h)
+            "RW": 2.0 * _DPH,
+            "AR1": [(200.0, 30.0 * _DPH), (20.0, 60.0 * _DPH), (2.0, 30.0 * _DPH), (0.1, 0.03 * _DEG)],
+            "QN": 3e-7,
+            "DR": 0.03 * _DPH,
+        },
+        "accel": {
+            "WN": 500e-6 * 9.80665,  # m/s²/√Hz (VRW 0.29 m/s/√h)
+            "RW": 3e-4,
+            "AR1": [(200.0, 1e-2), (20.0, 1.5e-2), (2.0, 6e-3), (0.1, 1.5e-2)],
+            "QN": 3e-5,
+            "DR": 3e-6,
+        },
+    },
 }
 PRESETS["default"] = PRESETS["mems"]
 
