@@ -110,7 +110,8 @@ class DriveConfig:
         if not 0 < lo <= hi:
             raise ModelError(f"stop_range_s must be (min, max) with 0 < min ≤ max, got {self.stop_range_s}")
         if not self.imu_rate_hz > 0 or not self.gnss_rate_hz > 0:
-            raise ModelError(f"imu_rate_hz and gnss_rate_hz must be > 0 Hz, got {self.imu_rate_hz}, {self.gnss_rate_hz}")
+            raise ModelError(
+                f"imu_rate_hz and gnss_rate_hz must be > 0 Hz, got {self.imu_rate_hz}, {self.gnss_rate_hz}")
         if self.gnss_rate_hz > self.imu_rate_hz:
             raise ModelError(
                 f"gnss_rate_hz {self.gnss_rate_hz:g} Hz exceeds imu_rate_hz {self.imu_rate_hz:g} Hz; "

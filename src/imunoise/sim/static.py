@@ -26,8 +26,8 @@ __all__ = ["StaticRecording", "simulate_static"]
 @dataclass(eq=False)
 class StaticRecording:
     """``rates`` (n, 6) = [gyro_x, gyro_y, gyro_z (rad/s), accel_x, accel_y, accel_z (m/s²)] with errors;
-    ``rates_true`` the constant Earth-rate/gravity signal; ``errors`` = rates − rates_true (bias + model path); ``imu`` the same as
-    increments."""
+    ``rates_true`` the constant Earth-rate/gravity signal; ``errors`` = rates − rates_true (bias + model path);
+    ``imu`` the same as increments."""
 
     t: np.ndarray
     rates: np.ndarray
