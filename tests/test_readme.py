@@ -2,7 +2,7 @@
 
 The README's fenced blocks are collected in order: ```` ```bash ````, ```` ``` ```` (plain, shell) and
 ```` ```python ````. Shell blocks run in ``bash -e`` from a scratch copy of the repository root (``data/`` is
-linked, ``../shared/data`` too when present), with ``imunoise`` and ``python`` on PATH resolving to the
+linked, ``scripts/`` and ``../shared/data`` too when present), with ``imunoise`` and ``python`` on PATH resolving to the
 interpreter running the tests; Python blocks run as scripts with that interpreter. Blocks run in README
 order, so a later example may use what an earlier one wrote (``out/gyro.csv``, ``sim/d1``, …), as a reader
 following the README would.
@@ -99,6 +99,7 @@ def _workdir(root: Path) -> Path:
     repo = root / "repo"
     repo.mkdir()
     (repo / "data").symlink_to(REPO / "data", target_is_directory=True)
+    (repo / "scripts").symlink_to(REPO / "scripts", target_is_directory=True)  # README runs some scripts
     if SHARED_DATA.exists():
         (root / "shared").mkdir()
         (root / "shared" / "data").symlink_to(SHARED_DATA, target_is_directory=True)
