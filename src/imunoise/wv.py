@@ -67,6 +67,7 @@ __all__ = [
     "huber_scale",
     "scale_runs",
     "wavelet_variance",
+    "wavelet_variance_from_sums",
 ]
 
 #: Default minimum number of (pooled) coefficients M_j for a level to be kept. simts keeps every level
@@ -568,6 +569,10 @@ def _check_args(levels: int | None, alpha: float, min_coefficients: int) -> None
 class WVAccumulator:
     """Pooled classical WV over segments added one at a time (SPEC §3).
 
+    Each added segment is a separate stop: no coefficient spans two of them. For one contiguous series
+    fed in chunks (a long log read piece by piece) use :class:`imunoise.wv_stream.WVStream`, which forms
+    the coefficients across chunk boundaries and equals ``wavelet_variance`` of the whole series.
+
     ``add`` costs O(len(segment) * J) and keeps only per-level sums; ``result()`` equals
     ``wavelet_variance(list_of_segments_added)`` with the same ``levels``, ``alpha``, ``freq``.
     Segments of any length >= 1 are accepted (a segment shorter than tau_j adds nothing at level j).
@@ -667,6 +672,46 @@ class WVAccumulator:
         return _finish(
             self._stats[:top], self.min_coefficients, self.alpha, self.freq, robust=False, rob=None
         )
+
+
+def wavelet_variance_from_sums(
+    sums: np.ndarray,
+    *,
+    freq: float = 1.0,
+    alpha: float = 0.05,
+    min_coefficients: int = MIN_COEFFICIENTS,
+) -> WaveletVariance:
+    """Classical WV, eta3 CIs and batch-means covariance from per-level sufficient statistics.
+
+    The batch estimator and the streaming ones reduce the data to these sums and finish here, so all
+    of them give the same numbers for the same sums (module docstring for the covariance).
+
+    Parameters
+    ----------
+    sums : numpy.ndarray
+        (J, 5) array, row j-1 for level j = 1..J: sum_t W_{j,t}^2, M_j, sum_b S_b^2, sum_b n_b S_b and
+        sum_b n_b^2 over the batches b (S_b the sum of W^2 over the n_b coefficients of batch b; batches
+        of level j end where the time index t is a multiple of ``batch_size(j)``).
+    freq : float
+        Sample rate [Hz].
+    alpha : float
+        Level of the chi-square intervals.
+    min_coefficients : int
+        Levels with fewer coefficients M_j are dropped.
+
+    Returns
+    -------
+    WaveletVariance
+
+    Raises
+    ------
+    DataError
+        If ``sums`` is not (J, 5) or no level has ``min_coefficients`` coefficients.
+    """
+    arr = np.asarray(sums, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != _STATS:
+        raise DataError(f"sums has shape {arr.shape}; expected (levels, {_STATS}) per-level statistics")
+    return _finish(arr, int(min_coefficients), float(alpha), float(freq), robust=False, rob=None)
 
 
 def _finish(stats, min_coefficients, alpha, freq, robust, rob):
