@@ -46,7 +46,7 @@ def test_sphinx_build_has_no_warnings_and_documents_the_api(tmp_path):
     expect = {
         "index": ["facade.html", "online.html", "cli.html"],
         "facade": ["imunoise.__all__", "ImunoiseError", "select_model"],
-        "wv": ["wavelet_variance", "WVAccumulator", "WaveletVariance"],
+        "wv": ["wavelet_variance", "WVAccumulator", "WaveletVariance", "WVStream"],
         "estimator": ["gmwm", "GMWMFit", "refit"],
         "selection": ["select_model"],
         "allan": ["allan_fit", "read_allan"],
@@ -156,7 +156,7 @@ STAGE = {
     "imu": 1,
     "io": 1,
     "detect": 2,
-    **dict.fromkeys(["processes", "model", "wv", "estimator", "fitting", "selection", "allan", "em", "imu_model",
+    **dict.fromkeys(["processes", "model", "wv", "wv_stream", "estimator", "fitting", "selection", "allan", "em", "imu_model",
                      "equivalent_noise", "export", "plots"], 3),
     "nav": 4,
     "online": 5,

@@ -68,6 +68,13 @@ FRESH = textwrap.dedent(
         ref = I.wavelet_variance([x[:4000], x[4000:]], freq=100.0)
         assert np.allclose(acc.result().variance, ref.variance, rtol=1e-10, atol=0)
 
+    def wv_stream():
+        stream = I.WVStream(freq=100.0)
+        for chunk in np.array_split(x, 7):
+            stream.add(chunk)
+        ref = I.wavelet_variance(x, freq=100.0)
+        assert np.allclose(stream.result().variance, ref.variance, rtol=1e-10, atol=0)
+
     def select():
         ranking = I.select_model(x, freq=100.0, complete=AR1() + WN(), criterion="wvic")
         check_fit(ranking.best, "AR1 + WN")
@@ -88,6 +95,7 @@ FRESH = textwrap.dedent(
         "as_model": lambda: I.as_model("AR1+WN") == AR1() + WN() == I.as_model(AR1() + WN()) or 1 / 0,
         "wavelet_variance": lambda: isinstance(I.wavelet_variance(x, freq=100.0), I.WaveletVariance) or 1 / 0,
         "WVAccumulator": wv_accumulator,
+        "WVStream": wv_stream,
         "WaveletVariance": lambda: I.WaveletVariance.from_dict(I.wavelet_variance(x).to_dict()).freq == 1.0 or 1/0,
         "gmwm": lambda: check_fit(I.gmwm(AR1() + WN(), x, freq=100.0), "AR1 + WN"),
         "GMWMFit": fit_roundtrip,

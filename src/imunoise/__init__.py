@@ -1,6 +1,7 @@
 """imunoise: online stochastic error modelling of inertial sensors with the GMWM.
 
-Model algebra: ``2 * AR1() + WN() + RW()``; wavelet variance: :func:`wavelet_variance`;
+Model algebra: ``2 * AR1() + WN() + RW()``; wavelet variance: :func:`wavelet_variance` (of a long log fed in
+chunks: :class:`WVStream`);
 estimators: :func:`gmwm` (GMWM), :func:`refit`, :func:`em_fit` (EM baseline), all called as
 ``estimator(model, data, freq=...)``, and :func:`select_model`; :func:`warm_up` compiles (or loads from
 numba's cache) the fitting kernels ahead of the first fit. All quantities are SI; GMWM parameters
@@ -38,6 +39,7 @@ __all__ = [
     "as_model",
     "wavelet_variance",
     "WVAccumulator",
+    "WVStream",
     "WaveletVariance",
     "gmwm",
     "GMWMFit",
@@ -66,6 +68,7 @@ _LAZY = {
     "as_model": "imunoise.model",
     "wavelet_variance": "imunoise.wv",
     "WVAccumulator": "imunoise.wv",
+    "WVStream": "imunoise.wv_stream",
     "WaveletVariance": "imunoise.wv",
     "gmwm": "imunoise.estimator",
     "GMWMFit": "imunoise.estimator",

@@ -75,17 +75,17 @@ def _run_self(x, y, out, i0, i1, write):  # pragma: no cover - compiled
     return s
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True)
 def _run_ring(a, ring, out, i0, i1, t0, mask, write):  # pragma: no cover - compiled
-    # as _run_self, with S_m(t-m) read from the ring slot (t mod m) that still holds it
+    # as _run_self, with S_m(t-m) read from the ring slot t mod m that still holds it; cut where the
+    # slot index wraps so each piece is a pair of contiguous slices
     s = 0.0
-    for i in range(i0, i1):
-        p = a[i]
-        q = ring[(t0 + i) & mask]
-        d = p - q
-        s += d * d
-        if write:
-            out[i] = p + q
+    i = i0
+    while i < i1:
+        p = (t0 + i) & mask
+        e = min(i1, i + mask + 1 - p)
+        s += _run_self(a[i:], ring[p:], out[i:], 0, e - i, write)
+        i = e
     return s
 
 
@@ -140,9 +140,13 @@ def _level_block(a, out, ring, t0, m, bsize, st, cnt, write):  # pragma: no cove
         i = end
     # S_m(t) goes to slot t mod m, where S_m(t + m) will look for it (only t >= m - 1 is a full window)
     first = max(0, n - m, m - 1 - t0)
-    for c in range(k_cols):
-        for i in range(first, n):
-            ring[c, (t0 + i) & mask] = a[c, i]
+    i = first
+    while i < n:
+        p = (t0 + i) & mask
+        e = min(n, i + mask + 1 - p)
+        for c in range(k_cols):
+            ring[c, p : p + e - i] = a[c, i:e]
+        i = e
     return cnt
 
 
@@ -229,8 +233,8 @@ class WVStream:
         Parameters
         ----------
         chunk : numpy.ndarray
-            (n,) samples of one series, or (n, k) rows of k columns (e.g. six IMU axes); any n >= 0. The
-            first non-empty chunk fixes the shape; later ones must match it.
+            (n,) samples of one series (or one sample as a scalar), or (n, k) rows of k columns (e.g. six
+            IMU axes); any n >= 0. The first non-empty chunk fixes the shape; later ones must match it.
 
         Raises
         ------
@@ -287,7 +291,9 @@ class WVStream:
             x = np.asarray(chunk, dtype=np.float64)
         except (TypeError, ValueError) as exc:
             raise DataError(f"chunk is not numeric: {exc}") from None
-        if x.ndim == 0 or x.ndim > 2:
+        if x.ndim == 0:  # one sample of a single series
+            x = x.reshape(1)
+        if x.ndim > 2:
             raise DataError(f"chunk has shape {x.shape}; pass (n,) samples or (n, k) rows of k columns")
         if x.ndim == 2 and x.shape[1] == 0:
             raise DataError(f"chunk has shape {x.shape}: no columns")
