@@ -89,9 +89,8 @@ def _run_child(mode: str, n: int, chunk: int) -> dict:
 
 
 def _max_rel(a: dict, b: dict, top: int) -> float:
-    return max(
-        float(np.max(np.abs(np.asarray(a[k][:top]) / np.asarray(b[k][:top]) - 1.0))) for k in ("variance", "ci_high", "cov")
-    )
+    keys = ("variance", "ci_high", "cov")
+    return max(float(np.max(np.abs(np.asarray(a[k][:top]) / np.asarray(b[k][:top]) - 1.0))) for k in keys)
 
 
 def main(n: int = N, chunk: int = CHUNK) -> str:

@@ -143,7 +143,7 @@ def test_buffer_is_bounded_by_the_top_level_not_by_n():
             s = _stream(_series(n, 1), [n // 3], **kw)
             lengths[n, tuple(kw)] = s.buffer_len
             assert s.buffer_len == 2**8 - 1  # rings of levels 1..8: 1 + 2 + ... + 128 window sums
-            assert all(w.shape == (1, BLOCK) for w in s._work)
+            assert all(w.shape == (BLOCK,) for w in s._work)
     assert len(set(lengths.values())) == 1
     # without a cap the rings are ready for level floor(log2 N) + 1: at most 2N - 1 values
     for n in (1000, 1024, 1025, 70_000):

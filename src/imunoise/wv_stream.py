@@ -323,7 +323,7 @@ class WVStream:
         # a constant cancels in every W; the first chunk's mean keeps the window sums small
         self._offset = x.mean(axis=0)
         self._state = np.zeros((0, k, _STATE))
-        self._work = (np.empty((k, BLOCK)), np.empty((k, BLOCK)))
+        self._work = (np.empty(k * BLOCK), np.empty(k * BLOCK))
 
     def _grow(self, n_total: int) -> None:
         """Create the rings of the levels whose first window sum falls in the first ``n_total`` samples."""
@@ -341,7 +341,9 @@ class WVStream:
         n = cols.shape[1]
         t0 = self.n_samples
         self._grow(t0 + n)
-        a, b = (w[:, :n] for w in self._work)
+        # C-contiguous (k, n) views: every row slice the kernels see is contiguous (vectorised loops)
+        k = self.n_columns
+        a, b = (w[: k * n].reshape(k, n) for w in self._work)
         np.subtract(cols, self._offset[:, None], out=a)
         top = len(self._rings)
         for lev in range(top):
