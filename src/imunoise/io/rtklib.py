@@ -211,7 +211,8 @@ def read_pos(path: str | Path, *, max_quality: int = 6, sigma_floor: float = 1e-
     if back.size:
         raise DataError(
             f"RTKLIB file {path}: time does not increase at epoch {int(back[0]) + 1} "
-            f"({sow[back[0]]:.3f} → {sow[back[0] + 1]:.3f} s of GPS week {week}); sort the file or remove repeated epochs"
+            f"({sow[back[0]]:.3f} → {sow[back[0] + 1]:.3f} s of GPS week {week}); sort the file or remove "
+            "repeated epochs"
         )
     sigma = arr[:, 4:7]
     if (sigma < 0).any() or not np.isfinite(arr).all():
