@@ -12,9 +12,9 @@ import pytest
 
 from imunoise.cli import main
 from imunoise.errors import DataError
-from imunoise.io.gpstime import GPS_EPOCH_UNIX, SECONDS_PER_WEEK, gps_minus_utc
+from imunoise.io.gpstime import gps_minus_utc
 from imunoise.io.kfgins import DataWarning, read_gnss, read_imu, read_reference, write_gnss, write_imu
-from imunoise.io.navinput import check_imu_frame, read_nav_gnss, read_nav_imu
+from imunoise.io.navinput import check_imu_frame, read_nav_gnss, read_nav_imu, write_nav_bag
 from imunoise.io.rosbag import write_imu_bag
 from imunoise.io.rtklib import read_pos
 from imunoise.nav.earth import llh_to_ned
@@ -23,7 +23,6 @@ DRIVE = Path(__file__).resolve().parents[1] / "data" / "drive_0708"
 WEEK = 2374  # the drive's GPS week (2025-07-08)
 START = 243263.0  # the KF-GINS reference start, inside the initial stop
 LEVER = ["0", "-0.05", "0"]
-FLU = np.array([1.0, -1.0, -1.0])  # FRD <-> FLU, its own inverse
 
 
 def write_drive_bags(folder, seconds: float = 120.0) -> dict:
@@ -41,16 +40,9 @@ def write_drive_bags(folder, seconds: float = 120.0) -> dict:
     write_imu(folder / "imu.txt", imu.slice(imu.t[0], t1))
     write_gnss(folder / "gnss.txt", gnss.slice(gnss.t[0], t1))
     imu, gnss = read_imu(folder / "imu.txt"), read_gnss(folder / "gnss.txt")  # what the text run reads
-    gyro, accel = imu.rates()
-    cov = np.zeros((len(gnss), 9))
-    cov[:, [0, 4, 8]] = gnss.sigma_ned[:, [1, 0, 2]] ** 2  # ROS: ENU
-    sow_ns = np.round(imu.t * 1e9).astype(np.int64)
-    gnss_ns = np.round(gnss.t * 1e9).astype(np.int64)
-    unix0 = np.int64(WEEK * SECONDS_PER_WEEK + GPS_EPOCH_UNIX - 18) * 1_000_000_000  # GPST − UTC = 18 s in 2025
     paths = {"txt": (folder / "imu.txt", folder / "gnss.txt")}
-    for name, shift in (("a.bag", 0), ("b.db3", 0), ("c.mcap", unix0)):
-        navsat = (gnss_ns + shift, np.degrees(gnss.llh[:, 0]), np.degrees(gnss.llh[:, 1]), gnss.llh[:, 2], cov)
-        p = write_imu_bag(folder / name, sow_ns + shift, gyro * FLU, accel * FLU, topic="/imu", navsat=navsat)
+    for name, week in (("a.bag", None), ("b.db3", None), ("c.mcap", WEEK)):
+        p = write_nav_bag(folder / name, imu, gnss, week=week)
         paths[name.split(".")[1]] = (p, p)
     return paths
 

@@ -30,9 +30,16 @@ import numpy as np
 
 from imunoise.errors import DataError
 from imunoise.imu import ImuData
-from imunoise.io.gpstime import SECONDS_PER_WEEK, UNIX_STAMP_MIN_S, gps_week, unix_ns_to_gps_ns
+from imunoise.io.gpstime import (
+    GPS_EPOCH_UNIX,
+    SECONDS_PER_WEEK,
+    UNIX_STAMP_MIN_S,
+    gps_minus_utc,
+    gps_week,
+    unix_ns_to_gps_ns,
+)
 from imunoise.io.kfgins import DataWarning, GnssData, read_gnss, read_imu
-from imunoise.io.rosbag import is_bag, read_imu_bag, read_navsat_bag
+from imunoise.io.rosbag import is_bag, read_imu_bag, read_navsat_bag, write_imu_bag
 from imunoise.io.rtklib import is_pos, read_pos
 
 __all__ = [
@@ -46,6 +53,7 @@ __all__ = [
     "bag_stamps_to_seconds",
     "read_nav_imu",
     "read_nav_gnss",
+    "write_nav_bag",
 ]
 
 IMU_FRAMES = ("flu", "frd")
@@ -205,3 +213,46 @@ def read_nav_gnss(
     if max_quality != 6:
         raise DataError(f"--min-quality is for an RTKLIB .pos file, but {path} is a KF-GINS GNSS file")
     return read_gnss(path)
+
+
+def write_nav_bag(
+    path: str | Path,
+    imu: ImuData,
+    gnss: GnssData,
+    *,
+    week: int | None = None,
+    imu_topic: str = "/imu",
+    gnss_topic: str = "/fix",
+) -> Path:
+    """Write KF-GINS-style IMU (FRD) and GNSS data as a ROS bag the way a ROS driver would record them:
+    ``sensor_msgs/Imu`` rates in FLU and ``sensor_msgs/NavSatFix`` with σ as an ENU ``position_covariance``
+    (format from the suffix, :func:`imunoise.io.rosbag.write_imu_bag`).
+
+    Rates are Δθ_k / Δt_k and Δv_k / Δt_k (:meth:`ImuData.rates`, the inverse of the reader's rule), stamped at
+    the exact t_k in ns, so :func:`read_nav_imu` gives the increments back to float rounding (≈1e-9 relative).
+    With ``week`` the stamps are Unix time (UTC) of those GPS seconds of week, as a ROS recording's; without,
+    the seconds of week themselves.
+
+    Returns
+    -------
+    Path
+        The bag (the storage file of a ROS 2 bag).
+    """
+    gyro, accel = imu.rates()
+    shift = 0
+    if week is not None:
+        unix0 = int(week) * SECONDS_PER_WEEK + GPS_EPOCH_UNIX
+        shift = (unix0 - gps_minus_utc(unix0 + float(imu.t[0]))) * 1_000_000_000
+    cov = np.zeros((len(gnss), 9))
+    cov[:, [0, 4, 8]] = gnss.sigma_ned[:, [1, 0, 2]] ** 2  # ROS: ENU
+    navsat = (
+        np.round(gnss.t * 1e9).astype(np.int64) + shift,
+        np.degrees(gnss.llh[:, 0]),
+        np.degrees(gnss.llh[:, 1]),
+        gnss.llh[:, 2],
+        cov,
+    )
+    stamps = np.round(imu.t * 1e9).astype(np.int64) + shift
+    return write_imu_bag(
+        path, stamps, gyro * FLU_TO_FRD, accel * FLU_TO_FRD, topic=imu_topic, navsat=navsat, navsat_topic=gnss_topic
+    )
