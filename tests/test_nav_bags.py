@@ -283,7 +283,7 @@ def test_pos_into_nav_cli_with_min_quality(drive, tmp_path, capsys):
 
 def test_shared_rtklib_pos_vs_converted_gnss(tmp_path):
     """The upstream RTKLIB .pos of drive_0708 (raw/) against the converted gnss_rtk.txt, full drive: the same
-    RTK solution, so the trajectories agree far inside the ~1 cm RTK σ."""
+    RTK solution (σ rounded in the .txt), so the trajectories agree far inside the ~1 cm RTK σ."""
     from conftest import shared_path
     root = shared_path("rtklibexplorer_drive0708")
     imu = root / "converted" / "imu_body_inc.txt.gz"
@@ -291,4 +291,4 @@ def test_shared_rtklib_pos_vs_converted_gnss(tmp_path):
     b = _nav(imu, root / "raw" / "gnss_1934_sf.pos.gz", tmp_path / "pos")
     d = llh_to_ned(b.llh, a.llh[0]) - llh_to_ned(a.llh, a.llh[0])
     horizontal = np.hypot(d[:, 0], d[:, 1])
-    assert horizontal.max() < 0.01, horizontal.max()
+    assert horizontal.max() < 1e-3, horizontal.max()  # measured 0.14 mm: σ 0.0098995 m in .pos, 0.0099 in .txt

@@ -83,7 +83,7 @@ def default_imu_frame(path: str | Path) -> str:
 
 def check_imu_frame(imu: ImuData, frame: str, source: str, window_s: float = FRAME_CHECK_S) -> None:
     """Refuse IMU data whose mean specific force over the first ``window_s`` s points the other way than
-    ``frame`` says (at rest f = −g_n: FRD f_z ≈ −g, FLU f_z ≈ +g). A mean |f_z| below g/2 says nothing about
+    ``frame`` says (at rest f = −g_n: FRD f_z ≈ −g, FLU f_z ≈ +g). A mean f_z of magnitude below g/2 says nothing about
     the frame (sensor on its side, or moving) and is let through.
 
     Raises
