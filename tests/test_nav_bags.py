@@ -158,6 +158,10 @@ def test_missing_topic_lists_the_topics(drive):
         read_nav_gnss(drive["db3"][0], topic="/gps")
     with pytest.raises(DataError, match="--imu-topic /imu is for a ROS bag"):
         read_nav_imu(drive["txt"][0], topic="/imu")
+    with pytest.raises(DataError, match="--min-quality is for an RTKLIB .pos file"):
+        read_nav_gnss(drive["bag"][0], max_quality=1)
+    with pytest.raises(DataError, match="--min-quality is for an RTKLIB .pos file"):
+        read_nav_gnss(drive["txt"][1], max_quality=1)
 
 
 # ------------------------------------------------------------------------------------------------

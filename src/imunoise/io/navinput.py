@@ -196,6 +196,8 @@ def read_nav_gnss(
         Options that do not fit the file (a topic for a text file, a quality for a bag), or the readers' errors.
     """
     if is_bag(path):
+        if max_quality != 6:
+            raise DataError(f"--min-quality is for an RTKLIB .pos file; {path} is a ROS bag (NO_FIX is always skipped)")
         fix = read_navsat_bag(path, topic)
         t, w, leap = bag_stamps_to_seconds(fix.stamp_ns, week)
         if w is not None and week is None:
