@@ -22,6 +22,13 @@ EXAMPLES = """examples:
   imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --outage-runs --out out/nav_out
   imunoise nav --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --model model.json --out out/
   imunoise nav --data sim/ --outages sim/outages.txt --default --out out/sim
+  imunoise nav --imu drive.mcap --imu-topic /imu --gnss drive.mcap --gnss-topic /fix --lever-arm 0 -0.05 0 --out out/b
+  imunoise nav --imu imu.txt --gnss rtk.pos --min-quality 2 --out out/pos      # RTKLIB solution, fix + float
+
+Inputs: KF-GINS text (body FRD, GPS seconds of week), ROS bags (.bag, .db3, .mcap: sensor_msgs/Imu rates in
+FLU → increments rate·Δt_k, NavSatFix without NO_FIX, σ from position_covariance; Unix stamps → GPS seconds
+of week) and RTKLIB .pos (GPST/UTC/JST → GPST, deg or d m s, sdn/sde/sdu σ, Q ≤ --min-quality). --imu-frame
+(default flu for a bag, frd for text) is checked against gravity in the first 2 s.
 
 Writes DIR/trajectory.nav (KF-GINS result format: week, SOW, lat, lon [deg], h [m], vN, vE, vD [m/s],
 roll, pitch, yaw [deg]; the IMU point), DIR/metrics.json (SPEC §8 keys: errors at the reference epochs of

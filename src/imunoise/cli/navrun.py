@@ -49,7 +49,17 @@ def read_nav_inputs(args: argparse.Namespace, log: logging.Logger) -> NavInputs:
         read_json_option(args.model, "--model")  # a binary / malformed model file: one error naming it
     if args.outage_runs and not out_p:
         raise ModelError("--outage-runs needs --outages F (or a dataset.json with 'outages')")
-    imu, gnss, ref, notes = read_nav_files(imu_p, gnss_p, ref_p, offset, log)
+    imu, gnss, ref, notes = read_nav_files(
+        imu_p,
+        gnss_p,
+        ref_p,
+        offset,
+        log,
+        imu_topic=getattr(args, "imu_topic", None),
+        gnss_topic=getattr(args, "gnss_topic", None),
+        imu_frame=getattr(args, "imu_frame", None),
+        min_quality=getattr(args, "min_quality", 6),
+    )
     windows = read_outages(out_p) if out_p else []
     return NavInputs(ds, imu_p, gnss_p, ref_p, out_p, lever, imu, gnss, ref, notes, windows)
 

@@ -26,6 +26,7 @@ EXAMPLES = """examples:
   imunoise online --data data/drive_0708 --outages data/drive_0708/outages_60s.txt --outage-runs --out out/on
   imunoise online --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --zupt --out out/on
   imunoise online --data sim/ --criterion wvic --latency 0 --out out/sim_online
+  imunoise online --imu drive.bag --gnss rtk.pos --lever-arm 0 -0.05 0 --out out/bag_online   # ROS bag + RTKLIB
 
 Writes DIR/trajectory.nav (KF-GINS result format, IMU point), DIR/metrics.json (SPEC §8 keys, errors of
 the GNSS antenna at the reference epochs, m and m/s; plus the modelling timing), DIR/events.jsonl (stops,

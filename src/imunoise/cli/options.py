@@ -186,8 +186,30 @@ def add_nav_input_options(p: argparse.ArgumentParser) -> None:
     """The input options every navigation command shares (SPEC §12); resolve them with
     :func:`resolve_nav_inputs`."""
     p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12)")
-    p.add_argument("--imu", help="IMU file (KF-GINS increments or rate CSV, body FRD, SI)")
-    p.add_argument("--gnss", help="GNSS file (KF-GINS: SOW lat lon h σN σE σD)")
+    p.add_argument(
+        "--imu", help="IMU: KF-GINS increments or rate CSV (SI), or a ROS bag (.bag, .db3, .mcap, ROS 2 folder)"
+    )
+    p.add_argument("--imu-topic", help="bag: the sensor_msgs/Imu topic (default: the only one; listed when wrong)")
+    p.add_argument(
+        "--imu-frame",
+        choices=("flu", "frd"),
+        help="body frame of the IMU data: flu (ROS REP 103) or frd; default flu for a bag, frd for a text file; "
+        "checked against the specific force of the first 2 s",
+    )
+    p.add_argument(
+        "--gnss",
+        help="GNSS: KF-GINS text (SOW lat lon h σN σE σD), an RTKLIB .pos solution, or a ROS bag with NavSatFix",
+    )
+    p.add_argument("--gnss-topic", help="bag: the sensor_msgs/NavSatFix topic (default: the only one)")
+    p.add_argument(
+        "--min-quality",
+        type=int,
+        default=6,
+        choices=range(1, 7),
+        metavar="Q",
+        help="RTKLIB .pos: keep epochs with Q ≤ this (1 fix, 2 float, 3 sbas, 4 dgps, 5 single, 6 ppp; "
+        "default 6 = all); the skipped ones are counted",
+    )
     p.add_argument("--ref", help="reference trajectory (KF-GINS result format) for metrics")
     p.add_argument(
         "--lever-arm",
@@ -294,22 +316,35 @@ def resolve_nav_inputs(args: argparse.Namespace) -> tuple[Any, str, str, str | N
 
 
 def read_nav_files(
-    imu_path: str, gnss_path: str, ref_path: str | None, time_offset: float, log: logging.Logger
+    imu_path: str,
+    gnss_path: str,
+    ref_path: str | None,
+    time_offset: float,
+    log: logging.Logger,
+    *,
+    imu_topic: str | None = None,
+    gnss_topic: str | None = None,
+    imu_frame: str | None = None,
+    min_quality: int = 6,
 ) -> tuple[Any, Any, Any, list[str]]:
-    """Read the IMU, GNSS and (optional) reference files of a navigation run (KF-GINS formats, SPEC §12);
-    each warning of the readers (sorted, duplicated, gaps, ...) is logged once and returned.
+    """Read the IMU, GNSS and (optional) reference files of a navigation run (KF-GINS formats, ROS bags,
+    RTKLIB .pos; :mod:`imunoise.io.navinput`, SPEC §12); each warning of the readers (sorted, duplicated, gaps,
+    fixes without a fix, skipped RTKLIB qualities, time-base conversions) is logged once as one line and
+    returned.
 
     Returns
     -------
     tuple
-        (IMU data, GNSS data, reference or None, the warning messages for metrics.json).
+        (IMU data (increments, FRD), GNSS data, reference or None, the warning messages for metrics.json).
     """
-    from imunoise.io.kfgins import read_gnss, read_imu, read_reference
+    from imunoise.io.kfgins import read_reference
+    from imunoise.io.navinput import read_nav_gnss, read_nav_imu
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        imu = read_imu(imu_path, time_offset=float(time_offset))
-        gnss = read_gnss(gnss_path)
+        nav_imu = read_nav_imu(imu_path, topic=imu_topic, frame=imu_frame, time_offset=float(time_offset))
+        imu = nav_imu.imu
+        gnss = read_nav_gnss(gnss_path, topic=gnss_topic, max_quality=min_quality, week=nav_imu.week)
         ref = read_reference(ref_path) if ref_path else None
     for w in caught:
         log.warning("%s", w.message)

@@ -406,7 +406,8 @@ def read_imu_bag(
 @dataclass(frozen=True, eq=False)
 class BagNavSat:
     """GNSS fixes: ``t`` [s], ``llh`` [lat rad, lon rad, h m], ``sigma_ned`` [m]; ``n_no_fix`` fixes with
-    status −1 dropped, ``n_default_sigma`` fixes whose covariance was unknown (default σ used)."""
+    status −1 dropped, ``n_default_sigma`` fixes whose covariance was unknown (default σ used); ``stamp_ns``
+    the same times as integer ns (exact, for changing the time base)."""
 
     path: str
     topic: str
@@ -416,6 +417,7 @@ class BagNavSat:
     report: TimeReport
     n_no_fix: int
     n_default_sigma: int
+    stamp_ns: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def to_gnssdata(self):
         from imunoise.io.kfgins import GnssData
@@ -481,6 +483,7 @@ def read_navsat_bag(
         report=report,
         n_no_fix=n_no_fix,
         n_default_sigma=n_default,
+        stamp_ns=stamp[keep],
     )
 
 
@@ -520,11 +523,15 @@ def _imu_records(stamp_ns: np.ndarray, gyro: np.ndarray, accel: np.ndarray, fram
 
 
 def _navsat_messages(typestore, navsat: Any, ros1: bool) -> Iterable[tuple[int, bytes]]:
-    t, lat, lon, alt = (np.asarray(a, dtype=float) for a in navsat[:4])
+    t = np.asarray(navsat[0])
+    # integer stamps are ns (exact), as for the IMU
+    stamps = t.astype(np.int64) if np.issubdtype(t.dtype, np.integer) else np.round(t * 1e9).astype(np.int64)
+    lat, lon, alt = (np.asarray(a, dtype=float) for a in navsat[1:4])
     cov = np.asarray(navsat[4], dtype=float) if len(navsat) > 4 and navsat[4] is not None else None
+    status = np.asarray(navsat[5], dtype=int) if len(navsat) > 5 and navsat[5] is not None else None
     T = typestore.types
-    for i in range(t.size):
-        ns = int(round(t[i] * 1e9))
+    for i in range(stamps.size):
+        ns = int(stamps[i])
         stamp = T["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
         hdr = {"stamp": stamp, "frame_id": "gps"}
         if ros1:
@@ -532,7 +539,7 @@ def _navsat_messages(typestore, navsat: Any, ros1: bool) -> Iterable[tuple[int, 
         c = np.zeros(9) if cov is None else cov[i]
         msg = T["sensor_msgs/msg/NavSatFix"](
             header=T["std_msgs/msg/Header"](**hdr),
-            status=T["sensor_msgs/msg/NavSatStatus"](status=0, service=1),
+            status=T["sensor_msgs/msg/NavSatStatus"](status=0 if status is None else int(status[i]), service=1),
             latitude=float(lat[i]),
             longitude=float(lon[i]),
             altitude=float(alt[i]),
@@ -562,7 +569,8 @@ def write_imu_bag(
     (n, 3)) to a bag whose format follows the suffix: ``.bag`` ROS 1 (Noetic types); ``.db3`` / ``.mcap``
     a ROS 2 (Humble) bag folder ``<stem>/`` holding ``<stem>.db3`` / ``<stem>.mcap`` and metadata.yaml —
     the storage file's path is returned; any other name: a ROS 2 sqlite3 bag folder. Header stamp = bag time = ``t``.
-    ``navsat`` = (t, lat_deg, lon_deg, alt_m[, cov (n, 9) ENU m²]) adds a NavSatFix topic."""
+    ``navsat`` = (t, lat_deg, lon_deg, alt_m[, cov (n, 9) ENU m²[, status (n,)]]) adds a NavSatFix topic
+    (``t`` s or integer ns; status 0 = fix, −1 = no fix)."""
     from rosbags.rosbag1 import Writer as Writer1
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Writer2
