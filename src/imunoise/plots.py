@@ -121,11 +121,13 @@ def plot_wv(wv: WaveletVariance, path: str | Path, *, unit: str = "u", title: st
     return finish_figure(fig, ax, path)
 
 
-def plot_wv_fit(fit: GMWMFit, path: str | Path, *, title: str = "") -> Path:
+def plot_wv_fit(fit: GMWMFit, path: str | Path, *, title: str = "",
+                marks: Sequence[tuple[float, str]] = ()) -> Path:
     """Empirical WV with CI band, fitted WV, and one dashed curve per process (x in seconds).
 
     Scales where the fit leaves the band (:func:`imunoise.estimator.band_departures`) are shaded and named in
     the legend; processes wholly outside the axes are named in a corner note instead of the legend.
+    ``marks``: (scale τ [s], label) pairs drawn as vertical dotted lines, e.g. the data's horizon.
     """
     from imunoise.estimator import band_departures, departures_text
 
@@ -149,6 +151,8 @@ def plot_wv_fit(fit: GMWMFit, path: str | Path, *, title: str = "") -> Path:
         else:
             color = _PROC_COLORS.get(name, "0.4")
         ax.loglog(x, curve, "--", color=color, lw=1.2, label=name)
+    for tau_s, label in marks:
+        ax.axvline(tau_s, color="tab:purple", ls=":", lw=1.4, label=_wrap(label))
     _wv_limits(ax, fit.wv, [total])
     ax.set_title(title or f"{fit.method.upper()} fit at {fit.freq:g} Hz, GOF = {fit.objective:.4g}")
     return finish_figure(fig, ax, path)

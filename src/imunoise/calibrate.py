@@ -1,0 +1,776 @@
+"""Calibrate an IMU from the moving logs people already have: the offline twin of the online engine (SPEC §7, §9).
+
+:func:`calibrate` takes one or more logs of the same IMU (:func:`read_log`: a ROS bag, a table with a column
+mapping and units, a KF-GINS increment file or a dataset folder), finds the stops in each
+(:func:`detect_stops`), pools the static segments per axis into one wavelet variance, identifies the model
+(:func:`imunoise.selection.select_model`, WVIC by default) and states what the stops can say.
+
+Stops, per log (as the online engine does, with the same public pieces):
+
+* λ_0 learned per log (:func:`imunoise.detect.learn_lambda0`, 2 × the median Eq. 9 statistic). The online
+  engine learns it from the first seconds, which it assumes are a stop; a log picked from a drawer need not
+  start still, so the default here learns it from the *quietest* ``learn_s`` seconds (the stretch with the
+  smallest median statistic), which is the first stop when the log starts with one.
+* the streaming detector over the whole log (:func:`imunoise.detect.detect_static`: adaptive threshold,
+  ``margin_s`` trimmed at both ends, ``min_duration_s``), then the angular-rate gate: samples with
+  ‖ω‖ > 30 °/s cut a segment (a turning vehicle is not at rest, whatever its accelerometers say).
+* with a speed (a reference trajectory or GNSS), each segment goes through the online engine's stop check
+  (:func:`imunoise.online.stop_verdict`): samples faster than ``OnlineConfig.stop_max_speed`` and their
+  ``stop_edge_s`` neighbourhood are dropped.
+* bias removed per segment (segment mean, SPEC §7); no wavelet coefficient spans two segments
+  (:class:`imunoise.wv.WVAccumulator`).
+
+The horizon. Pooled stops support scales up to the longest Haar scale τ_J with at least
+:data:`imunoise.wv.MIN_COEFFICIENTS` coefficients; in averaging time T_h = τ_J/(2f)
+(:func:`imunoise.equivalent_noise.default_horizon_s`). What that horizon determines, per axis
+(:class:`AxisCalibration`):
+
+* the white noise N (and QN, and Gauss–Markov terms with T_c ≤ T_h): values with CIs;
+* the bias random walk K: a value only where the random walk rises above the white noise inside the horizon,
+  i.e. the crossover averaging time T_x = √3·N/K (where N²/T = K²T/3) is ≤ T_h. Otherwise K is reported as a
+  bound that holds for any model: K² ≤ 3·AV(T)/T at every T (the RW's Allan variance K²T/3 is part of the
+  total, every other process adds to it), read on the upper limit of the WV's confidence band, K ≤
+  min_j √(3·AV_hi(T_j)/T_j) (:func:`k_upper_bound`);
+* a Gauss–Markov term with T_c > T_h, or a rate ramp: not determined (a slow AR1 and a random walk are two
+  readings of the same rising curve on these scales); their effect is inside the K bound.
+
+The exports (Kalibr, OpenVINS, ORB-SLAM3) follow the project's rules (:mod:`imunoise.export`): the (N, K) pair
+matched over τ = update period .. horizon, K capped at the data's Allan bound, the τ range and the worst AV
+ratio beside them. The dense Allan curve of the pooled stops is kept with each fit (``extra["data_allan"]``)
+for that cap, as ``imunoise fit`` keeps that of its static record.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from imunoise.detect import DetectorConfig, detect_static, learn_lambda0, moving_std
+from imunoise.errors import DataError, ModelError
+from imunoise.imu import AXES
+
+__all__ = [
+    "MIN_STATIC_S",
+    "LEARN_S",
+    "RATE_TOLERANCE",
+    "K_CI_SPAN",
+    "ImuLog",
+    "Stop",
+    "LogStops",
+    "AxisCalibration",
+    "CalibrationResult",
+    "read_log",
+    "learn_lambda0_quietest",
+    "detect_stops",
+    "k_upper_bound",
+    "calibrate",
+]
+
+MIN_STATIC_S = 20.0
+"""Pooled static time [s] needed before a model is identified (the online engine's ``min_static_s``): with
+less the white noise rests on too few wavelet levels to be told from the rest."""
+
+LEARN_S = 10.0
+"""Seconds of the quietest stretch λ_0 is learned from (the online engine's ``learn_lambda0_s``)."""
+
+RATE_TOLERANCE = 0.01
+"""Relative difference of sample rates above which two logs are not pooled (their densities differ)."""
+
+K_CI_SPAN = 4.0
+"""A fitted K is stated as a value only when its 95 % CI spans less than this factor (±2×); else as a bound."""
+
+GYRO_UNIT, ACCEL_UNIT = "rad/s", "m/s²"
+
+
+# --------------------------------------------------------------------------------------------------
+# inputs
+# --------------------------------------------------------------------------------------------------
+@dataclass(eq=False)
+class ImuLog:
+    """One moving IMU log in SI.
+
+    Attributes
+    ----------
+    name : str
+        Where it came from (for messages and the report).
+    t : numpy.ndarray
+        (n,) time [s], strictly increasing.
+    gyro, accel : numpy.ndarray
+        (n, 3) angular rate [rad/s] and specific force [m/s²], body axes x, y, z (x, y horizontal when level).
+    rate_hz : float
+        Nominal sample rate [Hz].
+    speed : tuple of numpy.ndarray, optional
+        (t [s], speed [m/s]) of a reference or GNSS in the same time base, for the stop check and the plot.
+    meta : dict
+        Source details (format, topic, warnings).
+    """
+
+    name: str
+    t: np.ndarray
+    gyro: np.ndarray
+    accel: np.ndarray
+    rate_hz: float
+    speed: tuple[np.ndarray, np.ndarray] | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+
+def _speed_of_reference(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    from imunoise.io.kfgins import read_reference
+
+    ref = read_reference(path)
+    return np.asarray(ref.t, dtype=float), np.linalg.norm(np.asarray(ref.vel_ned)[:, :2], axis=1)
+
+
+def _speed_of_gnss(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Horizontal speed [m/s] from successive GNSS positions (local spherical Earth: metres per radian = R)."""
+    from imunoise.io.navinput import read_nav_gnss
+
+    g = read_nav_gnss(path)
+    t = np.asarray(g.t, dtype=float)
+    if t.size < 2:
+        raise DataError(f"GNSS file {path}: fewer than 2 epochs, no speed can be formed")
+    lat, lon = g.llh[:, 0], g.llh[:, 1]
+    r = 6_371_000.0
+    dn = np.diff(lat) * r
+    de = np.diff(lon) * r * np.cos(0.5 * (lat[1:] + lat[:-1]))
+    v = np.hypot(dn, de) / np.diff(t)
+    return 0.5 * (t[1:] + t[:-1]), v
+
+
+def read_log(
+    path: str | Path,
+    *,
+    topic: str | None = None,
+    columns: str | Sequence[str | int] | Mapping[str, str | int] | None = None,
+    units: str | Mapping[str, str] | None = None,
+    time_column: str | int | None = None,
+    time_unit: str = "s",
+    freq: float | None = None,
+    ref: str | Path | None = None,
+    gnss: str | Path | None = None,
+) -> ImuLog:
+    """Read one moving log into an :class:`ImuLog` (SI, six axes).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ROS bag (``.bag``, ``.db3``, ``.mcap``, ROS 2 folder; all six axes of ``topic``), a dataset folder
+        with ``dataset.json`` (its IMU, and its reference for the speed), a KF-GINS IMU file (increments, or
+        a rate CSV with ``sow,gx,..,az``), or a table/.npz whose columns map to ``gyro_x`` .. ``accel_z``.
+    topic : str, optional
+        Bag topic.
+    columns, units, time_column, time_unit, freq
+        As for :func:`imunoise.io.imu_input.read_imu_source` (tables): the six axes must be named.
+    ref, gnss : str or Path, optional
+        A KF-GINS reference (speed from its velocity) or a GNSS file (KF-GINS, RTKLIB .pos, bag; speed from
+        successive positions), same time base as the IMU.
+
+    Returns
+    -------
+    ImuLog
+    """
+    from imunoise.io.rosbag import is_bag
+
+    p = Path(path)
+    speed = None
+    meta: dict[str, Any] = {}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if p.is_dir() and (p / "dataset.json").exists():
+            from imunoise.io.dataset import read_dataset
+            from imunoise.io.kfgins import read_imu
+
+            ds = read_dataset(p, required=("imu",))
+            imu = read_imu(ds.imu, time_offset=float(ds.imu_time_offset_s or 0.0))
+            gyro, accel = imu.rates()
+            t, rate = np.asarray(imu.t, dtype=float), float(imu.rate_hz)
+            meta["format"] = "dataset"
+            if ref is None and gnss is None and ds.ref:
+                ref = ds.ref
+            elif ref is None and gnss is None and getattr(ds, "gnss", None):
+                gnss = ds.gnss
+        elif is_bag(p) or columns is not None or p.suffix.lower() in (".npz", ".npy"):
+            t, gyro, accel, rate, meta = _read_source(p, topic, columns, units, time_column, time_unit, freq)
+        else:
+            from imunoise.io.kfgins import read_imu
+
+            imu = read_imu(p)
+            gyro, accel = imu.rates()
+            t, rate = np.asarray(imu.t, dtype=float), float(imu.rate_hz)
+            meta["format"] = "kfgins"
+        if ref is not None:
+            speed = _speed_of_reference(ref)
+            meta["speed_from"] = f"reference {ref}"
+        elif gnss is not None:
+            speed = _speed_of_gnss(gnss)
+            meta["speed_from"] = f"GNSS {gnss}"
+    msgs = list(dict.fromkeys(str(w.message) for w in caught))
+    if msgs:
+        meta["warnings"] = msgs
+    return ImuLog(str(path), t, np.ascontiguousarray(gyro), np.ascontiguousarray(accel), rate, speed, meta)
+
+
+def _read_source(p, topic, columns, units, time_column, time_unit, freq):
+    from imunoise.io.imu_input import read_imu_source
+
+    s = read_imu_source(p, topic=topic, columns=columns, units=units, time_column=time_column,
+                        time_unit=time_unit, freq=freq)
+    missing = [a for a in AXES if a not in s.data]
+    if missing:
+        raise DataError(
+            f"{p}: calibrate needs all six axes, {', '.join(missing)} missing (have {', '.join(s.data)}); map "
+            "them with --columns gyro_x=COL,...,accel_z=COL and give --units gyro=...,accel=..."
+        )
+    for a in AXES:
+        want = GYRO_UNIT if a.startswith("gyro") else ACCEL_UNIT
+        if s.unit[a] not in (want, "m/s2", "m/s^2") and not (want == ACCEL_UNIT and s.unit[a] in ("m/s2",)):
+            raise DataError(f"{p}: axis {a} is in {s.unit[a]!r}, not {want}; give --units gyro=...,accel=...")
+    n = len(s)
+    t = np.asarray(s.t, dtype=float) if s.t is not None else np.arange(n) / float(s.freq)
+    gyro = np.column_stack([s.data[a] for a in AXES[:3]])
+    accel = np.column_stack([s.data[a] for a in AXES[3:]])
+    meta = {k: v for k, v in s.meta.items() if k in ("format", "topic", "frame_id", "frame")}
+    return t, gyro, accel, float(s.freq), meta
+
+
+# --------------------------------------------------------------------------------------------------
+# stops
+# --------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Stop:
+    """One modelled static segment of a log: samples ``i0 ≤ i < i1``, times ``t0``..``t1`` [s]."""
+
+    t0: float
+    t1: float
+    i0: int
+    i1: int
+
+    @property
+    def duration(self) -> float:
+        return self.t1 - self.t0
+
+
+@dataclass(eq=False)
+class LogStops:
+    """Detection outcome of one log.
+
+    Attributes
+    ----------
+    log : ImuLog
+        The log.
+    lambda0 : float
+        λ_0 [m/s²] used, and ``lambda0_source`` how it was chosen.
+    lambda0_source : str
+        How λ_0 was chosen.
+    detection : imunoise.detect.Detection
+        The detector's per-epoch output and its segments (before the gate and the speed check).
+    stops : list of Stop
+        The segments modelled.
+    dropped : list of str
+        What the rate gate and the speed check removed, one line each.
+    """
+
+    log: ImuLog
+    lambda0: float
+    lambda0_source: str
+    detection: Any
+    stops: list[Stop]
+    dropped: list[str]
+
+    @property
+    def static_s(self) -> float:
+        return float(sum(s.duration for s in self.stops))
+
+
+def learn_lambda0_quietest(t: np.ndarray, accel: np.ndarray, *, window: int = 100, learn_s: float = LEARN_S,
+                           rate_hz: float | None = None) -> tuple[float, float]:
+    """λ_0 learned (:func:`imunoise.detect.learn_lambda0`) on the quietest ``learn_s`` seconds of a log.
+
+    The stretch is the one whose median Eq. 9 statistic (max of accel x, y) is smallest, searched in steps of
+    half its length: the first stop of a log that starts with one, otherwise its longest still moment.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        (n,) time [s].
+    accel : numpy.ndarray
+        (n, ≥2) specific force [m/s²].
+    window : int
+        N of Eq. 9 [samples].
+    learn_s : float
+        Length of the stretch [s].
+    rate_hz : float, optional
+        Sample rate (default 1/median Δt).
+
+    Returns
+    -------
+    (float, float)
+        λ_0 [m/s²] and the start time of the stretch [s].
+    """
+    t = np.asarray(t, dtype=float)
+    f = float(rate_hz) if rate_hz else 1.0 / float(np.median(np.diff(t)))
+    m = max(int(round(learn_s * f)), 2 * int(window))
+    n = t.size
+    if n < m:
+        raise DataError(
+            f"the log holds {n} samples ({n / f:.1f} s); learning λ0 needs ≥ {m} ({m / f:.1f} s); give a longer "
+            "log or --lambda0"
+        )
+    T = moving_std(np.asarray(accel, dtype=float)[:, :2], window).max(axis=1)
+    step = max(m // 2, 1)
+    best, best_i = math.inf, 0
+    for i in range(0, n - m + 1, step):
+        seg = T[i + window - 1 : i + m]
+        seg = seg[np.isfinite(seg)]
+        if seg.size and (med := float(np.median(seg))) < best:
+            best, best_i = med, i
+    lam = learn_lambda0(np.asarray(accel)[best_i : best_i + m], window=window)
+    return lam, float(t[best_i])
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    e = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return [(int(a), int(b)) for a, b in zip(e[::2], e[1::2], strict=True)]
+
+
+def detect_stops(
+    log: ImuLog,
+    config: DetectorConfig | None = None,
+    *,
+    lambda0: float | None = None,
+    learn_from_s: float | None = None,
+    learn_s: float = LEARN_S,
+) -> LogStops:
+    """The stops of one log that are modelled (module docstring): λ_0 learned, detector, rate gate, speed check.
+
+    Parameters
+    ----------
+    log : ImuLog
+        The log.
+    config : DetectorConfig, optional
+        Detector settings; its ``lambda0`` is replaced by the learned one unless ``lambda0`` is given.
+    lambda0 : float, optional
+        A fixed λ_0 [m/s²] (no learning).
+    learn_from_s : float, optional
+        Learn λ_0 from the first this many seconds (a known stop at the start, as the online engine).
+    learn_s : float
+        Length of the quietest stretch λ_0 is learned from otherwise [s].
+
+    Returns
+    -------
+    LogStops
+    """
+    from imunoise.online import OnlineConfig, stop_verdict
+
+    base = config or DetectorConfig()
+    t, accel, gyro, f = log.t, log.accel, log.gyro, log.rate_hz
+    if lambda0 is not None:
+        if not (math.isfinite(lambda0) and lambda0 > 0):
+            raise ModelError(f"λ0 must be a positive threshold in m/s², got {lambda0!r}")
+        lam, src = float(lambda0), "given"
+    elif learn_from_s is not None:
+        m = t < t[0] + learn_from_s
+        lam, src = learn_lambda0(accel[m], window=base.window), f"learned from the first {learn_from_s:g} s"
+    else:
+        lam, t_q = learn_lambda0_quietest(t, accel, window=base.window, learn_s=learn_s, rate_hz=f)
+        src = f"learned from the quietest {learn_s:g} s (from {t_q - t[0]:.1f} s into the log)"
+    cfg = replace(base, lambda0=lam)
+    det = detect_static(t, accel, gyro, cfg, rate_hz=f)
+    speed = None
+    if log.speed is not None:
+        ts, vs = log.speed
+        inside = (t >= ts[0]) & (t <= ts[-1])
+        speed = np.where(inside, np.interp(t, ts, vs), np.nan)
+    oc = OnlineConfig()
+    min_len = cfg.min_duration_s * f + 1.0
+    stops: list[Stop] = []
+    dropped: list[str] = []
+    for seg in det.segments:
+        pieces = [(seg.i0 + a, seg.i0 + b) for a, b in _runs(~det.gate_open[seg.i0 : seg.i1])]
+        if len(pieces) != 1 or pieces[0] != (seg.i0, seg.i1):
+            dropped.append(f"{seg.t0:.2f}–{seg.t1:.2f} s: angular rate above the gate "
+                           f"({math.degrees(cfg.gate_rate):.0f} °/s) in {int(det.gate_open[seg.slice].sum())} samples")
+        for a, b in pieces:
+            if b - a < min_len - 1e-9:
+                continue
+            if speed is None:
+                stops.append(Stop(float(t[a]), float(t[b - 1]), a, b))
+                continue
+            v = speed[a:b]
+            n = b - a
+            verdict = stop_verdict(v, np.zeros(n), np.isfinite(v), np.full(n, np.nan), rate_hz=f,
+                                   max_speed=oc.stop_max_speed, sigma_k=0.0, chi2=0.0, edge_s=oc.stop_edge_s,
+                                   min_duration_s=cfg.min_duration_s)
+            if not verdict.whole:
+                dropped.append(f"{t[a]:.2f}–{t[b - 1]:.2f} s: {verdict.reason.replace(' while GNSS-aided', '')}"
+                               f" ({sum(q - p for p, q in verdict.drop) / f:.1f} s dropped)")
+            for p, q in verdict.keep:
+                stops.append(Stop(float(t[a + p]), float(t[a + q - 1]), a + p, a + q))
+    return LogStops(log, lam, src, det, stops, dropped)
+
+
+# --------------------------------------------------------------------------------------------------
+# what the horizon determines
+# --------------------------------------------------------------------------------------------------
+def k_upper_bound(wv: Any) -> tuple[float, float]:
+    """Upper bound on the random-walk density K [u/√s] that holds whatever else the sensor has.
+
+    Any model's Allan variance is at least its random walk's, AV(T) ≥ K²T/3 (exact for the Haar form:
+    AV(T) = 2ν²(2Tf) = γ²(4m² + 2)/(12m) ≥ γ²m/3 with m = Tf, K² = γ²f), so K ≤ √(3·AV(T)/T) at every
+    averaging time; read on the upper limit of the WV's confidence band, the smallest over the levels.
+
+    Parameters
+    ----------
+    wv : imunoise.wv.WaveletVariance
+        The pooled WV (with its chi-square band).
+
+    Returns
+    -------
+    (float, float)
+        The bound [u/√s] and the averaging time T [s] where it is reached.
+    """
+    T = np.asarray(wv.scales, dtype=float) / (2.0 * float(wv.freq))
+    av_hi = 2.0 * np.asarray(wv.ci_high, dtype=float)
+    k = np.sqrt(3.0 * av_hi / T)
+    j = int(np.nanargmin(k))
+    return float(k[j]), float(T[j])
+
+
+@dataclass(frozen=True)
+class AxisCalibration:
+    """What the pooled stops say about one axis (module docstring).
+
+    Attributes
+    ----------
+    axis, unit : str
+        Axis name and SI unit of the rate.
+    model : str
+        The selected structure.
+    N : float
+        White-noise density as exported [u/√Hz]; ``N_ci`` the 95 % CI of the model's WN density (NaN when
+        the model has none or no CI).
+    N_ci : tuple of float
+        95 % CI of the WN density.
+    K : float
+        Random-walk density as exported [u/s/√Hz] (the export's matched, capped value; read ``K_status``).
+    K_status : str
+        ``"value"`` (the model's RW rises above the white noise inside the horizon and its 95 % CI spans
+        less than a factor :data:`K_CI_SPAN`) or ``"bound"``.
+    K_fit : float
+        The model's own RW density [u/s/√Hz] (0 when it has none): the value when ``K_status`` is ``"value"``.
+    K_ci : tuple of float
+        95 % CI of the model's RW density (NaN when none).
+    K_bound : float
+        Upper bound on K that holds for any model (:func:`k_upper_bound`), at ``K_bound_at_s``.
+    K_bound_at_s : float
+        Averaging time of that bound [s].
+    crossover_s : float
+        T_x = √3·N/K: where the random walk would overtake the white noise [s].
+    horizon_s : float
+        Longest averaging time the stops support [s].
+    tau_range_s : tuple of float
+        Averaging times the exported pair is matched on [s].
+    worst_ratio : float
+        Worst factor between the pair's AV and the model's there.
+    determined, undetermined : tuple of str
+        Per process of the model: what the horizon determines, and what it does not (with why).
+    """
+
+    axis: str
+    unit: str
+    model: str
+    N: float
+    N_ci: tuple[float, float]
+    K: float
+    K_status: str
+    K_fit: float
+    K_ci: tuple[float, float]
+    K_bound: float
+    K_bound_at_s: float
+    crossover_s: float
+    horizon_s: float
+    tau_range_s: tuple[float, float] | None
+    worst_ratio: float
+    determined: tuple[str, ...]
+    undetermined: tuple[str, ...]
+
+    @property
+    def K_reported(self) -> float:
+        """K as a value when determined, else the bound."""
+        return self.K_fit if self.K_status == "value" else self.K_bound
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "axis": self.axis, "unit": self.unit, "model": self.model,
+            "N": self.N, "N_ci": list(self.N_ci), "K": self.K, "K_status": self.K_status, "K_fit": self.K_fit, "K_ci": list(self.K_ci),
+            "K_bound": self.K_bound, "K_bound_at_s": self.K_bound_at_s, "crossover_s": self.crossover_s,
+            "horizon_s": self.horizon_s, "tau_range_s": list(self.tau_range_s) if self.tau_range_s else None,
+            "worst_av_ratio": self.worst_ratio, "determined": list(self.determined),
+            "undetermined": list(self.undetermined),
+        }
+
+
+def _axis_calibration(axis: str, fit: Any) -> AxisCalibration:
+    from imunoise.equivalent_noise import default_horizon_s
+    from imunoise.export import axis_noise
+
+    h = float(default_horizon_s(fit))
+    a = axis_noise(fit, axis)
+    ci = fit.confidence_intervals()
+    cont = fit.continuous()
+    nan2 = (math.nan, math.nan)
+    N_ci = ci.get("WN.noise_density", nan2)
+    K_ci = ci.get("RW.random_walk", nan2)
+    kb, kb_at = k_upper_bound(fit.wv)
+    has_rw = fit.model.has("RW")
+    det, und = [], []
+    for name, v in cont.items():
+        kind = name.split(".")[0].rstrip("_0123456789")
+        if kind == "WN":
+            det.append(f"{name} = {v:.4g}")
+        elif kind == "QN":
+            det.append(f"{name} = {v:.4g}")
+        elif kind == "AR1" and name.endswith(".tau_c"):
+            tag = name.split(".")[0]
+            if v <= h:
+                det.append(f"{tag}: T_c = {v:.4g} s ≤ horizon {h:.3g} s, σ_GM = {cont[tag + '.sigma_gm']:.4g}")
+            else:
+                und.append(f"{tag}: T_c = {v:.4g} s beyond the horizon {h:.3g} s (a slow Gauss–Markov term reads "
+                           f"as a random walk there): not a value; inside K ≤ {kb:.3g}")
+        elif kind == "DR":
+            und.append(f"{name}: a ramp over {h:.3g} s is a reading of the rising WV, not a value; inside K ≤ {kb:.3g}")
+    k_fit = a.K_rw
+    tx = math.sqrt(3.0) * a.N / k_fit if k_fit > 0 else math.inf
+    narrow = math.isfinite(K_ci[0]) and K_ci[0] > 0 and K_ci[1] / K_ci[0] <= K_CI_SPAN
+    status = "value" if (has_rw and tx <= h and narrow) else "bound"
+    if status == "value":
+        det.append(f"K = {k_fit:.4g} (random walk above the white noise from T = {tx:.3g} s ≤ horizon {h:.3g} s)")
+    else:
+        if not has_rw:
+            why = "no random walk in the model up to the horizon"
+        elif tx > h:
+            why = f"the random walk would overtake the white noise only at T = {tx:.3g} s > horizon {h:.3g} s"
+        else:
+            why = f"its 95 % CI spans more than a factor {K_CI_SPAN:g}"
+        und.append(f"K: {why}; K ≤ {kb:.3g} (the WV band's bound at T = {kb_at:.3g} s)")
+    return AxisCalibration(axis, fit.unit, str(fit.model), a.N, tuple(N_ci), a.K, status, k_fit, tuple(K_ci), kb, kb_at,
+                           tx, h, a.tau_range_s, a.worst_ratio, tuple(det), tuple(und))
+
+
+# --------------------------------------------------------------------------------------------------
+# the calibration
+# --------------------------------------------------------------------------------------------------
+@dataclass(eq=False)
+class CalibrationResult:
+    """Outcome of :func:`calibrate`.
+
+    Attributes
+    ----------
+    logs : list of LogStops
+        Per log: λ_0, the detection, the stops modelled and what was dropped.
+    fits : dict
+        Per axis the selected :class:`~imunoise.estimator.GMWMFit` (parameters per sample at ``freq_hz``).
+    axes : dict
+        Per axis the :class:`AxisCalibration`.
+    model : imunoise.imu_model.ImuModel
+        The six fits as one model (``imu_model.json``; the input of the exports).
+    freq_hz : float
+        Sample rate [Hz].
+    criterion : str
+        Selection criterion.
+    """
+
+    logs: list[LogStops]
+    fits: dict[str, Any]
+    axes: dict[str, AxisCalibration]
+    model: Any
+    freq_hz: float
+    criterion: str
+
+    @property
+    def static_s(self) -> float:
+        """Pooled static time [s]."""
+        return float(sum(ls.static_s for ls in self.logs))
+
+    @property
+    def n_stops(self) -> int:
+        return int(sum(len(ls.stops) for ls in self.logs))
+
+    @property
+    def horizon_s(self) -> float:
+        """Longest averaging time the pooled stops support [s] (the same on every axis)."""
+        return float(max(a.horizon_s for a in self.axes.values()))
+
+    @property
+    def longest_stop_s(self) -> float:
+        return float(max((s.duration for ls in self.logs for s in ls.stops), default=0.0))
+
+    def summary(self) -> str:
+        """Stops, horizon and a table of N and K per axis (values, CIs, bounds)."""
+        lines = [
+            f"calibration from {len(self.logs)} log(s): {self.n_stops} stops, {self.static_s:.1f} s static "
+            f"(longest {self.longest_stop_s:.1f} s) at {self.freq_hz:g} Hz; criterion {self.criterion}",
+            f"horizon: averaging times up to {self.horizon_s:.3g} s are supported by the pooled stops",
+        ]
+        for ls in self.logs:
+            lines.append(f"  {ls.log.name}: {ls.log.duration_s:.1f} s, λ0 = {ls.lambda0:.4g} m/s² "
+                         f"({ls.lambda0_source}); {len(ls.stops)} stops, {ls.static_s:.1f} s")
+        lines += ["", f"  {'axis':<9}{'model':<20}{'N [u/√Hz]':>12}  {'95% CI':^23}  {'K [u/s/√Hz]':>12}  "
+                  f"{'K is':<6}{'K bound':>11}  {'T_x [s]':>8}  unit"]
+        for ax, a in self.axes.items():
+            nci = f"[{a.N_ci[0]:.3e}, {a.N_ci[1]:.3e}]" if math.isfinite(a.N_ci[0]) else "—"
+            lines.append(f"  {ax:<9}{a.model:<20}{a.N:>12.4e}  {nci:^23}  {a.K_reported:>12.4e}  {a.K_status:<6}"
+                         f"{a.K_bound:>11.3e}  {a.crossover_s:>8.3g}  {a.unit}")
+        lines.append("  K: the fitted random walk when it is a value, else the bound that holds (exports: see "
+                     "their τ range and AV ratio)")
+        lines.append("")
+        for ax, a in self.axes.items():
+            for u in a.undetermined:
+                lines.append(f"  {ax}: not determined: {u}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (stops, λ_0, horizon, per-axis values and bounds)."""
+        return {
+            "freq_hz": self.freq_hz,
+            "criterion": self.criterion,
+            "static_s": self.static_s,
+            "n_stops": self.n_stops,
+            "horizon_s": self.horizon_s,
+            "logs": [
+                {"name": ls.log.name, "duration_s": ls.log.duration_s, "lambda0_m_s2": ls.lambda0,
+                 "lambda0_source": ls.lambda0_source, "static_s": ls.static_s, "dropped": ls.dropped,
+                 "stops": [{"t0": s.t0, "t1": s.t1, "duration_s": s.duration} for s in ls.stops],
+                 **({"warnings": ls.log.meta["warnings"]} if ls.log.meta.get("warnings") else {})}
+                for ls in self.logs
+            ],
+            "axes": {ax: a.to_dict() for ax, a in self.axes.items()},
+        }
+
+
+def _no_stop_error(ls: LogStops, need_s: float) -> DataError:
+    det = ls.detection
+    return DataError(
+        f"{ls.log.name}: no usable stop: {det.static_time_s:.1f} s called static by the detector "
+        f"({len(det.segments)} segments ≥ {det.config.min_duration_s:g} s, λ0 = {ls.lambda0:.3g} m/s²), "
+        f"{ls.static_s:.1f} s left after the rate gate and the speed check, in {ls.log.duration_s:.0f} s of log; "
+        f"calibrate needs ≥ {need_s:g} s of pooled stops for the white noise N, and stops several times "
+        "longer than an averaging time to state K there; pool more logs or record stops"
+    )
+
+
+def calibrate(
+    logs: Sequence[ImuLog | str | Path],
+    *,
+    detector: DetectorConfig | None = None,
+    lambda0: float | None = None,
+    learn_from_s: float | None = None,
+    learn_s: float = LEARN_S,
+    criterion: str = "wvic",
+    complete: str | None = None,
+    weights: str = "efficient",
+    min_static_s: float = MIN_STATIC_S,
+    seed: int = 0,
+    progress: Callable[[Any, str], Any] | None = None,
+) -> CalibrationResult:
+    """Noise model of an IMU from the stops of its moving logs (module docstring).
+
+    Parameters
+    ----------
+    logs : sequence of ImuLog or path
+        Logs of the same IMU (paths are read with :func:`read_log`'s defaults); pooled.
+    detector : DetectorConfig, optional
+        Detector settings (its λ_0 is learned per log unless ``lambda0`` is given).
+    lambda0 : float, optional
+        Fixed λ_0 [m/s²] for every log.
+    learn_from_s : float, optional
+        Learn λ_0 from the first this many seconds of each log (a known stop there).
+    learn_s : float
+        Length of the quietest stretch λ_0 is learned from [s] (default).
+    criterion : {"wvic", "gof"}
+        Selection criterion (:func:`imunoise.selection.select_model`).
+    complete : str, optional
+        Largest structure searched (default the paper's 4*AR1+DR+WN+QN+RW).
+    weights : str
+        Ω of the GMWM.
+    min_static_s : float
+        Pooled static time needed [s].
+    seed : int
+        Seed of the random starts of the selection.
+    progress : callable, optional
+        ``progress(iterable, desc)`` wrapping the per-log and per-axis loops (e.g. a tqdm factory).
+
+    Returns
+    -------
+    CalibrationResult
+
+    Raises
+    ------
+    DataError
+        A log without a usable stop, too little pooled static time, or logs at different rates.
+    """
+    from imunoise.allan import allan_variance, curve_to_dict
+    from imunoise.imu_model import ImuModel
+    from imunoise.selection import select_model
+    from imunoise.wv import WVAccumulator
+
+    if not logs:
+        raise DataError("calibrate needs at least one log")
+    wrap = progress or (lambda it, desc: it)
+    found: list[LogStops] = []
+    for item in wrap(list(logs), "logs"):
+        log = item if isinstance(item, ImuLog) else read_log(item)
+        found.append(detect_stops(log, detector, lambda0=lambda0, learn_from_s=learn_from_s, learn_s=learn_s))
+    for ls in found:
+        if not ls.stops:
+            raise _no_stop_error(ls, min_static_s)
+    f = found[0].log.rate_hz
+    for ls in found[1:]:
+        if abs(ls.log.rate_hz - f) > RATE_TOLERANCE * f:
+            raise DataError(f"{ls.log.name} is at {ls.log.rate_hz:.4g} Hz, {found[0].log.name} at {f:.4g} Hz: "
+                            "logs of different rates cannot be pooled (the densities are per rate); resample one")
+    total = sum(ls.static_s for ls in found)
+    if total < min_static_s:
+        parts = ", ".join(f"{ls.log.name}: {ls.static_s:.1f} s in {len(ls.stops)} stops" for ls in found)
+        raise DataError(f"only {total:.1f} s of stops pooled ({parts}); calibrate needs ≥ {min_static_s:g} s for the "
+                        "white noise N, and stops several times longer than an averaging time to state K there; "
+                        "pool more logs")
+    fits: dict[str, Any] = {}
+    for k, axis in enumerate(wrap(list(AXES), "axes")):
+        acc = WVAccumulator(freq=f)
+        segs = []
+        for ls in found:
+            data = ls.log.gyro if k < 3 else ls.log.accel
+            for s in ls.stops:
+                x = data[s.i0 : s.i1, k % 3]
+                x = x - x.mean()  # bias removed per stop (SPEC §7)
+                acc.add(x)
+                segs.append(x)
+        unit = GYRO_UNIT if k < 3 else ACCEL_UNIT
+        ranking = select_model(acc.result(), freq=f, complete=complete, criterion=criterion, weights=weights,
+                               unit=unit, seed=seed)
+        fit = ranking.best
+        fit.extra["data_allan"] = curve_to_dict(allan_variance(segs, freq=f, grid="dense"))
+        fit.extra["data_span"] = {"n_samples": int(sum(x.size for x in segs)), "n_segments": len(segs)}
+        fit.extra["selection"] = {"criterion": criterion, "n_candidates": len(ranking.fits)}
+        fits[axis] = fit
+    axes = {ax: _axis_calibration(ax, fit) for ax, fit in fits.items()}
+    source = {
+        "calibrate": [ls.log.name for ls in found],
+        "freq_hz": f,
+        "static_s": total,
+        "n_stops": int(sum(len(ls.stops) for ls in found)),
+        "horizon_s": float(max(a.horizon_s for a in axes.values())),
+    }
+    model = ImuModel.from_fits(fits, source=source)
+    return CalibrationResult(found, fits, axes, model, f, criterion)

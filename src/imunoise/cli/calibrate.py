@@ -1,0 +1,222 @@
+"""`imunoise calibrate`: an IMU noise model from the stops of moving logs (:mod:`imunoise.calibrate`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+from pathlib import Path
+
+from imunoise.cli.options import (
+    add_criterion,
+    add_time_options,
+    add_topic,
+    add_units,
+    check_freq,
+    parse_units,
+    prepare_out_dir,
+    print_warnings,
+)
+from imunoise.errors import ModelError
+from imunoise.io.atomic import atomic_path, atomic_savefig, atomic_write_text
+
+EXAMPLES = """examples:
+  imunoise calibrate data/drive_0708 --export kalibr --out calib/            # dataset folder (IMU + reference)
+  imunoise calibrate drive1.bag drive2.bag --topic /imu --export openvins --out calib/   # two logs pooled
+  imunoise calibrate walk.csv --columns accel_x=0,accel_y=1,accel_z=2,gyro_x=3,gyro_y=4,gyro_z=5 \\
+      --units gyro=deg/s,accel=g --time-column 6 --time-unit ms --out calib/
+  imunoise calibrate imu_inc.txt --ref ref.nav --lambda0 0.05 --out calib/   # KF-GINS increments, fixed λ0
+
+Each log: λ0 learned on its quietest 10 s (--learn-s; --learn-from S: the first S s are a stop; --lambda0:
+fixed), the static detector, the angular-rate gate and, with a speed (--ref, --gnss or a dataset's
+reference), the online engine's stop check. The stops of all logs are pooled per axis (bias removed per
+stop), the model selected (WVIC by default), and the horizon stated: the longest averaging time the pooled
+stops support. N is a value; K is a value only where the random walk rises above the white noise inside
+the horizon, else a bound that holds for any model. Writes DIR/imu_model.json, DIR/calibration.json,
+DIR/report.html (detection over time, WV fits with the horizon, stops, values) and the --export files."""
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "calibrate",
+        help="noise model of an IMU from the stops of moving logs (bags, tables, KF-GINS, datasets); pooled",
+        description="Detect the stops of moving IMU logs, pool them per axis, identify the model and state the "
+        "horizon (which parameters the stops determine, which only as a bound).",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("logs", nargs="+", metavar="LOG",
+                   help="ROS bag, dataset folder, KF-GINS IMU file, or CSV/TXT/.npz with --columns")
+    p.add_argument("--columns", help="table: the six axes, gyro_x=COL,...,accel_z=COL (names or 0-based indices)")
+    add_units(p, several=True)
+    add_time_options(p)
+    p.add_argument("--freq", type=float, help="sample rate [Hz] of a table without a time column")
+    add_topic(p)
+    p.add_argument("--ref", help="reference trajectory (KF-GINS) of a single log: speed for the stop check and plot")
+    p.add_argument("--gnss", help="GNSS of a single log (KF-GINS, RTKLIB .pos, bag): speed from positions")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--lambda0", type=float, help="fixed detector threshold λ0 [m/s²] (default: learned per log)")
+    g.add_argument("--learn-from", type=float, metavar="S", help="learn λ0 from the first S seconds of each log")
+    p.add_argument("--learn-s", type=float, default=10.0, metavar="S",
+                   help="learn λ0 on the quietest S seconds of each log (default 10)")
+    p.add_argument("--window", type=int, default=100, help="window N [samples] of the detector (default 100)")
+    p.add_argument("--min-duration", type=float, default=2.0, help="shortest stop kept [s] (default 2)")
+    p.add_argument("--margin", type=float, default=0.5, help="trimmed at each stop end [s] (default 0.5)")
+    add_criterion(p, "model selection")
+    p.add_argument("--complete", help="largest structure searched (default 4*AR1+DR+WN+QN+RW)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random starting points")
+    p.add_argument("--export", action="append", choices=["kalibr", "openvins", "orbslam3", "json"],
+                   help="also write this export beside the model (repeatable)")
+    p.add_argument("--out", help="output folder (default <first log name>_calib)")
+    p.set_defaults(func=run)
+
+
+def _tqdm_wrap(it, desc):
+    from tqdm import tqdm
+
+    return tqdm(it, desc=desc, disable=not sys.stderr.isatty(), leave=False)
+
+
+def run(args: argparse.Namespace) -> int:
+    from imunoise.calibrate import calibrate, read_log
+    from imunoise.detect import DetectorConfig
+    from imunoise.io.tabular import parse_column_map
+
+    check_freq(args.freq)
+    if (args.ref or args.gnss) and len(args.logs) > 1:
+        raise ModelError("--ref/--gnss belong to one log; give one log, or use dataset folders with a reference")
+    if args.learn_s is not None and not args.learn_s > 0:
+        raise ModelError(f"--learn-s must be a positive number of seconds, got {args.learn_s:g}")
+    out = prepare_out_dir(args.out or f"{Path(args.logs[0]).name.split('.')[0]}_calib")
+    cfg = DetectorConfig(window=args.window, min_duration_s=args.min_duration, margin_s=args.margin)
+    columns = parse_column_map(args.columns) if args.columns else None
+    logs = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for path in _tqdm_wrap(args.logs, "reading"):
+            logs.append(read_log(path, topic=args.topic, columns=columns, units=parse_units(args.units),
+                                 time_column=args.time_column, time_unit=args.time_unit, freq=args.freq,
+                                 ref=args.ref, gnss=args.gnss))
+    print_warnings(caught)
+    for log in logs:
+        print(f"{log.name}: {log.t.size} samples, {log.duration_s:.1f} s at {log.rate_hz:.4g} Hz"
+              + (f"; speed from {log.meta['speed_from']}" if log.meta.get("speed_from") else ""), file=sys.stderr)
+    res = calibrate(logs, detector=cfg, lambda0=args.lambda0, learn_from_s=args.learn_from, learn_s=args.learn_s,
+                    criterion=args.criterion, complete=args.complete, seed=args.seed, progress=_tqdm_wrap)
+    print(res.summary())
+    path = out / "imu_model.json"
+    with atomic_path(path) as tmp:
+        res.model.save(tmp)
+    atomic_write_text(out / "calibration.json", json.dumps(_json_safe(res.to_dict()), indent=1))
+    written = [path, out / "calibration.json"]
+    if args.export:
+        from imunoise.cli.export import report
+        from imunoise.export import DEFAULT_FILENAMES, model_sensors, write_export
+
+        report(model_sensors(res.model, None, "max", None, None).values())
+        for fmt in args.export:
+            written.append(write_export(res.model, fmt, out / DEFAULT_FILENAMES[fmt], source=str(path)))
+    written.append(write_report(res, out))
+    print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
+    return 0
+
+
+def _json_safe(obj):
+    import math
+
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def _plot_detection(ls, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    det, log = ls.detection, ls.log
+    t0 = float(log.t[0])
+    t = log.t - t0
+    fig, ax = plt.subplots(figsize=(12, 4.2), layout="constrained")
+    T = np.nanmax(det.statistic, axis=1) if np.isfinite(det.statistic).any() else det.statistic[:, 0]
+    ax.semilogy(t, T, lw=0.5, color="tab:blue", label="moving std of accel x/y (Eq. 9, max)")
+    ax.semilogy(t, det.threshold, lw=0.8, color="darkred", label=f"threshold λ (λ0 = {ls.lambda0:.3g} m/s²)")
+    for k, s in enumerate(det.segments):
+        ax.axvspan(s.t0 - t0, s.t1 - t0, color="0.6", alpha=0.25, lw=0, label="detected" if k == 0 else None)
+    for k, s in enumerate(ls.stops):
+        ax.axvspan(s.t0 - t0, s.t1 - t0, color="tab:green", alpha=0.3, lw=0, label="modelled stop" if k == 0 else None)
+    ax.set_xlabel(f"time [s] since {t0:.3f} s")
+    ax.set_ylabel("[m/s²]")
+    if log.speed is not None:
+        a2 = ax.twinx()
+        a2.plot(log.speed[0] - t0, log.speed[1], color="0.3", lw=0.8, label="speed")
+        a2.set_ylabel("speed [m/s]")
+        a2.set_xlim(t[0], t[-1])
+        a2.legend(loc="upper right", fontsize=8)
+    ax.set_xlim(t[0], t[-1])
+    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title(f"{Path(log.name).name}: {len(ls.stops)} stops modelled, {ls.static_s:.1f} s")
+    atomic_savefig(fig, path, dpi=100)
+    plt.close(fig)
+
+
+def write_report(res, out: Path) -> Path:
+    """report.html: detection per log, WV fits with the horizon, stop list, values with units and CIs."""
+    import math
+
+    from imunoise.plots import plot_wv_fit
+    from imunoise.report import Report
+
+    rep = Report("IMU calibration from moving logs")
+    rep.paragraph(f"{len(res.logs)} log(s), {res.n_stops} stops, {res.static_s:.1f} s static pooled "
+                  f"(longest stop {res.longest_stop_s:.1f} s) at {res.freq_hz:g} Hz; model selection by "
+                  f"{res.criterion.upper()}. Horizon: averaging times up to {res.horizon_s:.3g} s are supported "
+                  "by the pooled stops; a random walk or a slow Gauss–Markov term beyond it is reported as a bound.")
+    rep.heading("Detection")
+    for i, ls in enumerate(res.logs):
+        fig = out / f"detection_{i}.png"
+        _plot_detection(ls, fig)
+        rep.figure(fig, f"{ls.log.name}: λ0 = {ls.lambda0:.4g} m/s² ({ls.lambda0_source})")
+        if ls.dropped:
+            rep.log([f"dropped: {d}" for d in ls.dropped])
+    rep.heading("Values")
+    rows = []
+    for ax, a in res.axes.items():
+        nci = f"{a.N_ci[0]:.3e} – {a.N_ci[1]:.3e}" if math.isfinite(a.N_ci[0]) else "—"
+        if a.K_status == "value":
+            k = f"{a.K_fit:.3e} ({a.K_ci[0]:.2e} – {a.K_ci[1]:.2e})"
+        else:
+            k = f"≤ {a.K_bound:.3e}"
+        tr = f"{a.tau_range_s[0]:.3g} – {a.tau_range_s[1]:.3g}" if a.tau_range_s else "—"
+        rows.append([ax, a.model, f"{a.N:.4e}", nci, k, f"{a.K:.3e}", f"{a.unit}/√Hz, {a.unit}/s/√Hz",
+                     f"{a.horizon_s:.3g}", tr, f"{a.worst_ratio:.3g}"])
+    rep.table(["axis", "model", "N", "N 95% CI", "K (value with 95% CI, or bound)", "K exported", "units",
+               "horizon [s]", "τ range [s]", "worst AV ratio"], rows,
+              caption="N white-noise density, K bias random-walk density (continuous time)")
+    for ax, a in res.axes.items():
+        for u in a.undetermined:
+            rep.paragraph(f"{ax}: not determined: {u}")
+    rep.heading("Wavelet variance fits")
+    for ax, fit in res.fits.items():
+        fig = out / f"wv_{ax}.png"
+        tau_h = float(fit.wv.scales[-1] / fit.freq)
+        with atomic_path(fig) as tmp:
+            plot_wv_fit(fit, tmp, title=f"{ax}: {fit.model}",
+                        marks=[(tau_h, f"horizon τ = {tau_h:.3g} s (averaging time {tau_h / 2:.3g} s)")])
+        rep.figure(fig, f"{ax}: pooled WV of the stops, its 95% band, the {fit.model} fit and the horizon")
+    rep.heading("Stops")
+    rep.table(["log", "start [s]", "end [s]", "duration [s]"],
+              [[Path(ls.log.name).name, f"{s.t0:.2f}", f"{s.t1:.2f}", f"{s.duration:.2f}"]
+               for ls in res.logs for s in ls.stops])
+    html_path, _ = rep.write(out, "report")
+    return html_path
+
+
+__all__ = ["register", "run", "write_report"]
