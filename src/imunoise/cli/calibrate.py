@@ -145,7 +145,7 @@ def _plot_detection(ls, path: Path) -> None:
     t0 = float(log.t[0])
     t = log.t - t0
     fig, ax = plt.subplots(figsize=(12, 4.2), layout="constrained")
-    T = np.nanmax(det.statistic, axis=1) if np.isfinite(det.statistic).any() else det.statistic[:, 0]
+    T = np.fmax(det.statistic[:, 0], det.statistic[:, 1])
     ax.semilogy(t, T, lw=0.5, color="tab:blue", label="moving std of accel x/y (Eq. 9, max)")
     ax.semilogy(t, det.threshold, lw=0.8, color="darkred", label=f"threshold λ (λ0 = {ls.lambda0:.3g} m/s²)")
     for k, s in enumerate(det.segments):

@@ -1,0 +1,110 @@
+"""`imunoise calibrate` and :mod:`imunoise.calibrate`: noise model from the stops of moving logs, against the
+simulator's known truth."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from imunoise.calibrate import ImuLog, calibrate, k_upper_bound
+from imunoise.cli import main
+from imunoise.errors import DataError
+from imunoise.imu import ImuData
+from imunoise.io.kfgins import write_imu
+from imunoise.sim import DriveConfig, resolve_imu_models, simulate_drive
+from imunoise.wv import wavelet_variance
+
+RATE = 100.0
+
+
+@pytest.fixture(scope="module")
+def truth():
+    return resolve_imu_models("WN+RW", RATE)
+
+
+@pytest.fixture(scope="module")
+def drive(truth):
+    cfg = DriveConfig(duration_s=600.0, n_stops=6, stop_range_s=(20.0, 60.0), static_s=60.0)
+    return simulate_drive(cfg, truth, seed=7)
+
+
+def as_log(d, name="sim", a=0, b=None) -> ImuLog:
+    g, acc = d.imu.rates()
+    sl = slice(a, b)
+    return ImuLog(name, d.imu.t[sl], g[sl], acc[sl], d.imu.rate_hz)
+
+
+def test_simulated_drive_recovers_N_and_states_K(drive, truth):
+    res = calibrate([as_log(drive)])
+    assert res.static_s > 150.0 and res.horizon_s > 5.0
+    for axis, m in truth.items():
+        c = m.continuous(RATE)
+        a = res.axes[axis]
+        assert a.N == pytest.approx(c["WN.noise_density"], rel=0.10), axis
+        k_true = c["RW.random_walk"]
+        if a.K_status == "value":
+            assert 0.5 <= a.K_fit / k_true <= 2.0, (axis, a.K_fit, k_true)
+        else:
+            assert a.K_bound >= k_true, (axis, a.K_bound, k_true)
+        assert a.N > 0 and a.K > 0
+    assert "horizon" in res.summary()
+
+
+def test_k_bound_holds_on_pure_random_walk():
+    rng = np.random.default_rng(3)
+    gamma = 1e-3
+    x = np.cumsum(gamma * rng.standard_normal(2**15)) + 0.01 * rng.standard_normal(2**15)
+    kb, _ = k_upper_bound(wavelet_variance(x, freq=RATE))
+    assert gamma * math.sqrt(RATE) <= kb <= 3.0 * gamma * math.sqrt(RATE)
+
+
+def test_two_logs_pooled(drive):
+    n = drive.imu.t.size
+    one = calibrate([as_log(drive, "a", 0, n // 2), as_log(drive, "b", n // 2)], complete="WN+RW")
+    assert [ls.log.name for ls in one.logs] == ["a", "b"]
+    assert all(ls.stops for ls in one.logs)
+    assert one.n_stops == sum(len(ls.stops) for ls in one.logs) >= 4
+    assert one.fits["gyro_x"].extra["data_span"]["n_segments"] == one.n_stops
+
+
+def moving_only(d) -> ImuData:
+    """A stretch of the drive with no stop: from the end of the first stop to the next one."""
+    still = d.static_mask
+    a = int(np.flatnonzero(~still)[0]) + 200
+    b = a + int(np.flatnonzero(still[a:])[0]) - 200
+    return ImuData(d.imu.t[a:b], d.imu.dtheta[a:b], d.imu.dv[a:b])
+
+
+def test_log_without_stop_is_refused_with_the_static_time(drive, tmp_path, capsys):
+    path = write_imu(tmp_path / "moving.txt", moving_only(drive))
+    code = main(["calibrate", str(path), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert code == 2
+    assert "static" in err and "needs ≥ 20 s" in err, err
+    assert not (tmp_path / "out" / "imu_model.json").exists()
+    with pytest.raises(DataError, match="static"):
+        calibrate([as_log(drive, "moving", 0, 3000)], lambda0=1e-6)
+
+
+def test_bag_input_with_exports(tmp_path, capsys):
+    pytest.importorskip("rosbags")
+    from imunoise.export import read_export
+    from imunoise.io.navinput import write_nav_bag
+
+    cfg = DriveConfig(duration_s=300.0, n_stops=3, stop_range_s=(20.0, 40.0), static_s=40.0)
+    d = simulate_drive(cfg, "WN+RW", seed=11)
+    bag = write_nav_bag(tmp_path / "drive.bag", d.imu, d.gnss, week=cfg.gps_week)
+    out = tmp_path / "calib"
+    code = main(["calibrate", str(bag), "--complete", "WN+RW", "--export", "kalibr", "--export", "openvins",
+                 "--export", "orbslam3", "--out", str(out)])
+    assert code == 0, capsys.readouterr().err
+    for name in ("imu_model.json", "calibration.json", "report.html", "imu.yaml", "kalibr_imu_chain.yaml"):
+        assert (out / name).exists(), name
+    k = read_export(out / "imu.yaml")
+    for key in ("gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density",
+                "accelerometer_random_walk"):
+        assert k[key] > 0 and math.isfinite(k[key])
+    html = (out / "report.html").read_text()
+    assert "horizon" in html and "Stops" in html
