@@ -17,10 +17,10 @@ import argparse
 import math
 
 import numpy as np
-from imunoise.sim.motion import DEFAULT_MOTION, REAL_DRIVE_GYRO
 
 from imunoise.imu import GYRO_AXES
 from imunoise.sim import DriveConfig, simulate_drive
+from imunoise.sim.motion import DEFAULT_MOTION, REAL_DRIVE_GYRO
 
 DPH = math.pi / 180.0 / 3600.0  # °/h in rad/s
 

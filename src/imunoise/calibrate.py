@@ -529,7 +529,8 @@ class AxisCalibration:
     def to_dict(self) -> dict[str, Any]:
         return {
             "axis": self.axis, "unit": self.unit, "model": self.model,
-            "N": self.N, "N_ci": list(self.N_ci), "K": self.K, "K_status": self.K_status, "K_fit": self.K_fit, "K_ci": list(self.K_ci),
+            "N": self.N, "N_ci": list(self.N_ci), "K": self.K, "K_status": self.K_status, "K_fit": self.K_fit,
+            "K_ci": list(self.K_ci),
             "K_bound": self.K_bound, "K_bound_at_s": self.K_bound_at_s, "crossover_s": self.crossover_s,
             "horizon_s": self.horizon_s, "tau_range_s": list(self.tau_range_s) if self.tau_range_s else None,
             "worst_av_ratio": self.worst_ratio, "determined": list(self.determined),
