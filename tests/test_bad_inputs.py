@@ -148,6 +148,7 @@ def writing_commands(static: dict, drive: dict, tmp: Path) -> dict[str, list]:
         "nav": ["nav", *nav_in],
         "online": ["online", *nav_in],
         "detect": ["detect", "--imu", drive["imu"]],
+        "calibrate": ["calibrate", drive["imu"]],
         "simulate": ["simulate", "--duration", 60],
         "batch": ["batch", str(static["ok.csv"]), "--freq", 100, "--model", "WN", "--scheduler", "sequential"],
         "demo": ["demo", "--static"],
@@ -157,7 +158,7 @@ def writing_commands(static: dict, drive: dict, tmp: Path) -> dict[str, list]:
 
 @pytest.mark.parametrize(
     "cmd", ["fit", "select", "allan", "em", "compare", "nav", "online", "detect", "simulate", "batch", "demo",
-            "experiment"]
+            "experiment", "calibrate"]
 )
 @pytest.mark.parametrize("kind", ["existing_file", "proc", "under_file"])
 def test_unusable_out_is_one_line(cmd, kind, static, drive, tmp_path, capsys):
