@@ -155,6 +155,8 @@ def run(args: argparse.Namespace) -> int:
             series = read_imu_source(
                 args.data, **source_args, decimate_by=args.decimate, decimate_method=args.decimate_method
             )
+    # one readable line per handled data problem (sorted, duplicates, gaps, doubtful units), kept in the output
+    series.meta["warnings"] = print_warnings(caught)
     if not multi and len(series.axes) != 1:
         raise DataError(
             f"{args.data} has {len(series.axes)} data columns ({', '.join(series.axes)}); choose one with "

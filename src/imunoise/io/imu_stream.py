@@ -114,10 +114,7 @@ class StreamedImu:
         return list(self.wv)
 
     def describe(self) -> str:
-        lines = [
-            f"{self.source}: {self.n_samples} samples at {self.freq:g} Hz, axes {', '.join(self.axes)} "
-            "(streamed)"
-        ]
+        lines = [f"{self.source}: {self.n_samples} samples at {self.freq:g} Hz, axes {', '.join(self.axes)} (streamed)"]
         if self.report is not None:
             lines.append("  " + self.report.summary())
         if self.meta.get("decimated"):
@@ -309,7 +306,10 @@ def _member_header(zf: zipfile.ZipFile, key: str) -> tuple[tuple[int, ...], bool
     with zf.open(key + ".npy") as fh:
         shape, fortran, dt = _read_npy_header(fh)
     if dt.hasobject:
-        raise ValueError("it holds pickled Python objects")
+        raise DataError(
+            f"{zf.filename}: not a readable NumPy .npz file (it holds pickled Python objects); pickled objects "
+            "are refused for safety"
+        )
     return shape, fortran, dt
 
 
@@ -390,7 +390,9 @@ def _text_rows(path: Path, chunk_rows: int) -> tuple[_Head, Callable[[], Iterato
                 if block:
                     yield parse(block), size - pos, block
         except (EOFError, gzip.BadGzipFile, zlib.error) as exc:
-            raise DataError(f"data file {path}: the gzip stream ends early or is corrupt ({exc}); get the file again") from exc
+            raise DataError(
+                f"data file {path}: the gzip stream ends early or is corrupt ({exc}); get the file again"
+            ) from exc
 
     return _Head(table, n_est, size), rows
 
@@ -489,9 +491,7 @@ def _table_blocks(
             bad = ~np.isfinite(v)
             if bad.any():
                 col = names[int(np.flatnonzero(bad.any(axis=0))[0])]
-                raise DataError(
-                    f"{path}: column {col!r} has non-finite value(s) (NaN/Inf); remove or interpolate them"
-                )
+                raise DataError(f"{path}: column {col!r} has non-finite value(s) (NaN/Inf); remove or interpolate them")
             t_rel = t_abs = None
             if t_idx is not None:
                 raw_t = np.asarray(data[:, t_idx])
@@ -534,9 +534,7 @@ def _table_blocks(
 
 def _exact_integers(lines: list[tuple[int, str]], idx: int, delim: str | None) -> np.ndarray | None:
     try:
-        return np.array(
-            [int((ln.split(delim) if delim else ln.split())[idx]) for _, ln in lines], dtype=np.int64
-        )
+        return np.array([int((ln.split(delim) if delim else ln.split())[idx]) for _, ln in lines], dtype=np.int64)
     except (ValueError, IndexError, OverflowError):
         return None
 
