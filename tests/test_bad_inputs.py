@@ -125,6 +125,30 @@ def test_fit_refuses_binary_and_pickled_files(bad, static, tmp_path, capsys):
     assert files_in(out) == []
 
 
+@pytest.mark.parametrize(
+    "bad", ["junk.csv", "junk.npy", "junk.npz", "pickled.npy", "trunc.npy", "trunc.npz", "junk.bag"]
+)
+def test_fit_stream_refuses_binary_and_pickled_files(bad, static, tmp_path, capsys):
+    out = tmp_path / "out"
+    code, err = run_cli(["fit", static[bad], "--freq", 100, "--model", "WN", "--stream", "--out", out], capsys)
+    line = assert_one_line_error(code, err, bad)
+    if bad.endswith((".npy", ".npz")):
+        assert "NumPy" in line
+    assert files_in(out) == []
+
+
+@pytest.mark.parametrize(
+    "extra, names",
+    [(["--robust"], ["--stream", "--robust"]), (["--max-scale", "0"], ["--max-scale"])],
+)
+def test_fit_stream_options_that_cannot_stream(extra, names, static, tmp_path, capsys):
+    out = tmp_path / "out"
+    argv = ["fit", static["ok.csv"], "--freq", 100, "--model", "WN", "--stream", *extra, "--out", out]
+    code, err = run_cli(argv, capsys)
+    assert_one_line_error(code, err, *names)
+    assert files_in(out) == []
+
+
 def test_em_init_binary_file(static, tmp_path, capsys):
     out = tmp_path / "out"
     code, err = run_cli(

@@ -45,6 +45,7 @@ __all__ = [
     "parse_model",
     "axis_fit_dicts",
     "fit_axis",
+    "fit_axis_wv",
 ]
 
 KIND = "imunoise.imu_model"
@@ -259,6 +260,42 @@ def fit_axis(
     fit = gmwm(model, values, freq=freq, weights=weights, robust=robust, unit=unit, seed=seed)
     _store_data_allan(fit, values, freq)
     return fit, None
+
+
+def fit_axis_wv(
+    wv: Any,
+    *,
+    model: str | Model | None = None,
+    auto: bool = False,
+    criterion: str = "wvic",
+    weights: str = "efficient",
+    unit: str = "u",
+    seed: int = 0,
+    n_samples: int | None = None,
+    values: np.ndarray | None = None,
+) -> tuple[GMWMFit, Any]:
+    """:func:`fit_axis` from a ready :class:`~imunoise.wv.WaveletVariance` (e.g. of a log streamed through
+    :class:`~imunoise.wv_stream.WVStream`): the same GMWM (paper Eq. 6) or selection (SPEC §5) on the same ν̂
+    and Ω. ``n_samples`` fills ``extra["data_span"]``; ``values``, when the series is at hand, adds its dense
+    Allan curve (without it the exports read the octave curve 2ν²_j, :func:`imunoise.allan.data_curve`)."""
+    if (model is None) == (not auto):
+        raise ModelError("give exactly one of a model structure or auto selection")
+    if auto:
+        from imunoise.selection import select_model
+
+        ranking = select_model(wv, freq=wv.freq, criterion=criterion, weights=weights, unit=unit, seed=seed)
+        fit = ranking.best
+        fit.unit = unit
+    else:
+        ranking = None
+        fit = gmwm(model, wv, freq=wv.freq, weights=weights, unit=unit, seed=seed)
+    if n_samples is not None:
+        span = {"n_samples": int(n_samples), "n_segments": 1, "duration_s": int(n_samples) / float(wv.freq)}
+        for f in ranking.fits if ranking is not None else [fit]:
+            f.extra["data_span"] = dict(span)
+    if values is not None:
+        _store_data_allan(fit, values, wv.freq)
+    return fit, ranking
 
 
 def _store_data_allan(fit: GMWMFit, values: Any, freq: float) -> None:

@@ -28,6 +28,10 @@ from imunoise.cli.options import (
 from imunoise.errors import DataError, ModelError
 from imunoise.io.atomic import atomic_path, atomic_write_text
 
+STREAM_ABOVE = 2e7
+"""Samples (file rows or bag messages) above which `fit` streams the input: 2e7 rows of 7 float64 columns are
+1.1 GB as arrays, and the batch WV holds three more copies of each axis."""
+
 EXAMPLES = """examples:
   imunoise fit gyro_x.csv --freq 100 --model "2*AR1+WN+RW" --units deg/s --out fit_gx/
   imunoise fit static.txt --freq 200 --column 3 --units g --model "AR1+WN+RW"
@@ -45,7 +49,12 @@ like R simts); continuous-time equivalents (noise density, random walk, correlat
 beside them. Units: --units converts to SI (rad/s, m/s²); increments (rad, deg, m/s) are divided by the
 nominal step. The rate comes from --freq, or the bag's header stamps / --time-column (checked against
 --freq when both are given). --decimate K block-averages (keeps the noise density); dropping samples
-would inflate the noise density by sqrt(K) and is refused."""
+would inflate the noise density by sqrt(K) and is refused.
+
+Large logs: an input of more than --stream-above samples (or any with --stream) is read block by block
+with a progress bar and its wavelet variance computed in one pass (imunoise.wv_stream.WVStream): the
+same WV and fit as the whole-file path, in memory set by --max-scale. The stamps must be in time order
+(the whole-file path sorts them); --robust needs the whole series and keeps the whole-file path."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -75,6 +84,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_weights(p)
     p.add_argument("--robust", action="store_true", help="robust (Huber) wavelet variance for contaminated data")
     p.add_argument("--seed", type=int, default=0, help="seed of the random starting points")
+    p.add_argument(
+        "--stream",
+        action="store_true",
+        help="read the file block by block and compute the wavelet variance in one pass (bounded memory)",
+    )
+    p.add_argument(
+        "--stream-above",
+        type=float,
+        default=STREAM_ABOVE,
+        metavar="N",
+        help=f"stream inputs of more than N samples (rows or messages; default {STREAM_ABOVE:.0e})",
+    )
+    p.add_argument(
+        "--max-scale",
+        type=float,
+        metavar="S",
+        help="longest wavelet scale [s] to compute (J = floor(log2(S·f)) levels; bounds the streaming memory)",
+    )
     p.add_argument(
         "--export",
         action="append",
@@ -106,25 +133,33 @@ def run(args: argparse.Namespace) -> int:
     columns = parse_column_map(args.columns) if args.columns is not None else None
     if not multi and args.column is not None:
         columns = [args.column]
+    if args.max_scale is not None and not args.max_scale > 0:
+        raise ModelError(f"--max-scale must be a positive time in seconds, got {args.max_scale}")
+    if args.stream and args.robust:
+        raise ModelError("--stream cannot use --robust: the robust WV needs every coefficient of a level at once")
+    source_args = {
+        "topic": args.topic,
+        "columns": columns,
+        "units": parse_units(args.units),
+        "time_column": args.time_column,
+        "time_unit": args.time_unit,
+        "freq": args.freq,
+        "stamps": args.stamps,
+    }
+    series = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        series = read_imu_source(
-            args.data,
-            topic=args.topic,
-            columns=columns,
-            units=parse_units(args.units),
-            time_column=args.time_column,
-            time_unit=args.time_unit,
-            freq=args.freq,
-            decimate_by=args.decimate,
-            decimate_method=args.decimate_method,
-            stamps=args.stamps,
-        )
+        if args.stream or not args.robust:
+            series = _streamed(args, source_args)
+        if series is None:
+            series = read_imu_source(
+                args.data, **source_args, decimate_by=args.decimate, decimate_method=args.decimate_method
+            )
     # one readable line per handled data problem (sorted, duplicates, gaps, doubtful units), kept in the output
     series.meta["warnings"] = print_warnings(caught)
-    if not multi and len(series.data) != 1:
+    if not multi and len(series.axes) != 1:
         raise DataError(
-            f"{args.data} has {len(series.data)} data columns ({', '.join(series.data)}); choose one with "
+            f"{args.data} has {len(series.axes)} data columns ({', '.join(series.axes)}); choose one with "
             "--column NAME|INDEX or fit several with --columns"
         )
     if series.report is not None or bag:
@@ -133,6 +168,54 @@ def run(args: argparse.Namespace) -> int:
     if multi:
         return _run_multi(args, series, out)
     return _run_single(args, series, out)
+
+
+def _streamed(args: argparse.Namespace, source_args: dict):
+    """The input's WV per axis in one pass (:func:`imunoise.io.imu_stream.stream_wavelet_variance`) when it is
+    forced (--stream) or the input holds more than --stream-above samples; else None (whole-file path)."""
+    from tqdm import tqdm
+
+    from imunoise.io.imu_stream import StreamOrderError, open_imu_blocks, stream_wavelet_variance
+
+    try:
+        with warnings.catch_warnings(record=True) as early:
+            warnings.simplefilter("always")
+            blocks = open_imu_blocks(args.data, **source_args)
+    except (DataError, OSError):
+        if args.stream:
+            raise
+        return None  # the whole-file reader says what is wrong, in its own words
+    if not args.stream and blocks.n_estimate <= args.stream_above:
+        return None
+    for w in early:  # only now: the whole-file path would warn about the same header again
+        warnings.warn(w.message, w.category, stacklevel=2)
+    if not args.stream:
+        print(
+            f"{args.data}: about {blocks.n_estimate:.3g} samples > --stream-above {args.stream_above:.3g}: "
+            "streaming the wavelet variance",
+            file=sys.stderr,
+        )
+    with tqdm(
+        total=blocks.size,
+        unit=blocks.size_unit,
+        unit_scale=True,
+        desc="wavelet variance",
+        disable=not sys.stderr.isatty(),
+    ) as bar:
+        try:
+            return stream_wavelet_variance(
+                blocks,
+                freq=args.freq,
+                decimate_by=args.decimate,
+                decimate_method=args.decimate_method,
+                max_scale_s=args.max_scale,
+                progress=bar.update,
+            )
+        except StreamOrderError as exc:
+            if args.stream:
+                raise
+            print(f"{exc}; reading the whole file instead", file=sys.stderr)
+            return None
 
 
 def _base_extra(args: argparse.Namespace, series, axis: str) -> dict:
@@ -151,19 +234,30 @@ def _base_extra(args: argparse.Namespace, series, axis: str) -> dict:
 
 
 def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
-    from imunoise.imu_model import fit_axis
+    from imunoise.imu_model import fit_axis, fit_axis_wv
+    from imunoise.io.imu_stream import StreamedImu
 
-    fit, ranking = fit_axis(
-        series.data[axis],
-        freq=series.freq,
-        model=args.model,
-        auto=args.auto,
-        criterion=args.criterion,
-        weights=args.weights,
-        robust=args.robust,
-        unit=series.unit[axis],
-        seed=args.seed,
-    )
+    common = {
+        "model": args.model,
+        "auto": args.auto,
+        "criterion": args.criterion,
+        "weights": args.weights,
+        "unit": series.unit[axis],
+        "seed": args.seed,
+    }
+    if isinstance(series, StreamedImu):
+        fit, ranking = fit_axis_wv(series.wv[axis], n_samples=series.n_samples, **common)
+        fit.extra["streamed"] = {"levels": len(series.wv[axis]), "max_scale_s": args.max_scale}
+    elif args.max_scale is not None:
+        from imunoise.wv import wavelet_variance
+        from imunoise.wv_stream import WVStream
+
+        x = series.data[axis]
+        levels = WVStream(max_scale_s=args.max_scale, freq=series.freq).levels
+        wv = wavelet_variance(x, levels=levels, robust=args.robust, freq=series.freq)
+        fit, ranking = fit_axis_wv(wv, n_samples=x.size, values=x, **common)
+    else:
+        fit, ranking = fit_axis(series.data[axis], freq=series.freq, robust=args.robust, **common)
     extra = _base_extra(args, series, axis)
     if ranking is not None:
         if not quiet:
@@ -177,7 +271,7 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
 def _run_single(args: argparse.Namespace, series, out: Path) -> int:
     from imunoise.plots import plot_wv_fit
 
-    axis = next(iter(series.data))
+    axis = series.axes[0]
     fit = _fit_one(args, series, axis)
     print(fit.summary())
     atomic_write_text(out / "model.json", json.dumps(fit.to_dict(), indent=1))
@@ -206,7 +300,7 @@ def _run_multi(args: argparse.Namespace, series, out: Path) -> int:
     from imunoise.plots import plot_wv_fit
 
     fits = {}
-    axes = list(series.data)
+    axes = list(series.axes)
     for axis in tqdm(axes, desc="axes", unit="axis", disable=not sys.stderr.isatty()):
         fit = _fit_one(args, series, axis, quiet=True)
         fits[axis] = fit

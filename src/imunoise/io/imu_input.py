@@ -29,7 +29,7 @@ from imunoise.io.rosbag import is_bag, read_imu_bag
 from imunoise.io.tabular import RATE_TOLERANCE, TimeReport, TimingWarning, UnitWarning, clean_time, read_columns
 from imunoise.units import quantity_of
 
-__all__ = ["AXES", "ImuSeries", "read_imu_source", "decimate", "sensor_of"]
+__all__ = ["AXES", "ImuSeries", "read_imu_source", "decimate", "sensor_of", "unknown_unit_messages"]
 
 
 _RATE_OF_INCREMENT = {"angle_increment": "rad/s", "velocity_increment": "m/s²"}
@@ -218,37 +218,50 @@ ACCEL_STATIC_MAX_MEAN = 20.0
 
 def _check_unknown_units(series: ImuSeries) -> None:
     """Warn (:class:`UnitWarning`, also kept in ``series.meta["warnings"]``) when data without a unit
-    cannot be SI: a static gyro with mean > 0.1 rad/s or σ > 0.05 rad/s is almost surely deg/s, three
-    accelerometer means whose norm is ≈ 1 are in g. Without ``--units`` the values are taken as they
-    are (unit "u"), and an export would turn them into rad/s or m/s² — wrong by 57× or 9.8×."""
-    found: list[str] = []
+    cannot be SI (:func:`unknown_unit_messages`)."""
     unknown = [a for a in series.data if series.unit[a] == "u"]
-    for axis in unknown:
-        x = series.data[axis]
-        mean, std = float(np.mean(x)), float(np.std(x))
-        kind = sensor_of(axis)
-        if kind == "gyro" and (abs(mean) > GYRO_STATIC_MAX_MEAN or std > GYRO_STATIC_MAX_STD):
-            found.append(
-                f"{series.source}: {axis} has no unit and a static mean {mean:.3g} / σ {std:.3g} that cannot be "
-                "rad/s (a still gyro stays below 0.1 rad/s); give --units deg/s (or the right unit)"
-            )
-        elif kind == "accel" and abs(mean) > ACCEL_STATIC_MAX_MEAN:
-            found.append(
-                f"{series.source}: {axis} has no unit and a static mean {mean:.4g} that cannot be m/s² "
-                "(|g| = 9.81); give --units mg (or the right unit)"
-            )
-    acc = [a for a in unknown if sensor_of(a) == "accel"]
-    if len(acc) == 3:
-        g = float(np.linalg.norm([np.mean(series.data[a]) for a in acc]))
-        if 0.8 < g < 1.2:
-            found.append(
-                f"{series.source}: accelerometers {', '.join(acc)} have no unit and a static norm of {g:.3g}: "
-                "that is 1 g, not 9.81 m/s²; give --units accel=g"
-            )
+    found = unknown_unit_messages(
+        series.source,
+        unknown,
+        {a: float(np.mean(series.data[a])) for a in unknown},
+        {a: float(np.std(series.data[a])) for a in unknown},
+    )
     for msg in found:
         warnings.warn(msg, UnitWarning, stacklevel=3)
     if found:
         series.meta.setdefault("warnings", []).extend(found)
+
+
+def unknown_unit_messages(
+    source: str, unknown: Sequence[str], mean: Mapping[str, float], std: Mapping[str, float]
+) -> list[str]:
+    """Why axes given without a unit cannot be SI, from their static mean and σ: a static gyro with mean
+    > 0.1 rad/s or σ > 0.05 rad/s is almost surely deg/s, three accelerometer means whose norm is ≈ 1 are
+    in g. Without ``--units`` the values are taken as they are (unit "u"), and an export would turn them
+    into rad/s or m/s² — wrong by 57× or 9.8×. One message per problem (empty when none)."""
+    found: list[str] = []
+    for axis in unknown:
+        m, s = mean[axis], std[axis]
+        kind = sensor_of(axis)
+        if kind == "gyro" and (abs(m) > GYRO_STATIC_MAX_MEAN or s > GYRO_STATIC_MAX_STD):
+            found.append(
+                f"{source}: {axis} has no unit and a static mean {m:.3g} / σ {s:.3g} that cannot be "
+                "rad/s (a still gyro stays below 0.1 rad/s); give --units deg/s (or the right unit)"
+            )
+        elif kind == "accel" and abs(m) > ACCEL_STATIC_MAX_MEAN:
+            found.append(
+                f"{source}: {axis} has no unit and a static mean {m:.4g} that cannot be m/s² "
+                "(|g| = 9.81); give --units mg (or the right unit)"
+            )
+    acc = [a for a in unknown if sensor_of(a) == "accel"]
+    if len(acc) == 3:
+        g = float(np.linalg.norm([mean[a] for a in acc]))
+        if 0.8 < g < 1.2:
+            found.append(
+                f"{source}: accelerometers {', '.join(acc)} have no unit and a static norm of {g:.3g}: "
+                "that is 1 g, not 9.81 m/s²; give --units accel=g"
+            )
+    return found
 
 
 def _bag_axes(columns: Any, all_axes: Mapping[str, np.ndarray]) -> list[str]:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import itertools
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,6 +39,9 @@ __all__ = [
     "BagTopic",
     "BagImu",
     "BagNavSat",
+    "BagImuBlock",
+    "imu_topic",
+    "iter_imu_bag",
     "is_bag",
     "list_topics",
     "read_imu_bag",
@@ -398,6 +401,54 @@ def read_imu_bag(
         report=report,
         extra={"topics": [str(t) for t in topics], "stamps": source},
     )
+
+
+def imu_topic(path: str | Path, topic: str | None = None) -> BagTopic:
+    """The ``sensor_msgs/Imu`` topic :func:`read_imu_bag` would read (name, type, message count)."""
+    path = Path(path)
+    topics = list_topics(path)
+    name = _choose_topic(path, topics, topic, IMU_TYPES, "IMU")
+    return next(t for t in topics if t.name == name)
+
+
+@dataclass(frozen=True, eq=False)
+class BagImuBlock:
+    """Consecutive IMU messages in bag order: header and receive stamps [ns], gyro and accel (n, 3) in SI."""
+
+    stamp_ns: np.ndarray
+    bag_ns: np.ndarray
+    gyro: np.ndarray
+    accel: np.ndarray
+    frame_id: str
+
+
+def iter_imu_bag(path: str | Path, topic: str | None = None, *, batch: int = 1 << 14) -> Iterator[BagImuBlock]:
+    """The messages of an IMU topic in bag (receive-time) order, ``batch`` at a time, decoded as in
+    :func:`read_imu_bag` (fast fixed-layout decoding checked against the library's deserialiser) but never
+    all held at once. Nothing is sorted or cleaned here: :func:`read_imu_bag` sorts by header stamp, a
+    stream cannot (``imunoise.io.imu_stream`` refuses out-of-order stamps)."""
+    path = Path(path)
+    reader = _open(path)
+    try:
+        name = _choose_topic(path, _topics(reader), topic, IMU_TYPES, "IMU")
+        conns = [c for c in reader.connections if c.topic == name]
+        msgtype = conns[0].msgtype
+        bag_ns: list[int] = []
+        raws: list[bytes] = []
+        frame_id = ""
+        for _, t_ns, raw in reader.messages(connections=conns):
+            bag_ns.append(t_ns)
+            raws.append(raw)
+            if len(raws) == batch:
+                stamp, gyro, accel, fid = _decode_imu(reader, raws, msgtype)
+                frame_id = frame_id or fid
+                yield BagImuBlock(stamp, np.asarray(bag_ns, dtype=np.int64), gyro, accel, frame_id)
+                bag_ns, raws = [], []
+        if raws:
+            stamp, gyro, accel, fid = _decode_imu(reader, raws, msgtype)
+            yield BagImuBlock(stamp, np.asarray(bag_ns, dtype=np.int64), gyro, accel, frame_id or fid)
+    finally:
+        reader.close()
 
 
 # ----------------------------------------------------------------------------------------------
