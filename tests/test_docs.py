@@ -156,12 +156,13 @@ STAGE = {
     "imu": 1,
     "io": 1,
     "detect": 2,
-    **dict.fromkeys(["processes", "model", "wv", "wv_stream", "estimator", "fitting", "selection", "allan", "em",
+    **dict.fromkeys(["processes", "model", "wv", "wv_stream", "wv_log", "estimator", "fitting", "selection", "allan",
+                     "em",
                      "imu_model", "equivalent_noise", "export", "plots"], 3),
     "nav": 4,
     "online": 5,
     "sim": 6,
-    "experiments": 7, "batch": 7,
+    "experiments": 7, "batch": 7, "calibrate": 7,
     "cli": 8, "__main__": 8,
 }
 

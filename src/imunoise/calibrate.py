@@ -708,7 +708,7 @@ def calibrate(
 
     Parameters
     ----------
-    logs : sequence of ImuLog or path
+    logs : sequence of ImuLog, str or Path
         Logs of the same IMU (paths are read with :func:`read_log`'s defaults); pooled.
     detector : DetectorConfig, optional
         Detector settings (its λ_0 is learned per log unless ``lambda0`` is given).

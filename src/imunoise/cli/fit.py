@@ -171,11 +171,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _streamed(args: argparse.Namespace, source_args: dict):
-    """The input's WV per axis in one pass (:func:`imunoise.io.imu_stream.stream_wavelet_variance`) when it is
+    """The input's WV per axis in one pass (:func:`imunoise.wv_log.stream_wavelet_variance`) when it is
     forced (--stream) or the input holds more than --stream-above samples; else None (whole-file path)."""
     from tqdm import tqdm
 
-    from imunoise.io.imu_stream import StreamOrderError, open_imu_blocks, stream_wavelet_variance
+    from imunoise.io.imu_stream import StreamOrderError, open_imu_blocks
+    from imunoise.wv_log import stream_wavelet_variance
 
     try:
         with warnings.catch_warnings(record=True) as early:
@@ -235,7 +236,7 @@ def _base_extra(args: argparse.Namespace, series, axis: str) -> dict:
 
 def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
     from imunoise.imu_model import fit_axis, fit_axis_wv
-    from imunoise.io.imu_stream import StreamedImu
+    from imunoise.wv_log import StreamedImu
 
     common = {
         "model": args.model,

@@ -124,6 +124,11 @@ def departures_text(ranges: list[tuple[float, float]]) -> str:
     return ", ".join(f"{a:.3g} s" if a == b else f"{a:.3g}–{b:.3g} s" for a, b in ranges)
 
 
+def _exp(v: float) -> float:
+    """exp that saturates to inf: a component collapsed to ~0 has a log-scale CI wide enough to overflow."""
+    return math.exp(v) if v < 709.0 else math.inf
+
+
 @dataclass
 class GMWMFit:
     """Result of :func:`imunoise.estimator.gmwm` and the other estimators (SPEC §4).
@@ -343,10 +348,10 @@ class GMWMFit:
             se = math.sqrt(max(float(g @ cov_id @ g), 0.0))
             lo, hi = base[n] - z * se, base[n] + z * se
             if n.endswith(".phi"):
-                out[n] = (math.exp(-math.exp(hi)), math.exp(-math.exp(lo)))
+                out[n] = (math.exp(-_exp(hi)), math.exp(-_exp(lo)))
             else:
                 sign = -1.0 if values[n] < 0 else 1.0
-                a, b = sign * math.exp(lo), sign * math.exp(hi)
+                a, b = sign * _exp(lo), sign * _exp(hi)
                 out[n] = (min(a, b), max(a, b))
         return out
 
