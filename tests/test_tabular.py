@@ -98,3 +98,29 @@ def test_decimation_average_keeps_noise_density_and_drop_is_refused():
     with pytest.raises(DataError, match=r"√8"):
         decimate(x, k, "drop")
     np.testing.assert_array_equal(decimate(np.arange(10.0), 3), [1.0, 4.0, 7.0])
+
+
+def test_a_cut_first_or_last_line_is_skipped_with_a_warning(tmp_path):
+    """A logger started or stopped mid-write (rtklibexplorer walk0827's raw IMU has both): the cut lines are
+    skipped, the rows in between read exactly; a ragged line inside the file is still an error."""
+    import warnings
+
+    from imunoise.io.tabular import CutLineWarning
+
+    rng = np.random.default_rng(0)
+    full = rng.normal(size=(30, 7)).round(6)
+    lines = [",".join(f"{v:.6f}" for v in row) for row in full]
+    cut = [lines[0].rsplit(",", 1)[0]] + lines[1:-1] + [",".join(lines[-1].split(",")[:5])]
+    p = tmp_path / "cut.csv"
+    p.write_text("\n".join(cut) + "\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        t = read_table(p)
+    assert [str(w.message).split(":")[0].split(", ")[-1] for w in caught if w.category is CutLineWarning] == \
+        ["line 1", "line 30"]
+    np.testing.assert_array_equal(t.data, full[1:-1])
+    assert len(t.columns) == 7
+    inner = lines[:10] + [lines[10].rsplit(",", 1)[0]] + lines[11:]
+    p.write_text("\n".join(inner) + "\n")
+    with pytest.raises(DataError, match="line 11: 6 fields, expected 7"):
+        read_table(p)

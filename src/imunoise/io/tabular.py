@@ -17,7 +17,7 @@ import io
 import warnings
 import zipfile
 import zlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,6 +35,7 @@ __all__ = [
     "Series",
     "TimeReport",
     "TimingWarning",
+    "CutLineWarning",
     "UnitWarning",
     "clean_time",
     "Columns",
@@ -168,6 +169,30 @@ def _read_numpy(path: Path, kind: str) -> Table:
     return Table(names, data, str(path), 1, units=units, freq_hz=freq)
 
 
+def _drop_cut_lines(path: Path, rows: list[tuple[int, str]], split: Callable[[str], list[str]],
+                    n_header: int | None) -> list[tuple[int, str]]:
+    """``rows`` without a cut first or last data line, with a warning each.
+
+    A logger stopped (or started) mid-write leaves a first or last line with fewer fields than the rest; such a
+    line is dropped when every other line of the first (last) ten has the usual count: the header's, or the
+    most common one. Any other ragged line is an error of the reader, as before."""
+    if len(rows) < 3:
+        return rows
+    head = [len(split(ln)) for _, ln in rows[:11]]
+    usual = n_header or max(set(head), key=head.count)
+    out = rows
+    if head[0] < usual and all(c == usual for c in head[1:]):
+        warnings.warn(f"{path}, line {rows[0][0]}: {head[0]} fields where the others have {usual} (a cut line); "
+                      "skipped", CutLineWarning, stacklevel=3)
+        out = out[1:]
+    tail = [len(split(ln)) for _, ln in out[-11:]]
+    if len(out) > 2 and tail[-1] < usual and all(c == usual for c in tail[:-1]):
+        warnings.warn(f"{path}, line {out[-1][0]}: {tail[-1]} fields where the others have {usual} (a cut line); "
+                      "skipped", CutLineWarning, stacklevel=3)
+        out = out[:-1]
+    return out
+
+
 def read_table(path: str | Path) -> Table:
     """Read a CSV/TXT (optionally .gz) or .npy/.npz file into float columns."""
     path = Path(path)
@@ -195,10 +220,11 @@ def read_table(path: str | Path) -> Table:
 
     first = split(content[0][1])
     has_header = not all(is_number(t) for t in first if t != "")
-    columns = first if has_header else [str(i) for i in range(len(first))]
     rows = content[1:] if has_header else content
     if not rows:
         raise DataError(f"{path} has a header but no data rows")
+    rows = _drop_cut_lines(path, rows, split, None if not has_header else len(first))
+    columns = first if has_header else [str(i) for i in range(len(split(rows[0][1])))]
     body = "\n".join(ln for _, ln in rows)
     try:
         data = np.loadtxt(io.StringIO(body), delimiter=delim, ndmin=2, dtype=float)
@@ -248,6 +274,10 @@ def read_series(
 # ----------------------------------------------------------------------------------------------
 # time stamps: sort, duplicates, gaps, rate and jitter
 # ----------------------------------------------------------------------------------------------
+class CutLineWarning(UserWarning):
+    """A cut first or last line of a table (a logger started or stopped mid-write) was skipped."""
+
+
 class UnitWarning(UserWarning):
     """The units of the data are doubtful: no unit given and the values cannot be SI, or the file and
     the command line disagree."""
