@@ -51,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from imunoise.detect import DetectorConfig, detect_static, learn_lambda0, moving_std
+from imunoise.detect import DetectorConfig, StaticSegment, detect_static, learn_lambda0, moving_std
 from imunoise.errors import DataError, ModelError
 from imunoise.imu import AXES
 
@@ -253,18 +253,9 @@ def _read_source(p, topic, columns, units, time_column, time_unit, freq):
 # --------------------------------------------------------------------------------------------------
 # stops
 # --------------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Stop:
-    """One modelled static segment of a log: samples ``i0 ≤ i < i1``, times ``t0``..``t1`` [s]."""
-
-    t0: float
-    t1: float
-    i0: int
-    i1: int
-
-    @property
-    def duration(self) -> float:
-        return self.t1 - self.t0
+#: one modelled stop of a log: the detector's segment type (samples i0 ≤ i < i1, times t0..t1 [s]), after the
+#: rate gate and the navigation check have cut it
+Stop = StaticSegment
 
 
 @dataclass(eq=False)

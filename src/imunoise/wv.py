@@ -124,8 +124,9 @@ def batch_size(level: int) -> int:
 
 
 @njit(cache=True, fastmath=True)
-def _pass1(x, y, out, i0, i1, write):  # pragma: no cover - compiled
+def level_pass(x, y, out, i0, i1, write):  # pragma: no cover - compiled
     # one level over [i0, i1): sum (x - y)^2 and optionally out = x + y, with x = S_m(t), y = S_m(t-m).
+    # Public: the streaming estimator (imunoise.wv_stream) runs the same kernel over its rings.
     # Unsigned indices: numba then skips its negative-index fix-up and LLVM vectorises the loop.
     s = 0.0
     if write:
@@ -226,7 +227,7 @@ def _segment_stats(x, mean, n_levels, blocks, a, b):  # pragma: no cover - compi
                 cur2 += s2 * sc2
                 cnt2 += t1 - t0
             else:
-                s1 = _pass1(hx, hy, ho, t0 - h0, t1 - h0, write and not fuse)
+                s1 = level_pass(hx, hy, ho, t0 - h0, t1 - h0, write and not fuse)
             cur1 += s1 * sc1
             cnt1 += t1 - t0
             if t1 % bj == 0 or t1 == n:

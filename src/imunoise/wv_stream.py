@@ -34,10 +34,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, uint64
+from numba import njit
 
 from imunoise.errors import DataError
-from imunoise.wv import MIN_COEFFICIENTS, MIN_SAMPLES, WaveletVariance, batch_size, wavelet_variance_from_sums
+from imunoise.wv import (
+    MIN_COEFFICIENTS,
+    MIN_SAMPLES,
+    WaveletVariance,
+    batch_size,
+    level_pass,
+    wavelet_variance_from_sums,
+)
 
 __all__ = ["BLOCK", "WVStream"]
 
@@ -54,37 +61,16 @@ _STATE = 7
 # numba kernels
 
 
-@njit(cache=True, fastmath=True)
-def _run_self(x, y, out, i0, i1, write):  # pragma: no cover - compiled
-    # sum (x - y)^2 over [i0, i1) and optionally out = x + y; x = S_m(t), y = S_m(t-m), both in the block.
-    # Slices start at 0 and indices are unsigned, so LLVM vectorises (as the batch kernel).
-    s = 0.0
-    if write:
-        for k in range(i0, i1):
-            i = uint64(k)
-            p = x[i]
-            q = y[i]
-            d = p - q
-            s += d * d
-            out[i] = p + q
-    else:
-        for k in range(i0, i1):
-            i = uint64(k)
-            d = x[i] - y[i]
-            s += d * d
-    return s
-
-
 @njit(cache=True)
 def _run_ring(a, ring, out, i0, i1, t0, mask, write):  # pragma: no cover - compiled
-    # as _run_self, with S_m(t-m) read from the ring slot t mod m that still holds it; cut where the
+    # as level_pass, with S_m(t-m) read from the ring slot t mod m that still holds it; cut where the
     # slot index wraps so each piece is a pair of contiguous slices
     s = 0.0
     i = i0
     while i < i1:
         p = (t0 + i) & mask
         e = min(i1, i + mask + 1 - p)
-        s += _run_self(a[i:], ring[p:], out[i:], 0, e - i, write)
+        s += level_pass(a[i:], ring[p:], out[i:], 0, e - i, write)
         i = e
     return s
 
@@ -131,7 +117,7 @@ def _level_block(a, out, ring, t0, m, bsize, st, cnt, write):  # pragma: no cove
                 s += _run_ring(a[c], ring[c], out[c], i, min(end, m), t0, mask, write)
             if end > m:
                 lo = max(i, m)
-                s += _run_self(a[c, m:], a[c, : n - m], out[c, m:], lo - m, end - m, write)
+                s += level_pass(a[c, m:], a[c, : n - m], out[c, m:], lo - m, end - m, write)
             st[c, 0], st[c, 1] = _neumaier(st[c, 0], st[c, 1], s)
         cnt += end - i
         if (t0 + end) % bsize == 0:
