@@ -319,6 +319,14 @@ def learn_lambda0_quietest(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *
         there / their 90th percentile over the log; a stop when ≤ :data:`STILL_CONTRAST`).
     """
     t = np.asarray(t, dtype=float)
+    G = moving_std(np.asarray(gyro, dtype=float), window).max(axis=1)
+    return _quietest(t, np.asarray(accel, dtype=float), G, window, learn_s, rate_hz)
+
+
+def _quietest(t: np.ndarray, accel: np.ndarray, G: np.ndarray, window: int, learn_s: float,
+              rate_hz: float | None) -> tuple[float, float, float]:
+    """:func:`learn_lambda0_quietest` given the gyros' moving std ``G`` (n,) (max over the axes), so a streamed
+    log need not hold its gyros."""
     f = float(rate_hz) if rate_hz else 1.0 / float(np.median(np.diff(t)))
     m = max(int(round(learn_s * f)), 2 * int(window))
     n = t.size
@@ -327,7 +335,7 @@ def learn_lambda0_quietest(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *
             f"the log holds {n} samples ({n / f:.1f} s); learning λ0 needs ≥ {m} ({m / f:.1f} s); give a longer "
             "log or --lambda0"
         )
-    T = moving_std(np.asarray(accel, dtype=float)[:, :2], window).max(axis=1)
+    T = moving_std(accel[:, :2], window).max(axis=1)
     step = max(m // 2, 1)
     best, best_i = math.inf, 0
     for i in range(0, n - m + 1, step):
@@ -335,16 +343,80 @@ def learn_lambda0_quietest(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *
         seg = seg[np.isfinite(seg)]
         if seg.size and (med := float(np.median(seg))) < best:
             best, best_i = med, i
-    lam = learn_lambda0(np.asarray(accel)[best_i : best_i + m], window=window)
-    G = moving_std(np.asarray(gyro, dtype=float), window).max(axis=1)
+    lam = learn_lambda0(accel[best_i : best_i + m], window=window)
     q90 = float(np.nanquantile(G, 0.9))
     contrast = float(np.nanmedian(G[best_i + window - 1 : best_i + m])) / q90 if q90 > 0 else 1.0
     return lam, float(t[best_i]), contrast
 
 
+def _choose_lambda0(t: np.ndarray, accel: np.ndarray, G: Callable[[], np.ndarray], window: int, f: float,
+                    lambda0: float | None, learn_from_s: float | None, learn_s: float) -> tuple[float, str, str | None]:
+    """λ_0, how it was chosen, and why the log has no stop (its quietest stretch is not still) or None; ``G()``
+    gives the gyros' moving std (only the quietest-stretch rule needs it)."""
+    if lambda0 is not None:
+        if not (math.isfinite(lambda0) and lambda0 > 0):
+            raise ModelError(f"λ0 must be a positive threshold in m/s², got {lambda0!r}")
+        return float(lambda0), "given", None
+    if learn_from_s is not None:
+        m = t < t[0] + learn_from_s
+        return learn_lambda0(accel[m], window=window), f"learned from the first {learn_from_s:g} s", None
+    lam, t_q, contrast = _quietest(t, accel, G(), window, learn_s, f)
+    src = f"learned from the quietest {learn_s:g} s (from {t_q - t[0]:.1f} s into the log)"
+    why = None
+    if contrast > STILL_CONTRAST:
+        why = (f"its quietest {learn_s:g} s are no stop: the gyros' moving std there is {contrast:.2f} × their "
+               f"90th percentile (a stop: ≤ {STILL_CONTRAST:g}); give --lambda0 or --learn-from if it has one")
+    return lam, src, why
+
+
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     e = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
     return [(int(a), int(b)) for a, b in zip(e[::2], e[1::2], strict=True)]
+
+
+def _cut_segment(seg: Stop, t: np.ndarray, gate: np.ndarray, speed: np.ndarray | None, f: float,
+                 cfg: DetectorConfig) -> tuple[list[Stop], list[str]]:
+    """One detected segment cut by the rate gate and (with a speed) the online engine's stop check.
+
+    ``t``, ``gate`` and ``speed`` are the segment's own samples (``seg.i0 .. seg.i1``), so the whole-log and
+    the streamed path (which holds only the open stop) share this step. Returns the stops (log indices) and
+    one line per cut."""
+    from imunoise.online import OnlineConfig, stop_verdict
+
+    oc = OnlineConfig()
+    min_len = cfg.min_duration_s * f + 1.0
+    stops: list[Stop] = []
+    dropped: list[str] = []
+    pieces = [(seg.i0 + a, seg.i0 + b) for a, b in _runs(~gate)]
+    if len(pieces) != 1 or pieces[0] != (seg.i0, seg.i1):
+        dropped.append(f"{seg.t0:.2f}–{seg.t1:.2f} s: angular rate above the gate "
+                       f"({math.degrees(cfg.gate_rate):.0f} °/s) in {int(gate.sum())} samples")
+    for a, b in pieces:
+        if b - a < min_len - 1e-9:
+            continue
+        ta, tb = float(t[a - seg.i0]), float(t[b - 1 - seg.i0])
+        if speed is None:
+            stops.append(Stop(ta, tb, a, b))
+            continue
+        v = speed[a - seg.i0 : b - seg.i0]
+        n = b - a
+        verdict = stop_verdict(v, np.zeros(n), np.isfinite(v), np.full(n, np.nan), rate_hz=f,
+                               max_speed=oc.stop_max_speed, sigma_k=0.0, chi2=0.0, edge_s=oc.stop_edge_s,
+                               min_duration_s=cfg.min_duration_s)
+        if not verdict.whole:
+            dropped.append(f"{ta:.2f}–{tb:.2f} s: {verdict.reason.replace(' while GNSS-aided', '')}"
+                           f" ({sum(q - p for p, q in verdict.drop) / f:.1f} s dropped)")
+        for p, q in verdict.keep:
+            stops.append(Stop(float(t[a + p - seg.i0]), float(t[a + q - 1 - seg.i0]), a + p, a + q))
+    return stops, dropped
+
+
+def _speed_at(t: np.ndarray, speed: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Speed interpolated at ``t`` (NaN outside the speed's span); per sample, so any slice of a log gives
+    the same values as the whole."""
+    ts, vs = speed
+    inside = (t >= ts[0]) & (t <= ts[-1])
+    return np.where(inside, np.interp(t, ts, vs), np.nan)
 
 
 def detect_stops(
@@ -374,57 +446,23 @@ def detect_stops(
     -------
     LogStops
     """
-    from imunoise.online import OnlineConfig, stop_verdict
-
     base = config or DetectorConfig()
     t, accel, gyro, f = log.t, log.accel, log.gyro, log.rate_hz
-    if lambda0 is not None:
-        if not (math.isfinite(lambda0) and lambda0 > 0):
-            raise ModelError(f"λ0 must be a positive threshold in m/s², got {lambda0!r}")
-        lam, src = float(lambda0), "given"
-    elif learn_from_s is not None:
-        m = t < t[0] + learn_from_s
-        lam, src = learn_lambda0(accel[m], window=base.window), f"learned from the first {learn_from_s:g} s"
-    else:
-        lam, t_q, contrast = learn_lambda0_quietest(t, accel, gyro, window=base.window, learn_s=learn_s, rate_hz=f)
-        src = f"learned from the quietest {learn_s:g} s (from {t_q - t[0]:.1f} s into the log)"
-        if contrast > STILL_CONTRAST:
-            det = detect_static(t, accel, gyro, replace(base, lambda0=lam), rate_hz=f)
-            why = (f"its quietest {learn_s:g} s are no stop: the gyros' moving std there is {contrast:.2f} × their "
-                   f"90th percentile (a stop: ≤ {STILL_CONTRAST:g}); give --lambda0 or --learn-from if it has one")
-            return LogStops(log, lam, src, det, [], [why])
+    lam, src, why = _choose_lambda0(t, accel, lambda: moving_std(gyro, base.window).max(axis=1), base.window, f,
+                                    lambda0, learn_from_s, learn_s)
+    if why is not None:
+        det = detect_static(t, accel, gyro, replace(base, lambda0=lam), rate_hz=f)
+        return LogStops(log, lam, src, det, [], [why])
     cfg = replace(base, lambda0=lam)
     det = detect_static(t, accel, gyro, cfg, rate_hz=f)
-    speed = None
-    if log.speed is not None:
-        ts, vs = log.speed
-        inside = (t >= ts[0]) & (t <= ts[-1])
-        speed = np.where(inside, np.interp(t, ts, vs), np.nan)
-    oc = OnlineConfig()
-    min_len = cfg.min_duration_s * f + 1.0
+    speed = None if log.speed is None else _speed_at(t, log.speed)
     stops: list[Stop] = []
     dropped: list[str] = []
     for seg in det.segments:
-        pieces = [(seg.i0 + a, seg.i0 + b) for a, b in _runs(~det.gate_open[seg.i0 : seg.i1])]
-        if len(pieces) != 1 or pieces[0] != (seg.i0, seg.i1):
-            dropped.append(f"{seg.t0:.2f}–{seg.t1:.2f} s: angular rate above the gate "
-                           f"({math.degrees(cfg.gate_rate):.0f} °/s) in {int(det.gate_open[seg.slice].sum())} samples")
-        for a, b in pieces:
-            if b - a < min_len - 1e-9:
-                continue
-            if speed is None:
-                stops.append(Stop(float(t[a]), float(t[b - 1]), a, b))
-                continue
-            v = speed[a:b]
-            n = b - a
-            verdict = stop_verdict(v, np.zeros(n), np.isfinite(v), np.full(n, np.nan), rate_hz=f,
-                                   max_speed=oc.stop_max_speed, sigma_k=0.0, chi2=0.0, edge_s=oc.stop_edge_s,
-                                   min_duration_s=cfg.min_duration_s)
-            if not verdict.whole:
-                dropped.append(f"{t[a]:.2f}–{t[b - 1]:.2f} s: {verdict.reason.replace(' while GNSS-aided', '')}"
-                               f" ({sum(q - p for p, q in verdict.drop) / f:.1f} s dropped)")
-            for p, q in verdict.keep:
-                stops.append(Stop(float(t[a + p]), float(t[a + q - 1]), a + p, a + q))
+        sp = None if speed is None else speed[seg.slice]
+        kept, why = _cut_segment(seg, t[seg.slice], det.gate_open[seg.slice], sp, f, cfg)
+        stops += kept
+        dropped += why
     return LogStops(log, lam, src, det, stops, dropped)
 
 
