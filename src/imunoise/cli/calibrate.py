@@ -8,6 +8,7 @@ import sys
 import warnings
 from pathlib import Path
 
+from imunoise.cli.fit import STREAM_ABOVE
 from imunoise.cli.options import (
     add_criterion,
     add_time_options,
@@ -18,7 +19,7 @@ from imunoise.cli.options import (
     prepare_out_dir,
     print_warnings,
 )
-from imunoise.errors import ModelError
+from imunoise.errors import DataError, ModelError
 from imunoise.io.atomic import atomic_path, atomic_savefig, atomic_write_text
 
 EXAMPLES = """examples:
@@ -34,7 +35,13 @@ reference), the online engine's stop check. The stops of all logs are pooled per
 stop), the model selected (WVIC by default), and the horizon stated: the longest averaging time the pooled
 stops support. N is a value; K is a value only where the random walk rises above the white noise inside
 the horizon, else a bound that holds for any model. Writes DIR/imu_model.json, DIR/calibration.json,
-DIR/report.html (detection over time, WV fits with the horizon, stops, values) and the --export files."""
+DIR/report.html (detection over time, WV fits with the horizon, stops, values) and the --export files.
+
+Large logs: a bag or table of more than --stream-above samples (or any with --stream) is read block by
+block, twice, with a progress bar (imunoise.calibrate.stream_stops): a first pass keeps the stamps and
+accel x, y (and the gyros' moving std) to find the rate and λ0 by the same rules, the second holds only
+the open candidate stop and the stops kept. Same stops, pooled WV and model as the whole-log path. The
+stamps must be in time order. KF-GINS files and dataset folders are always read whole."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -60,6 +67,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--learn-from", type=float, metavar="S", help="learn λ0 from the first S seconds of each log")
     p.add_argument("--learn-s", type=float, default=10.0, metavar="S",
                    help="learn λ0 on the quietest S seconds of each log (default 10)")
+    p.add_argument("--stream", action="store_true",
+                   help="read bags and tables block by block (two passes, bounded by the stops; see below)")
+    p.add_argument("--stream-above", type=float, default=STREAM_ABOVE, metavar="N",
+                   help=f"stream bags and tables of more than N samples (default {STREAM_ABOVE:.0e})")
     p.add_argument("--window", type=int, default=100, help="window N [samples] of the detector (default 100)")
     p.add_argument("--min-duration", type=float, default=2.0, help="shortest stop kept [s] (default 2)")
     p.add_argument("--margin", type=float, default=0.5, help="trimmed at each stop end [s] (default 0.5)")
@@ -78,8 +89,41 @@ def _tqdm_wrap(it, desc):
     return tqdm(it, desc=desc, disable=not sys.stderr.isatty(), leave=False)
 
 
+def _bar(desc: str, total: int, unit: str):
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit=unit, unit_scale=True, desc=desc, disable=not sys.stderr.isatty(), leave=False)
+
+
+def _should_stream(args: argparse.Namespace, path: str, source: dict) -> bool:
+    """Stream a bag or table when forced (--stream) or when it holds more than --stream-above samples."""
+    from imunoise.io.imu_stream import open_imu_blocks
+    from imunoise.io.rosbag import is_bag
+
+    p = Path(path)
+    streamable = not (p.is_dir() and (p / "dataset.json").exists()) and (
+        is_bag(p) or args.columns is not None or p.suffix.lower() in (".npz", ".npy"))
+    if not streamable:
+        if args.stream:
+            raise DataError(f"{path}: --stream reads bags and tables (--columns); a KF-GINS file or dataset folder "
+                            "is read whole: drop --stream")
+        return False
+    if args.stream:
+        return True
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the reader that runs says it again
+            n = open_imu_blocks(path, **source).n_estimate
+    except (DataError, OSError):
+        return False  # the whole-log reader says what is wrong, in its own words
+    if n > args.stream_above:
+        print(f"{path}: about {n:.3g} samples > --stream-above {args.stream_above:.3g}: streaming", file=sys.stderr)
+        return True
+    return False
+
+
 def run(args: argparse.Namespace) -> int:
-    from imunoise.calibrate import calibrate, read_log
+    from imunoise.calibrate import calibrate, read_log, stream_stops
     from imunoise.detect import DetectorConfig
     from imunoise.io.tabular import parse_column_map
 
@@ -91,16 +135,24 @@ def run(args: argparse.Namespace) -> int:
     out = prepare_out_dir(args.out or f"{Path(args.logs[0]).name.split('.')[0]}_calib")
     cfg = DetectorConfig(window=args.window, min_duration_s=args.min_duration, margin_s=args.margin)
     columns = parse_column_map(args.columns) if args.columns else None
+    source = {"topic": args.topic, "columns": columns, "units": parse_units(args.units),
+              "time_column": args.time_column, "time_unit": args.time_unit, "freq": args.freq}
     logs = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         for path in _tqdm_wrap(args.logs, "reading"):
-            logs.append(read_log(path, topic=args.topic, columns=columns, units=parse_units(args.units),
-                                 time_column=args.time_column, time_unit=args.time_unit, freq=args.freq,
-                                 ref=args.ref, gnss=args.gnss))
+            if _should_stream(args, path, source):
+                logs.append(stream_stops(path, cfg, lambda0=args.lambda0, learn_from_s=args.learn_from,
+                                         learn_s=args.learn_s, ref=args.ref, gnss=args.gnss, progress=_bar,
+                                         **source))
+            else:
+                logs.append(read_log(path, ref=args.ref, gnss=args.gnss, **source))
     print_warnings(caught)
-    for log in logs:
-        print(f"{log.name}: {log.t.size} samples, {log.duration_s:.1f} s at {log.rate_hz:.4g} Hz"
+    for item in logs:
+        log = getattr(item, "log", item)
+        n = log.meta["streamed"]["n_samples"] if log.meta.get("streamed") else log.t.size
+        print(f"{log.name}: {n} samples, {log.duration_s:.1f} s at {log.rate_hz:.4g} Hz"
+              + (" (streamed)" if log.meta.get("streamed") else "")
               + (f"; speed from {log.meta['speed_from']}" if log.meta.get("speed_from") else ""), file=sys.stderr)
     res = calibrate(logs, detector=cfg, lambda0=args.lambda0, learn_from_s=args.learn_from, learn_s=args.learn_s,
                     criterion=args.criterion, complete=args.complete, seed=args.seed, progress=_tqdm_wrap)
