@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import csv
 import gzip
-import io
 import warnings
 import zipfile
 import zlib
@@ -36,6 +35,7 @@ from imunoise.io.tabular import (
     TimingWarning,
     UnitWarning,
     parse_column_map,
+    parse_rows,
     unit_for,
 )
 from imunoise.units import TIME_UNITS, quantity_of, si_unit, time_to_seconds, to_si
@@ -319,17 +319,7 @@ def _text_rows(path: Path, chunk_rows: int) -> tuple[_Head, Callable[[], Iterato
     table = Table(names, np.empty((0, len(names))), str(path), 1, delimiter=delim)
 
     def parse(rows: list[tuple[int, str]]) -> np.ndarray:
-        try:
-            return np.loadtxt(io.StringIO("\n".join(ln for _, ln in rows)), delimiter=delim, ndmin=2, dtype=float)
-        except ValueError as exc:
-            for lineno, ln in rows:
-                toks = split(ln)
-                if len(toks) != len(names):
-                    raise DataError(f"{path}, line {lineno}: {len(toks)} fields, expected {len(names)}") from exc
-                bad = [t for t in toks if not is_number(t)]
-                if bad:
-                    raise DataError(f"{path}, line {lineno}: cannot read {bad[0]!r} as a number") from exc
-            raise DataError(f"{path}: {exc}") from exc
+        return parse_rows(path, rows, delim, len(names))
 
     def rows() -> Iterator[tuple[np.ndarray, int, Any]]:
         pos = 0

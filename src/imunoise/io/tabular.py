@@ -36,6 +36,7 @@ __all__ = [
     "TimeReport",
     "TimingWarning",
     "CutLineWarning",
+    "parse_rows",
     "UnitWarning",
     "clean_time",
     "Columns",
@@ -169,6 +170,22 @@ def _read_numpy(path: Path, kind: str) -> Table:
     return Table(names, data, str(path), 1, units=units, freq_hz=freq)
 
 
+def parse_rows(path: str | Path, rows: Sequence[tuple[int, str]], delim: str | None, n_fields: int) -> np.ndarray:
+    """The numbers of text ``rows`` ((line number, line) pairs; ``delim`` None = any white space) as an
+    (n, ``n_fields``) float array; a bad line raises one DataError naming it (field count or the token)."""
+    try:
+        return np.loadtxt(io.StringIO("\n".join(ln for _, ln in rows)), delimiter=delim, ndmin=2, dtype=float)
+    except ValueError as exc:
+        for lineno, ln in rows:
+            toks = [t.strip() for t in (ln.split(delim) if delim else ln.split())]
+            if len(toks) != n_fields:
+                raise DataError(f"{path}, line {lineno}: {len(toks)} fields, expected {n_fields}") from exc
+            bad = [t for t in toks if not is_number(t)]
+            if bad:
+                raise DataError(f"{path}, line {lineno}: cannot read {bad[0]!r} as a number") from exc
+        raise DataError(f"{path}: {exc}") from exc
+
+
 def _drop_cut_lines(path: Path, rows: list[tuple[int, str]], split: Callable[[str], list[str]],
                     n_header: int | None) -> list[tuple[int, str]]:
     """``rows`` without a cut first or last data line, with a warning each.
@@ -225,18 +242,7 @@ def read_table(path: str | Path) -> Table:
         raise DataError(f"{path} has a header but no data rows")
     rows = _drop_cut_lines(path, rows, split, None if not has_header else len(first))
     columns = first if has_header else [str(i) for i in range(len(split(rows[0][1])))]
-    body = "\n".join(ln for _, ln in rows)
-    try:
-        data = np.loadtxt(io.StringIO(body), delimiter=delim, ndmin=2, dtype=float)
-    except ValueError as exc:
-        for lineno, ln in rows:
-            toks = split(ln)
-            if len(toks) != len(columns):
-                raise DataError(f"{path}, line {lineno}: {len(toks)} fields, expected {len(columns)}") from exc
-            bad = [t for t in toks if not is_number(t)]
-            if bad:
-                raise DataError(f"{path}, line {lineno}: cannot read {bad[0]!r} as a number") from exc
-        raise DataError(f"{path}: {exc}") from exc
+    data = parse_rows(path, rows, delim, len(columns))
     line_of_row = np.array([lineno for lineno, _ in rows])
     return Table(columns, data, str(path), int(line_of_row[0]), line_of_row, delim)
 
