@@ -40,3 +40,4 @@ def test_online_demo_headline_is_the_paired_comparison(tmp_path, capsys):
     html = (tmp_path / "report.html").read_text()
     assert html.index("Headline: paired drift ratios") < html.index("Paper-style view")
     assert "% CI</th>" in html  # the CI column of the headline
+    assert (tmp_path / "paired.png").stat().st_size > 10_000  # the forest plot of the same ratios

@@ -155,6 +155,7 @@ def test_cli_evidence_on_two_simulated_drives(tmp_path):
     assert e["n_drives"] == 2 and e["n_windows"] == res["n_windows"] and e["ci"][0] <= e["ratio"] <= e["ci"][1]
     md = (out / "report.md").read_text()
     assert md.index("Paired ratios") < md.index("Paper-style view")
+    assert md.index("Paired ratios") < md.index("paired_drift.png") < md.index("Paper-style view")
 
 
 def test_sf_suffix_adds_the_scale_factor_states_to_the_same_method(short_drive):

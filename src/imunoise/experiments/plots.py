@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib
+import matplotlib.ticker
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -17,15 +18,17 @@ from imunoise.experiments.common import METHOD_LABELS  # noqa: E402
 from imunoise.imu import AXES  # noqa: E402
 
 __all__ = ["detection_figure", "trajectory_figure", "error_figure", "timeline_figure", "wv_figures",
-           "av_figures", "mc_figure"]
+           "av_figures", "mc_figure", "paired_figure"]
 
 _COLORS = {"plain": "tab:gray", "plain_zupt": "tab:brown", "av": "tab:orange", "em": "tab:purple",
            "gmwm": "tab:blue", "gmwm_wvic": "tab:cyan", "gmwm_raw": "tab:olive", "gmwm_zupt": "tab:green",
-           "gmwm_top2": "tab:red", "gmwm_top3": "tab:olive"}
+           "gmwm_top2": "tab:red", "gmwm_top3": "tab:olive", "static_var": "tab:brown",
+           "static_var_hindsight": "tab:brown", "av_online": "goldenrod", "em_online": "orchid",
+           "gmwm_hindsight": "navy", "oracle": "black"}
 
 
 def _color(name: str) -> str:
-    return _COLORS.get(name, "tab:red")
+    return _COLORS.get(name.removesuffix("+sf"), "tab:red")
 
 
 def detection_figure(t: np.ndarray, det: Any, path: Path, *, ref=None, static_truth=None) -> Path:
@@ -253,6 +256,45 @@ def mc_figure(results: dict, path: Path, methods: Sequence[str]) -> Path:
         ax.grid(alpha=0.3, axis="y")
     fig.suptitle(f"Monte Carlo over {len(results['seeds'])} simulated drives")
     fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def paired_figure(paired: Sequence[dict], path: Path, *, metric: str = "drift",
+                  baselines: Sequence[str] = ("plain", "static_var")) -> Path:
+    """Forest plot of the paired ratios (:func:`imunoise.experiments.dense.paired_list`): one panel per
+    baseline, one row per (GNSS regime, method), the geometric-mean ratio with its 95 % CI on a log axis and the
+    line of no effect at 1; a CI that excludes 1 is drawn solid, one that includes it hollow."""
+    rows = [e for e in paired if e["metric"] == metric and e["baseline"] in baselines and e["method"] != "plain"
+            and e["method"] != e["baseline"]]
+    regimes = list(dict.fromkeys(e.get("gnss", "") for e in rows))
+    methods = list(dict.fromkeys(e["method"] for e in rows))
+    fig, axs = plt.subplots(1, len(baselines), figsize=(5.2 * len(baselines), 0.45 * len(regimes) * len(methods) + 1.6),
+                            sharey=True, layout="constrained", squeeze=False)
+    labels = [f"{m}  ({g})" for g in regimes for m in methods]
+    y = np.arange(len(labels))[::-1]
+    for ax, base in zip(axs[0], baselines, strict=True):
+        by = {(e.get("gnss", ""), e["method"]): e for e in rows if e["baseline"] == base}
+        for yi, (g, m) in zip(y, [(g, m) for g in regimes for m in methods], strict=True):
+            e = by.get((g, m))
+            if e is None:
+                continue
+            lo, hi = e["ci"]
+            c = _color(m)
+            ax.plot([lo, hi], [yi, yi], color=c, lw=2)
+            ax.plot([e["ratio"]], [yi], "s" if m.endswith("+sf") else "o", ms=7, color=c,
+                    mfc=c if e.get("significant") else "white")
+        ax.axvline(1.0, color="k", lw=0.8)
+        ax.set_xscale("log")
+        # plain numbers on the log axis (0.5, 0.7, 1, 1.5 …), not powers of ten
+        ax.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _p: f"{v:g}"))
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.FuncFormatter(
+            lambda v, _p: f"{v:g}" if f"{v:g}"[-1] in "2468" or f"{v:.2g}".endswith("5") else ""))
+        ax.set_xlabel(f"end-{metric} ratio vs {base} (geometric mean, 95 % CI)")
+        ax.set_title(f"vs {base}  (< 1: less {metric})", fontsize=10)
+        ax.grid(True, which="both", axis="x", alpha=0.3)
+    axs[0][0].set_yticks(y, labels)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path

@@ -174,6 +174,10 @@ def _evidence_section(rep: Report, evidence: dict, out: Path) -> None:
     rows = evidence_headline_rows(evidence)
     rep.table(DEMO_HEADS, rows, "end drift ratio < 1: less drift than the baseline")
     _write_csv(out / "paired_headline.csv", DEMO_HEADS, rows)
+    from imunoise.experiments import plots
+
+    rep.figure(plots.paired_figure(evidence.get("paired", []), out / "paired.png"),
+               "the same ratios: filled = the CI excludes 1 (significant), hollow = it does not")
 
 
 def write_online_real(results: dict, sc: Any, out: Path, *, title: str | None = None,
@@ -389,6 +393,10 @@ def write_evidence(results: dict, out: Path, *, title: str) -> Path:
     rows = paired_rows(results)
     rep.table(PAIRED_HEADS, rows, "ratio < 1: the method's error is smaller than the baseline's")
     _write_csv(out / "paired.csv", PAIRED_HEADS, rows)
+    from imunoise.experiments import plots
+
+    rep.figure(plots.paired_figure(results.get("paired", []), out / "paired_drift.png"),
+               "end-drift ratios: filled = the CI excludes 1 (significant), hollow = it does not")
     rep.heading("Paper-style view", 2)
     labels = {**METHOD_LABELS, **DENSE_LABELS}
     heads = ["GNSS", "method", "horiz. RMS, aided [m]", "vert. RMS, aided [m]", "mean end drift, dense [m]",
