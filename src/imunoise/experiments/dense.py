@@ -73,6 +73,7 @@ LABELS = {
     "av_online": "AV-based (stops so far)",
     "em_online": "EM-based (stops so far)",
     "gmwm_hindsight": "GMWM, GOF (all static data)",
+    "adaptive": "plain + innovation-based adaptive bias noise (covariance matching)",
 }
 
 
@@ -168,6 +169,10 @@ class _StopRefit:
                 self.cache[key] = filter_models(baseline_fits(data, self.freq, self.which), self.freq, self.base)
         return self.cache[key]
 
+    def shared(self) -> tuple:
+        """Large read-only objects a fork shares instead of copying."""
+        return (self.rates, self.cache, self.base)
+
     def step(self, nav: OnlineNavigator) -> None:
         segs = nav.segments
         if len(segs) == self.n_seen:
@@ -178,6 +183,26 @@ class _StopRefit:
         models = self.models(segs)
         nav.ekf.swap_model(models, preserve=self.base.swap == "preserve", imu_rate_hz=nav.rate)
         nav.current_models = models
+
+
+class _Adaptive:
+    """The plain filter with its bias process noise adapted online from the GNSS innovations
+    (:class:`imunoise.nav.adaptive.AdaptiveNoise`; the ``adaptive`` method)."""
+
+    def __init__(self, config=None):
+        self.config = config
+        self.core = None
+
+    def shared(self) -> tuple:
+        return ()
+
+    def step(self, nav: OnlineNavigator) -> None:
+        if self.core is None:
+            from imunoise.nav.adaptive import AdaptiveNoise
+
+            self.core = AdaptiveNoise(nav.current_models, self.config)
+        if self.core.observe(nav.ekf):
+            nav.current_models = self.core.models()
 
 
 def static_var_models(segments: Sequence[np.ndarray]) -> list:
@@ -214,7 +239,7 @@ def hindsight_fits(sc: Scenario, name: str, cache: dict) -> list:
 
 
 def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None,
-                 cache: dict | None = None) -> tuple[OnlineConfig, Any, _StopRefit | None]:
+                 cache: dict | None = None) -> tuple[OnlineConfig, Any, _StopRefit | _Adaptive | None]:
     """(OnlineConfig, initial models, stop-refit updater or None) of a method (module docstring)."""
     from imunoise.experiments.online_exp import method_config
 
@@ -230,6 +255,8 @@ def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None,
             cache["rates"] = np.column_stack([gyro, accel])
         upd = _StopRefit(ONLINE_BASELINES[name], cache["rates"], sc.rate, plain_cfg, cache.setdefault("stop_fits", {}))
         return plain_cfg, None, upd
+    if name == "adaptive":
+        return plain_cfg, None, _Adaptive()
     if name in ("av", "em", "gmwm_hindsight", "static_var_hindsight"):
         return plain_cfg, filter_models(hindsight_fits(sc, name, cache), sc.rate, plain_cfg), None
     cfg, models = method_config(name, sc, base, fits_cache=cache)
@@ -239,7 +266,7 @@ def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None,
 # --------------------------------------------------------------------------------------------------
 # one aided run with a branch per window
 # --------------------------------------------------------------------------------------------------
-def _fork(nav: OnlineNavigator, upd: _StopRefit | None, shared: Sequence[Any]):
+def _fork(nav: OnlineNavigator, upd: _StopRefit | _Adaptive | None, shared: Sequence[Any]):
     # the branch keeps only its own epochs: the result converts every stored epoch to Euler angles
     nav2, upd2 = nav.fork(upd, share=tuple(shared))
     return nav2, upd2
@@ -264,7 +291,7 @@ def _branch_errors(res, sc: Scenario, start: float):
 
 
 def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tuple[float, float]], *,
-                initial_models=None, updater: _StopRefit | None = None, keep: bool = False) -> dict:
+                initial_models=None, updater: _StopRefit | _Adaptive | None = None, keep: bool = False) -> dict:
     """One aided run (``gnss`` everywhere) with a GNSS-free branch per window (module docstring).
 
     Returns ``windows`` (per window ``drift``, ``rms``, ``drift_v``, ``aided_rms``) and the aided run's
@@ -278,7 +305,7 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
     nav = OnlineNavigator(config, sc.init, imu_rate_hz=sc.rate, initial_models=initial_models, job_cache=cache)
     shared = [cache, sc, t, dth, dv, gt, gllh, gsig, sc.imu, sc.ref, config]
     if updater is not None:
-        shared += [updater.rates, updater.cache, updater.base]
+        shared += list(updater.shared())
     order_w = sorted(range(len(windows)), key=lambda j: windows[j][0])
     out: list[dict | None] = [None] * len(windows)
     n, ng = t.size, gt.size

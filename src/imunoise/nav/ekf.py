@@ -752,6 +752,8 @@ class LooselyCoupledEKF:
         self.gate_open = False
         self.n_rejected = 0
         self._consecutive_reject = 0
+        # (t, ν, S = HPHᵀ + R, used) of the last GNSS fix, for innovation-based adaptation (read-only)
+        self.last_innovation: tuple[float, np.ndarray, np.ndarray, bool] | None = None
 
     # -- propagation ------------------------------------------------------------------------------
     def propagate(self, dtheta: np.ndarray, dv: np.ndarray, t: float) -> None:
@@ -842,9 +844,12 @@ class LooselyCoupledEKF:
         n = self.P.shape[0]
         dz, H = _gnss_innovation(self.nav, n, llh, self.lever, self.t - float(t))
         force = self._consecutive_reject >= self.config.gate_max_reject
+        R = np.diag(sig**2)
+        S = H @ self.P @ H.T + R  # before the update: _kf_update overwrites P in place
         nis, ok = _kf_update(
-            self.P, self.nav, self.xm, dz, H, np.diag(sig**2), self.config.chi2_gate, force, self.config.gate_abs_m
+            self.P, self.nav, self.xm, dz, H, R, self.config.chi2_gate, force, self.config.gate_abs_m
         )
+        self.last_innovation = (float(t), dz.copy(), S, bool(ok))
         if ok:
             self._consecutive_reject = 0
         else:
