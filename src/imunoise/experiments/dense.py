@@ -26,7 +26,9 @@ max(static variance, plain white); ``static_var_hindsight`` the same on all stat
 on the stops detected so far (refit after every stop once ``min_static_s`` of static data exist, like the
 online engine, and swapped into the filter at the stop's completion, keeping every state whose structure
 is unchanged); ``gmwm`` (the online engine, the paper's GOF); ``gmwm_hindsight`` (GMWM, GOF, on all static
-data); ``oracle`` on the simulator. Any method with the suffix ``+sf`` (e.g. ``gmwm+sf``) is the same
+data); ``oracle`` on the simulator; ``adaptive`` — the plain filter with its bias process noise scaled
+online by covariance matching of the GNSS innovations (:mod:`imunoise.nav.adaptive`; not in the default list).
+Any method with the suffix ``+sf`` (e.g. ``gmwm+sf``) is the same
 method in the filter with the six scale-factor states (``EkfConfig.scale_factors``, the 21-state filter of
 KF-GINS), so ``--pairs gmwm+sf/gmwm`` pairs scale factors on against off window by window.
 

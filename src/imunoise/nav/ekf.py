@@ -730,6 +730,13 @@ class LooselyCoupledEKF:
         State at the start.
     imu_rate_hz : float
         Nominal IMU rate [Hz]; default rate of models given without one.
+
+    Attributes
+    ----------
+    last_innovation : tuple or None
+        ``(t, ν, S, used)`` of the last GNSS fix: innovation ν (NED m), its predicted covariance
+        S = HPHᵀ + R before the update, and whether the gate let it in; read-only (for
+        :mod:`imunoise.nav.adaptive`).
     """
 
     def __init__(self, config: EkfConfig, axis_models, init: InitialState, *, imu_rate_hz: float = 100.0):
