@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import DataError
-from imunoise.io.imu_input import decimate, unknown_unit_messages
+from imunoise.io.imu_input import decimate, describe_series, unknown_unit_messages
 from imunoise.io.imu_stream import ImuBlocks, StreamOrderError
 from imunoise.io.tabular import TimeReport, TimingWarning, UnitWarning, clean_time
 from imunoise.wv import WaveletVariance
@@ -44,13 +44,8 @@ class StreamedImu:
         return list(self.wv)
 
     def describe(self) -> str:
-        lines = [f"{self.source}: {self.n_samples} samples at {self.freq:g} Hz, axes {', '.join(self.axes)} (streamed)"]
-        if self.report is not None:
-            lines.append("  " + self.report.summary())
-        if self.meta.get("decimated"):
-            d = self.meta["decimated"]
-            lines.append(f"  block-averaged by {d['k']} (from {d['freq_in']:g} Hz)")
-        return "\n".join(lines)
+        return describe_series(self.source, self.n_samples, self.freq, self.axes, self.report, self.meta,
+                               " (streamed)")
 
 
 

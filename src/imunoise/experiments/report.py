@@ -129,6 +129,10 @@ DEMO_HEADS = ["GNSS", "method", "drift vs plain", "95 % CI", "drift vs static_va
               "n_independent", "verdict vs plain"]
 
 
+def _ci_text(e: dict | None) -> str:
+    return "" if e is None else f"[{fmt(e['ci'][0], 3)}, {fmt(e['ci'][1], 3)}]"
+
+
 def evidence_headline_rows(evidence: dict) -> list[list[Any]]:
     """The powered headline: per GNSS regime and method, the paired end-drift ratio against ``plain`` and
     against ``static_var`` with their 95 % CIs (:func:`imunoise.experiments.dense.paired_list`).
@@ -147,13 +151,9 @@ def evidence_headline_rows(evidence: dict) -> list[list[Any]]:
             vp, vs = by.get((g, m, "plain")), by.get((g, m, "static_var"))
             if vp is None and vs is None:
                 continue
-
-            def ci(e):
-                return "" if e is None else f"[{fmt(e['ci'][0], 3)}, {fmt(e['ci'][1], 3)}]"
-
             ref = vp or vs
-            rows.append([g, m, None if vp is None else vp["ratio"], ci(vp), None if vs is None else vs["ratio"],
-                         ci(vs), ref["n_windows"], ref.get("n_independent"),
+            rows.append([g, m, None if vp is None else vp["ratio"], _ci_text(vp),
+                         None if vs is None else vs["ratio"], _ci_text(vs), ref["n_windows"], ref.get("n_independent"),
                          "" if vp is None else significance_text(vp)])
     return rows
 
@@ -362,9 +362,8 @@ def paired_rows(results: dict) -> list[list[Any]]:
 
     rows = []
     for e in results.get("paired", []):
-        lo, hi = e["ci"]
         rows.append([e.get("gnss", ""), e["method"], e["baseline"], e["metric"], e["ratio"],
-                     f"[{fmt(lo, 3)}, {fmt(hi, 3)}]", e["n_windows"], e.get("n_independent"), e["n_drives"],
+                     _ci_text(e), e["n_windows"], e.get("n_independent"), e["n_drives"],
                      significance_text(e)])
     return rows
 

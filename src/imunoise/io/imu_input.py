@@ -78,13 +78,20 @@ class ImuSeries:
         return int(next(iter(self.data.values())).size) if self.data else 0
 
     def describe(self) -> str:
-        lines = [f"{self.source}: {len(self)} samples at {self.freq:g} Hz, axes {', '.join(self.axes)}"]
-        if self.report is not None:
-            lines.append("  " + self.report.summary())
-        if self.meta.get("decimated"):
-            d = self.meta["decimated"]
-            lines.append(f"  block-averaged by {d['k']} (from {d['freq_in']:g} Hz)")
-        return "\n".join(lines)
+        return describe_series(self.source, len(self), self.freq, self.axes, self.report, self.meta)
+
+
+def describe_series(source: str, n_samples: int, freq: float, axes: Sequence[str], report: TimeReport | None,
+                    meta: Mapping[str, Any], note: str = "") -> str:
+    """The lines a fit prints about its input: samples, rate, axes (``note`` appended), the timing report and
+    any decimation; shared by the whole-file series and the streamed one."""
+    lines = [f"{source}: {n_samples} samples at {freq:g} Hz, axes {', '.join(axes)}{note}"]
+    if report is not None:
+        lines.append("  " + report.summary())
+    if meta.get("decimated"):
+        d = meta["decimated"]
+        lines.append(f"  block-averaged by {d['k']} (from {d['freq_in']:g} Hz)")
+    return "\n".join(lines)
 
 
 def decimate(x: np.ndarray, k: int, method: str = "average") -> np.ndarray:
