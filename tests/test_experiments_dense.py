@@ -64,9 +64,18 @@ def test_white_noise_regime_has_the_requested_sigma_and_rate():
     e = _ned_noise(g, a, np.arange(0, 40000, 4))
     assert np.std(e, axis=0) == pytest.approx([1.5, 1.5, 3.0], rel=0.03)
     assert abs(np.corrcoef(e[1:, 0], e[:-1, 0])[0, 1]) < 0.03  # white
-    assert np.all(a.sigma_ned == [1.5, 1.5, 3.0])
+    # the fixes' own σ (0.02 m) and the added σ combine as independent errors
+    assert np.allclose(a.sigma_ned, np.sqrt(np.array([1.5, 1.5, 3.0]) ** 2 + 0.02 ** 2), rtol=0, atol=1e-12)
     assert np.array_equal(reg.apply(g, seed=3).llh, a.llh) and not np.array_equal(reg.apply(g, seed=4).llh, a.llh)
     assert GnssRegime().apply(g) is g
+
+
+def test_noise_regime_counts_the_noise_the_fixes_already_carry():
+    # simulated fixes with 1 / 1 / 2 m of their own: noise:1.5,3 makes them 1.80 / 1.80 / 3.61 m, and says so
+    g = _fixes(200, 1.0)
+    g = type(g)(t=g.t, llh=g.llh, sigma_ned=np.tile([1.0, 1.0, 2.0], (len(g), 1)))
+    a = parse_gnss("noise:1.5,3").apply(g, seed=0)
+    assert np.allclose(a.sigma_ned, [math.sqrt(3.25), math.sqrt(3.25), math.sqrt(13.0)])
 
 
 def test_gauss_markov_regime_has_the_requested_correlation_time():

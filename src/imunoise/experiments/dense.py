@@ -27,7 +27,9 @@ on the stops detected so far (refit after every stop once ``min_static_s`` of st
 online engine, and swapped into the filter at the stop's completion, keeping every state whose structure
 is unchanged); ``gmwm`` (the online engine, the paper's GOF); ``gmwm_hindsight`` (GMWM, GOF, on all static
 data); ``oracle`` on the simulator; ``adaptive`` — the plain filter with its bias process noise scaled
-online by covariance matching of the GNSS innovations (:mod:`imunoise.nav.adaptive`; not in the default list).
+online by covariance matching of the GNSS innovations (:mod:`imunoise.nav.adaptive`; not in the default list);
+``gmwm_dyn`` — the online engine with in-motion gyro noise learned while driving by shadow filters that rehearse
+GNSS outages on the data seen (:mod:`imunoise.online.motion_noise`; not in the default list).
 Any method with the suffix ``+sf`` (e.g. ``gmwm+sf``) is the same
 method in the filter with the six scale-factor states (``EkfConfig.scale_factors``, the 21-state filter of
 KF-GINS), so ``--pairs gmwm+sf/gmwm`` pairs scale factors on against off window by window.
@@ -76,6 +78,7 @@ LABELS = {
     "em_online": "EM-based (stops so far)",
     "gmwm_hindsight": "GMWM, GOF (all static data)",
     "adaptive": "plain + innovation-based adaptive bias noise (covariance matching)",
+    "gmwm_dyn": "GMWM + in-motion gyro noise learned by rehearsed outages",
 }
 
 

@@ -5,7 +5,10 @@ degrades them to a meter-level receiver, the paper's regime (its Table 5 RMS 1.3
 thinned to ``RATE`` Hz (default: as recorded), and north/east errors of σ ``H`` m and a down error of σ ``V``
 m are added, white (``TAU`` absent or 0) or first-order Gauss–Markov with correlation time ``TAU`` s
 (x_{k+1} = φ x_k + √(1 − φ²) σ w_k, φ = exp(−Δt/TAU), started stationary), each axis independent. The
-fixes' σ columns are set to (H, H, V), so the filter is told the truth about the noise. The reference is
+fixes' σ columns become √(σ_recorded² + (H, H, V)²): the added noise is independent of what the fixes
+already carry, so the filter is told the truth about the noise. On the real drive the recorded RTK σ are
+centimetres (σ ≈ H, V); on a simulated drive the simulated fixes already carry 1 / 1 / 2 m, so
+``noise:1.5,3`` gives fixes of σ 1.80 / 1.80 / 3.61 m, and says so. The reference is
 not changed: on the real drive it is the RTK solution, an independent truth for the degraded aiding.
 """
 
@@ -49,7 +52,8 @@ class GnssRegime:
         return self.kind == "noise"
 
     def apply(self, gnss, seed: int = 0):
-        """The degraded fixes (a new GnssData): thinned, noise added, σ written. ``rtk`` returns ``gnss``."""
+        """The degraded fixes (a new GnssData): thinned, noise added, σ = √(recorded σ² + added σ²) written.
+        ``rtk`` returns ``gnss``."""
         if self.kind == "rtk":
             return gnss
         t = np.asarray(gnss.t, dtype=float)
@@ -75,7 +79,8 @@ class GnssRegime:
         llh[:, 0] += e[:, 0] / (rm + llh[:, 2])
         llh[:, 1] += e[:, 1] / ((rn + llh[:, 2]) * np.cos(llh[:, 0]))
         llh[:, 2] -= e[:, 2]
-        return type(gnss)(t=t, llh=llh, sigma_ned=np.tile(sig, (t.size, 1)))
+        base = np.asarray(gnss.sigma_ned, dtype=float)[keep]
+        return type(gnss)(t=t, llh=llh, sigma_ned=np.sqrt(base * base + sig * sig))
 
 
 def parse_gnss(text: str | None) -> GnssRegime:

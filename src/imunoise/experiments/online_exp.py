@@ -63,6 +63,10 @@ def method_config(name: str, sc: Scenario, base: OnlineConfig | None = None,
         return base.with_(modelling=False, zupt=True), None
     if name == "gmwm":
         return base, None
+    if name == "gmwm_dyn":
+        from imunoise.online.motion_noise import MotionNoiseConfig
+
+        return base.with_(motion_noise=MotionNoiseConfig()), None
     if name == "gmwm_wvic":
         return base.with_(criterion="wvic"), None
     if name == "gmwm_raw":

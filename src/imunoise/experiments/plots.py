@@ -24,7 +24,7 @@ _COLORS = {"plain": "tab:gray", "plain_zupt": "tab:brown", "av": "tab:orange", "
            "gmwm": "tab:blue", "gmwm_wvic": "tab:cyan", "gmwm_raw": "tab:olive", "gmwm_zupt": "tab:green",
            "gmwm_top2": "tab:red", "gmwm_top3": "tab:olive", "static_var": "tab:brown",
            "static_var_hindsight": "tab:brown", "av_online": "goldenrod", "em_online": "orchid",
-           "gmwm_hindsight": "navy", "oracle": "black"}
+           "gmwm_hindsight": "navy", "oracle": "black", "gmwm_dyn": "deepskyblue", "adaptive": "darkorange"}
 
 
 def _color(name: str) -> str:

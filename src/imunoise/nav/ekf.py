@@ -559,7 +559,7 @@ def _std9(P, out):
         out[i] = math.sqrt(abs(P[i, i]))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # nogil: rehearsals run in a worker thread beside the filter
 def _run(
     t,
     dth,
@@ -949,6 +949,69 @@ class LooselyCoupledEKF:
         res = swap_map(self.layout, new, self.xm, self.P, initial_covariance(self.config, new), preserve=preserve)
         self.xm, self.P, self.layout = res.x, res.P, new
         return {"kept": res.kept, "reset": res.reset}
+
+    # -- what-if runs -------------------------------------------------------------------------------
+    def rehearse(self, t: np.ndarray, dtheta: np.ndarray, dv: np.ndarray, gnss_t: np.ndarray, gnss_llh: np.ndarray,
+                 gnss_sigma: np.ndarray, *, gate: np.ndarray | None = None, with_nis: bool = False,
+                 with_std: bool = False, in_place: bool = False) -> tuple:
+        """Run a copy of the filter on from its current state (the filter itself is not changed, unless
+        ``in_place``): the batch kernel of :func:`run_ekf` over IMU samples ``t[1:]`` (``t[0]`` must be the
+        filter time) with the fixes ``gnss_*`` (sorted; σ as given). Used to rehearse a GNSS outage on data
+        already seen and to run shadow filters (:mod:`imunoise.online.motion_noise`); the result equals
+        :meth:`propagate`/:meth:`update_gnss` called sample by sample.
+
+        Parameters
+        ----------
+        t : numpy.ndarray
+            Sample times [s], ``t[0]`` = the filter time, increasing.
+        dtheta, dv : numpy.ndarray
+            (n, 3) increments [rad, m/s]; row k covers (t[k−1], t[k]] (row 0 is not used).
+        gnss_t, gnss_llh, gnss_sigma : numpy.ndarray
+            Fixes to apply (times [s], (m, 3) lat/lon rad, h m, (m, 3) 1σ NED m); may be empty.
+        gate : numpy.ndarray, optional
+            Angular-rate gate per sample (default closed).
+        with_nis : bool
+            Also return the NIS of every fix (NaN where the fix was not reached).
+        with_std : bool
+            Also return the 1σ of δr, δv, φ at every sample, (n, 9) (NED m, m/s, rad).
+        in_place : bool
+            Advance this filter itself to ``t[-1]`` (``last_innovation`` is not updated).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            ``(llh, euler)`` of the IMU point at every sample, (n, 3) each, followed by ``nis`` with
+            ``with_nis`` and ``std`` with ``with_std``.
+        """
+        t = np.ascontiguousarray(t, dtype=float)
+        if t.size < 2 or abs(t[0] - self.t) > 1e-9 or np.any(np.diff(t) <= 0):
+            raise DataError(f"rehearse: t must start at the filter time {self.t:.3f} s and increase")
+        self.flush()
+        L = self.layout
+        n = t.size
+        out_pos, out_vel, out_att = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+        out_pos[0], out_vel[0] = self.nav[0:3], self.nav[3:6]
+        out_att[0] = dcm_to_euler(quat_to_dcm(self.nav[I_Q : I_Q + 4]))
+        gt = np.ascontiguousarray(gnss_t, dtype=float)
+        gsig = np.maximum(np.ascontiguousarray(gnss_sigma, dtype=float).reshape(-1, 3), self.config.gnss_sigma_floor)
+        c = self.config
+        nis = np.full(gt.size, np.nan)
+        out_std = np.empty((n, 9))
+        out_std[0] = np.sqrt(np.abs(np.diag(self.P)[:9]))
+        _run(
+            t, np.ascontiguousarray(dtheta, dtype=float), np.ascontiguousarray(dv, dtype=float),
+            *((self.nav, self.xm, self.P, self.acc) if in_place else
+              (self.nav.copy(), self.xm.copy(), self.P.copy(), self.acc.copy())), gt,
+            np.ascontiguousarray(gnss_llh, dtype=float).reshape(-1, 3), gsig, self.lever,
+            np.zeros(n, dtype=np.bool_) if gate is None else np.ascontiguousarray(gate, dtype=np.bool_),
+            L.phi_pow, L.q_pow, L.hvec, L.axis_of, L.wpsd, self.wpsd_fb, float(c.gate_q_scale), self.dt_nom,
+            int(c.cov_every), float(c.chi2_gate), int(c.gate_max_reject), float(c.gate_abs_m),
+            out_pos, out_vel, out_att, np.empty((n, 6)), out_std, np.full(gt.size, -1, dtype=np.int64),
+            nis, np.zeros((1, 9, 9)), np.zeros(n, dtype=np.bool_), 1, 0.0, L.scale_index, np.zeros((1, 6)),
+        )  # fmt: skip
+        if in_place:
+            self.t = float(t[-1])
+        return (out_pos, out_att, *((nis,) if with_nis else ()), *((out_std,) if with_std else ()))
 
     # -- output -----------------------------------------------------------------------------------
     def sensor_errors(self) -> np.ndarray:

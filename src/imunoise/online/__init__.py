@@ -16,6 +16,10 @@ name importable from ``imunoise.online``:
 ``stops``
     Which detected stops are modelled: :func:`stop_verdict` (the navigation check of a static segment,
     ``OnlineConfig.stop_guard``) and its :class:`StopVerdict`.
+``motion_noise``
+    In-motion gyro noise learned while driving (``OnlineConfig.motion_noise``): :class:`MotionNoiseConfig`,
+    :class:`MotionNoiseLearner` (shadow filters that rehearse GNSS outages on the data seen),
+    :func:`add_motion_gm`, :func:`ned_offset`, :func:`horizontal_distance`.
 ``navigator``
     :class:`OnlineNavigator` (streaming and batch; the engine, its docstring explains the modelling, the
     mapping, the swap and the worker with the measurements behind them) and :func:`run_online`.
@@ -25,6 +29,13 @@ from __future__ import annotations
 
 from imunoise.online.config import COMPLETE, NEGLIGIBLE, OnlineConfig, config_summary
 from imunoise.online.jobs import model_job
+from imunoise.online.motion_noise import (
+    MotionNoiseConfig,
+    MotionNoiseLearner,
+    add_motion_gm,
+    horizontal_distance,
+    ned_offset,
+)
 from imunoise.online.navigator import OnlineNavigator, run_online
 from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
 from imunoise.online.stops import StopVerdict, stop_verdict
@@ -47,4 +58,9 @@ __all__ = [
     "EpochStore",
     "StopVerdict",
     "stop_verdict",
+    "MotionNoiseConfig",
+    "MotionNoiseLearner",
+    "add_motion_gm",
+    "ned_offset",
+    "horizontal_distance",
 ]

@@ -7,12 +7,13 @@ filter mapping)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 from imunoise.detect import DetectorConfig
 from imunoise.errors import ModelError
 from imunoise.nav.defaults import EkfConfig
+from imunoise.online.motion_noise import MotionNoiseConfig
 
 __all__ = ["COMPLETE", "NEGLIGIBLE", "OnlineConfig", "config_summary"]
 
@@ -51,6 +52,9 @@ class OnlineConfig:
     ``stop_edge_s`` of a segment end trims the segment. A rejected segment never reaches the wavelet variance
     (``stop_rejected`` event, :attr:`OnlineResult.rejected_segments`). ``"none"``: every detected stop is
     modelled (the IMU-only test; a noisy IMU's learned λ_0 lets smooth cruising pass it).
+    ``motion_noise``: learn in-motion gyro noise while driving by rehearsing GNSS outages on the data seen
+    (:class:`~imunoise.online.motion_noise.MotionNoiseConfig`; ``None``, the default, = off; the ``gmwm_dyn``
+    method of the experiments).
     """
 
     ekf: EkfConfig = field(default_factory=EkfConfig)
@@ -85,6 +89,7 @@ class OnlineConfig:
     stop_edge_s: float = 3.0
     stop_sigma_k: float = 3.0
     stop_chi2: float = 0.0
+    motion_noise: MotionNoiseConfig | None = None
 
     def __post_init__(self) -> None:
         if self.criterion not in ("gof", "wvic"):
@@ -123,4 +128,5 @@ def config_summary(c: OnlineConfig) -> dict:
         "min_static_s": c.min_static_s, "complete": c.complete, "criterion": c.criterion, "latency": c.latency,
         "worker": c.worker, "gate": c.gate, "zupt": c.zupt, "floor": c.floor, "fold_tau_s": c.fold_tau_s,
         "modelling": c.modelling, "stop_guard": c.stop_guard,
+        "motion_noise": None if c.motion_noise is None else asdict(c.motion_noise),
     }

@@ -88,10 +88,11 @@ from imunoise.errors import DataError, ImunoiseError, ModelError
 from imunoise.estimator import GMWMFit
 from imunoise.model import Model
 from imunoise.nav.defaults import default_axis_models
-from imunoise.nav.ekf import AXES, InitialState, LooselyCoupledEKF
+from imunoise.nav.ekf import AXES, InitialState, LooselyCoupledEKF, normalize_axis_models
 from imunoise.nav.mechanization import I_Q
 from imunoise.online.config import OnlineConfig, config_summary
 from imunoise.online.jobs import model_job
+from imunoise.online.motion_noise import MotionNoiseLearner
 from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
 from imunoise.online.stops import stop_verdict
 from imunoise.online.to_filter import filter_axis_models
@@ -183,6 +184,11 @@ class OnlineNavigator:
         self._gate_log: list[bool] = []
         self._elapsed = 0.0
         self.current_models = models
+        # the models without the learned in-motion part (the stops' model; what the learner adds to)
+        self.static_models = normalize_axis_models(models, self.rate)
+        self._motion = (MotionNoiseLearner(config.motion_noise, self.rate, config.ekf.lever_arm, worker=config.worker)
+                        if config.motion_noise is not None else None)
+        self._motion_fixes: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._job_cache = job_cache
         self._ekf_models_log: list[tuple[float, list[str]]] = []
         self._event("start", init.t, lambda0=self.lambda0, config=config_summary(config))
@@ -268,6 +274,7 @@ class OnlineNavigator:
         if t <= self._t_last:
             if self._started and t > self.init.t and self.ekf.update_gnss(*fix):
                 self._t_aided = self._t_last
+                self._motion_fixes.append(fix)
             return
         self._gnss.append(fix)
 
@@ -360,6 +367,10 @@ class OnlineNavigator:
             self._collect_thread(self._t_last)
         if self._executor is not None:
             self._executor.shutdown(wait=True)
+        if self._motion is not None:
+            n_hist = len(self._motion.history)
+            self._motion.close()
+            self._motion_events(self._t_last, n_hist)
         if self.detector is not None:
             self.detector.finish()
         self._elapsed += time.perf_counter() - t0
@@ -501,6 +512,7 @@ class OnlineNavigator:
                 fix = self._gnss.pop(0)
                 if fix[0] > self.init.t and self.ekf.update_gnss(*fix):
                     self._t_aided = t
+                    self._motion_fixes.append(fix)
             if is_static and cfg.stop_guard == "nav":
                 self._record_nav(t)
             if cfg.zupt and self._static_run >= cfg.zupt_after and self._static_run % cfg.zupt_every == 0 \
@@ -511,6 +523,11 @@ class OnlineNavigator:
                 elif not self._zupt_rejected:
                     self._zupt_rejected = True
                     self._event("zupt_rejected", t, speed_mps=float(np.linalg.norm(self.ekf.nav[3:6])))
+            if self._motion is not None:
+                fixes, self._motion_fixes = self._motion_fixes, []
+                n_hist = len(self._motion.history)
+                self._motion.observe(self, t, dth, dvv, fixes)
+                self._motion_events(t, n_hist)
         else:
             while self._gnss and self._gnss[0][0] <= t:
                 self._gnss.pop(0)
@@ -732,7 +749,22 @@ class OnlineNavigator:
             self._scheduled.append((upd.t_effect, upd))
             self._scheduled.sort(key=lambda x: x[0])
 
+    def _motion_events(self, t: float, n_hist: int) -> None:
+        """Log the learner's decisions since ``n_hist`` and swap in an accepted in-motion model."""
+        for h in self._motion.history[n_hist:]:
+            if h["accepted"]:
+                models = self._motion.compose(self.static_models)
+                counts = self.ekf.swap_model(models, preserve=True, imu_rate_hz=self.rate)
+                self.current_models = models
+                self._event("motion_noise", t, **{k: v for k, v in h.items() if k != "accepted"}, **counts)
+            else:
+                self._event("motion_noise_rejected", t, **{k: v for k, v in h.items() if k != "accepted"})
+
     def _poll(self, t: float) -> None:
+        if self._motion is not None and self.config.worker == "thread":
+            n_hist = len(self._motion.history)
+            self._motion.poll()
+            self._motion_events(t, n_hist)
         if self._warm is not None and self._warm.done():
             self._collect_warm_up(t)
         if self._future is not None and self._future.done():
@@ -747,6 +779,10 @@ class OnlineNavigator:
 
     def _swap(self, t: float, upd: ModelUpdate) -> None:
         models = self.filter_models()
+        self.static_models = models
+        if self._motion is not None:
+            self._motion.static_changed(t, models)
+            models = self._motion.compose(models)
         counts = self.ekf.swap_model(models, preserve=self.config.swap == "preserve", imu_rate_hz=self.rate)
         self.current_models = models
         self._ekf_models_log.append((t, [str(m) for m, _ in models]))

@@ -1,0 +1,153 @@
+"""In-motion gyro noise learned by rehearsed outages (imunoise.online.motion_noise; the gmwm_dyn method).
+
+The law that makes the simulated errors motion-dependent is tested in tests/test_motion_noise.py."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pytest
+
+from imunoise.errors import ModelError
+from imunoise.experiments.common import simulate_scenario
+from imunoise.experiments.dense import method_setup
+from imunoise.experiments.gnss_regimes import parse_gnss
+from imunoise.nav.defaults import default_axis_models
+from imunoise.nav.ekf import LooselyCoupledEKF
+from imunoise.online import OnlineNavigator
+from imunoise.online.motion_noise import MotionNoiseConfig, add_motion_gm, horizontal_distance
+from imunoise.processes import AR1
+
+
+@pytest.fixture(scope="module")
+def drive():
+    sc = simulate_scenario(7, n_outages=0, duration_s=420.0, n_stops=2)
+    gnss = parse_gnss("noise:1.5,3").apply(sc.gnss, 11)
+    return sc, gnss
+
+
+def _aided_filter(sc, gnss, t_stop):
+    cfg, _, _ = method_setup("plain", sc)
+    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate)
+    t = np.asarray(sc.imu.t)
+    dth, dv = sc.imu.increments()
+    gt, gl, gs = np.asarray(gnss.t), np.asarray(gnss.llh), np.asarray(gnss.sigma_ned)
+    k = 0
+    i = 0
+    for i in range(t.size):
+        while k < gt.size and gt[k] <= t[i]:
+            nav.push_gnss(gt[k], gl[k], gs[k])
+            k += 1
+        nav.push_imu(t[i], dth[i], dv[i])
+        if t[i] >= t_stop:
+            break
+    return nav.ekf, i, t, dth, dv, gt, gl, gs
+
+
+def test_rehearse_equals_stepping_and_leaves_the_filter_alone(drive):
+    sc, gnss = drive
+    ekf, i0, t, dth, dv, gt, gl, gs = _aided_filter(sc, gnss, sc.init.t + 150.0)
+    before = (ekf.nav.copy(), ekf.xm.copy(), ekf.P.copy(), ekf.t)
+    i1 = i0 + 3000
+    g = (gt > t[i0]) & (gt <= t[i0] + 15.0)  # aided 15 s, then 15 s without GNSS
+    llh, eul, nis, std = ekf.rehearse(t[i0:i1], dth[i0:i1], dv[i0:i1], gt[g], gl[g], gs[g], with_nis=True,
+                                      with_std=True)
+    assert np.array_equal(ekf.nav, before[0]) and np.array_equal(ekf.P, before[2]) and ekf.t == before[3]
+    step = copy.deepcopy(ekf)
+    k = 0
+    gtt, gll, gss = gt[g], gl[g], gs[g]
+    for j in range(i0 + 1, i1):
+        step.propagate(dth[j], dv[j], t[j])
+        while k < gtt.size and gtt[k] <= t[j]:
+            step.update_gnss(gtt[k], gll[k], gss[k])
+            k += 1
+    assert np.array_equal(llh[-1], step.nav[:3])  # the batch kernel is the step path
+    assert np.all(np.isfinite(nis)) and nis.size == int(g.sum())
+    assert std[-1, 0] > std[0, 0]  # the position σ grows through the unaided part
+    ekf.rehearse(t[i0:i1], dth[i0:i1], dv[i0:i1], gtt, gll, gss, in_place=True)
+    assert ekf.t == t[i1 - 1] and np.array_equal(ekf.nav[:3], step.nav[:3])
+    with pytest.raises(Exception, match="filter time"):
+        ekf.rehearse(t[i0:i1], dth[i0:i1], dv[i0:i1], gtt, gll, gss)
+
+
+def test_add_motion_gm_adds_the_gauss_markov_process_to_the_gyros_only():
+    base = default_axis_models(100.0)
+    out = add_motion_gm(base, 100.0, 5.0, 100.0)
+    for a in range(6):
+        added = [c for c in out[a][0].components if c not in base[a][0].components]
+        if a >= 3:
+            assert out[a][0] is base[a][0]
+            continue
+        (gm,) = added
+        assert isinstance(gm, AR1)
+        phi, s2 = gm.values
+        assert phi == pytest.approx(math.exp(-1.0 / 500.0), rel=1e-12)
+        sigma = math.sqrt(s2 / (1.0 - phi * phi))  # stationary σ
+        assert sigma == pytest.approx(100.0 * math.pi / 180.0 / 3600.0, rel=1e-12)
+    assert all(o[0] is b[0] for o, b in zip(add_motion_gm(base, 0.0, 5.0, 100.0), base))
+
+
+@pytest.mark.parametrize("kw", [{"sigma_dph": ()}, {"sigma_dph": (-1.0,)}, {"tc_s": (0.0,)}, {"outage_s": 0.0},
+                                {"min_pairs": 0}, {"margin": -0.1}])
+def test_config_rejects_bad_settings(kw):
+    with pytest.raises(ModelError):
+        MotionNoiseConfig(**kw)
+
+
+def test_candidates_start_with_nothing_added():
+    c = MotionNoiseConfig(sigma_dph=(50.0,), tc_s=(2.0, 20.0))
+    assert c.candidates == [(0.0, 2.0), (50.0, 2.0), (50.0, 20.0)]
+
+
+def test_horizontal_distance_is_metric():
+    a = np.array([[math.radians(45.0), math.radians(7.0), 100.0]])
+    b = a.copy()
+    b[0, 0] += 10.0 / 6_378_137.0  # ~10 m north
+    assert horizontal_distance(a, b)[0] == pytest.approx(10.0, rel=0.01)
+
+
+def _dyn_run(sc, gnss, push: bool, worker: str = "inline"):
+    cfg, models, _ = method_setup("gmwm_dyn", sc)
+    # a fixed latency: the default (the measured compute time of a fit) differs from run to run
+    cfg = cfg.with_(worker=worker, latency=1.0, motion_noise=MotionNoiseConfig(min_pairs=3, min_t=0.0, margin=0.0))
+    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
+    if not push:
+        return nav, nav.run(sc.imu, gnss)
+    t = np.asarray(sc.imu.t)
+    dth, dv = sc.imu.increments()
+    gt, gl, gs = np.asarray(gnss.t), np.asarray(gnss.llh), np.asarray(gnss.sigma_ned)
+    k = 0
+    for i in range(t.size):
+        while k < gt.size and gt[k] <= t[i]:
+            nav.push_gnss(gt[k], gl[k], gs[k])
+            k += 1
+        nav.push_imu(t[i], dth[i], dv[i])
+    return nav, nav.finish()
+
+
+def test_learner_moves_off_the_static_model_and_streaming_equals_batch(drive):
+    # the simulator's default motion law: gyro y/z biases wander 3.75× / 5.8× faster while driving
+    sc, gnss = drive
+    nav_b, res_b = _dyn_run(sc, gnss, push=False)
+    nav_s, res_s = _dyn_run(sc, gnss, push=True)
+    ev_b = [e for e in res_b.events if e["event"].startswith("motion_noise")]
+    ev_s = [e for e in res_s.events if e["event"].startswith("motion_noise")]
+    assert nav_b._motion.n_rehearsals >= 10
+    assert any(e["event"] == "motion_noise" and e["sigma_dph"] > 0 for e in ev_b)
+    assert ev_b == ev_s and np.array_equal(res_b.llh, res_s.llh)
+    # the rehearsed drift of the chosen candidate beats the static model's on the same rehearsals
+    S = np.array(nav_b._motion.scores)
+    assert np.mean(S[:, nav_b._motion.choice] - S[:, 0]) < 0
+
+
+def test_thread_worker_runs_the_same_rehearsals_without_blocking(drive):
+    # a replay runs far faster than real time, so the background thread completes fewer rounds before the end;
+    # its first round rehearses what the inline run's first round does (the engine's own fits take effect at
+    # slightly different times with a thread, so the numbers agree closely, not bit for bit)
+    sc, gnss = drive
+    nav_i, _ = _dyn_run(sc, gnss, push=False)
+    nav_t, res = _dyn_run(sc, gnss, push=False, worker="thread")
+    assert len(nav_t._motion.scores) >= 2 and nav_t._motion._future is None  # finish() waited for it
+    assert np.allclose(nav_t._motion.scores[0], nav_i._motion.scores[0], rtol=1e-2)
