@@ -4,40 +4,52 @@ Why. Stops show the sensor at rest: the white-noise level and little slower (the
 seconds). While the car drives, vibration, temperature and g-sensitivity make the gyro biases wander far more
 (the shared drive: std of 10 s means of the estimated gyro errors 58 / 144 / 123 °/h for x/y/z against a static
 ADEV at 10 s of 64 / 37 / 6 °/h), and the outage drift depends on how the filter models that wander. On the
-simulator with the motion law calibrated on that drive, the oracle's whole gain over the plain filter comes from
-the gyro bias processes in motion (development seeds 1000–1003: true moving gyro models 0.69× the plain drift,
-true accelerometer models 0.99×).
+simulator with the motion law calibrated on that drive, the oracle's gain over the plain filter comes from the
+gyro models (development seeds 1000–1003: true moving gyro models 0.69× the plain drift, true accelerometer
+models 0.99×); on seeds 1000–1011 the true static models give 0.79×, the true moving ones 0.73×.
 
-What is learned. An in-motion Gauss–Markov process added to the model of each gyro axis (the static model from
-the stops keeps the fast part and everything it identified):
+What is learned. Per gyro axis j an in-motion Gauss–Markov process added to the model of that axis (the static
+model from the stops keeps the fast part and everything it identified):
 
-    b_k+1 = φ b_k + √(1 − φ²) σ w_k,    φ = exp(−Δt / T_c),
+    b_k+1 = φ b_k + √(1 − φ²) σ_j w_k,    φ = exp(−Δt / T_c,j),
 
-one of the candidates (σ, T_c) of :class:`MotionNoiseConfig` (σ = 0: nothing added, the start).
+(σ_j, T_c,j) one of the candidates of :class:`MotionNoiseConfig` or nothing (σ = 0, the start). A long T_c with
+a large σ is, over an outage, a rate random walk of K ≈ σ·√(2/T_c); a short one a bias instability that
+decorrelates within seconds.
 
-How (shadow filters and rehearsed outages). From the first moment the car moves GNSS-aided, one shadow copy of
-the filter per candidate runs beside the live filter on the same IMU samples and fixes, each with its candidate
-model, a few seconds behind (the batch kernel, :meth:`~imunoise.nav.ekf.LooselyCoupledEKF.rehearse`). Every
-``every_s`` seconds each shadow rehearses an outage: a copy of it runs ``outage_s`` seconds on without GNSS,
-and its score is log of the RMS horizontal distance between its antenna position and the fixes of that span
-(all of them: the 1.8 m noise of a single fix would swamp the difference between candidates) —
-the drift the candidate would have had, measured against the GNSS the filter had anyway. Each shadow has run
-with its own model since it started, so the rehearsal sees the candidate's steady state (a copy of the live
-filter switched to a candidate for half a minute does not: its bias estimate is still the live model's, and on
-development seeds that preferred far too much noise). The live filter takes the candidate with the lowest
-mean paired score once ``min_pairs`` rehearsals exist and the paired difference to the current choice is below
-−``margin`` with a paired t statistic below −``min_t``.
+How (shadow filters and rehearsed outages). From the first moment the car moves GNSS-aided, shadow copies of
+the filter run beside the live filter on the same IMU samples and fixes, a few seconds behind (the batch
+kernel, :meth:`~imunoise.nav.ekf.LooselyCoupledEKF.rehearse`): one with nothing added, and one per candidate on
+one axis (``search="axis"``, the default: 3 axes × σ × T_c shadows; ``"shared"``: the same candidate on the
+three axes). Every ``every_s`` seconds each shadow rehearses an outage: a copy of it runs ``outage_s`` seconds
+on without GNSS, and its score is log of the RMS horizontal distance between its antenna position and all the
+fixes of that span (one fix's 1.8 m noise would swamp the difference between candidates): the drift the
+candidate would have had, measured against the GNSS the filter had anyway. Each shadow has run with its own
+model since it started, so a rehearsal sees the candidate's steady state (a copy of the live filter switched
+to a candidate for half a minute does not: its bias estimate is still the live model's, and on development
+seeds that preferred far too much noise).
 
-Guard. A move is refused (event ``motion_noise_rejected``) when the candidate's shadow is inconsistent with
-the GNSS it was aided by: the mean NIS of its fixes (3 dof) outside the two-sided 95 % χ² band of their number,
-and farther from 3 than the current choice's.
+Decision. Every round, per axis, the live filter takes the candidate with the lowest mean paired score against
+the shadow with nothing added, once ``min_pairs`` rounds exist and if that paired difference is below
+−``margin`` with a paired t statistic below −``min_t`` (else nothing on that axis; the rounds overlap, so t is
+a ranking statistic, not a test). Hysteresis: an axis leaves its choice only for a candidate that beats it by
+``margin`` too, and falls back to nothing only when its choice has become worse than nothing by ``margin``
+(development seed 1011 flipped six times without it). The axes are chosen separately: roll and pitch errors
+drift the position across and along the track, a heading error across it, growing with speed, so their effects
+on the drift add up to first order; a joint grid of 3 axes × 7 choices would need 343 shadows.
+``criterion="nis"`` picks instead the shadow whose GNSS NIS mean is closest to 3 (covariance matching across the
+shadows; worse on the development seeds).
+
+Guard. A candidate is refused (event ``motion_noise_rejected``, logged once) when its shadow is inconsistent
+with the GNSS it was aided by: the mean NIS of its fixes (3 dof) outside the two-sided 95 % χ² band of their
+number and farther from 3 than the shadow with nothing added.
 
 Online. The shadows and rehearsals run in the navigator's worker: ``inline`` computes them when due
 (deterministic; the same in :meth:`~imunoise.online.navigator.OnlineNavigator.run` and the push API);
 ``thread`` runs them in a background thread (the kernel releases the GIL) and the choice takes effect at the
-first sample after the thread finished. Events: ``motion_noise`` (σ, T_c, the paired score and its count).
-The navigator composes the learned part with every static model it swaps in, and the shadows take the new
-static model at the same filter time.
+first sample after the thread finished. Events: ``motion_noise`` (σ and T_c per axis, the paired scores, the
+NIS means, the number of rounds). The navigator composes the learned part with every static model it swaps
+in, and the shadows take the new static model at the same filter time.
 """
 
 from __future__ import annotations
@@ -67,8 +79,10 @@ _DPH = math.pi / 180.0 / 3600.0  # °/h → rad/s
 class MotionNoiseConfig:
     """Settings of the in-motion noise learner (module docstring).
 
-    ``sigma_dph``: candidate σ of the added Gauss–Markov process [°/h] (the same on the three gyro axes; 0 is
-    always a candidate, the start); ``tc_s``: candidate correlation times [s]; ``outage_s``: length of a
+    ``sigma_dph``: candidate σ of the added Gauss–Markov process [°/h] (nothing added is always a candidate, the
+    start); ``tc_s``: candidate correlation times [s]; ``search``: ``"axis"`` (each gyro axis chosen
+    separately) or ``"shared"`` (one choice for the three); ``criterion``: ``"drift"`` (rehearsed outages) or
+    ``"nis"`` (shadow NIS closest to 3); ``outage_s``: length of a
     rehearsed outage [s]; ``every_s``: one rehearsal per shadow every this many seconds; ``min_speed_mps``:
     rehearse only while the filter's horizontal speed exceeds this; ``min_pairs``: rehearsals a move needs;
     ``margin``: paired mean log-score a move must beat (0.02 ≈ 2 % less drift); ``min_t``: and its paired t
@@ -79,11 +93,12 @@ class MotionNoiseConfig:
     outage_s: float = 30.0
     every_s: float = 10.0
     min_speed_mps: float = 2.0
-    min_pairs: int = 5
+    min_pairs: int = 10
     margin: float = 0.02
-    min_t: float = 2.0
+    min_t: float = 1.5
     guard: bool = True
     criterion: str = "drift"
+    search: str = "axis"
 
     def __post_init__(self) -> None:
         sg = tuple(float(x) for x in self.sigma_dph)
@@ -94,26 +109,45 @@ class MotionNoiseConfig:
             raise ModelError(f"MotionNoiseConfig.tc_s needs correlation times > 0 s, got {self.tc_s!r}")
         object.__setattr__(self, "sigma_dph", sg)
         object.__setattr__(self, "tc_s", tc)
+        if self.search not in ("axis", "shared") or self.criterion not in ("drift", "nis"):
+            raise ModelError(f"MotionNoiseConfig: search must be 'axis' or 'shared' and criterion 'drift' or 'nis', "
+                             f"got {self.search!r}, {self.criterion!r}")
         if not (self.outage_s > 0 and self.every_s > 0 and self.min_pairs >= 1 and self.margin >= 0
                 and self.min_t >= 0 and self.min_speed_mps >= 0):
             raise ModelError("MotionNoiseConfig: outage_s, every_s > 0 s; min_pairs ≥ 1; margin, min_t, "
                              "min_speed_mps ≥ 0")
 
     @property
-    def candidates(self) -> list[tuple[float, float]]:
-        """(σ °/h, T_c s) pairs; (0, first T_c) first."""
-        return [(0.0, self.tc_s[0])] + [(s, tc) for s in self.sigma_dph for tc in self.tc_s]
+    def candidates(self) -> list[tuple[tuple[float, float], ...]]:
+        """The shadows' models: per gyro axis (σ °/h, T_c s), the first one nothing added. ``search="axis"``:
+        one axis at a time (the axes are chosen separately); ``"shared"``: the same on the three axes."""
+        none = (0.0, self.tc_s[0])
+        out = [(none, none, none)]
+        for sg in self.sigma_dph:
+            for tc in self.tc_s:
+                if self.search == "shared":
+                    out.append(((sg, tc),) * 3)
+        if self.search == "axis":
+            for j in range(3):
+                for sg in self.sigma_dph:
+                    for tc in self.tc_s:
+                        spec = [none, none, none]
+                        spec[j] = (sg, tc)
+                        out.append(tuple(spec))
+        return out
 
 
-def add_motion_gm(models: Sequence[Any], sigma_dph: float, tc_s: float, rate_hz: float) -> list:
-    """The six (model, freq) pairs with a Gauss–Markov process of σ ``sigma_dph`` [°/h] and correlation time
-    ``tc_s`` added to each gyro axis (module docstring; σ = 0 adds nothing); accelerometer axes unchanged."""
+def add_motion_gm(models: Sequence[Any], spec: Sequence[tuple[float, float]], rate_hz: float) -> list:
+    """The six (model, freq) pairs with a Gauss–Markov process of σ ``spec[j][0]`` [°/h] and correlation time
+    ``spec[j][1]`` [s] added to gyro axis j (module docstring; σ = 0 adds nothing); accelerometer axes
+    unchanged."""
     out = []
     for a, mm in enumerate(models):
         m, fr = mm if isinstance(mm, tuple) else (mm, rate_hz)
-        if a < 3 and sigma_dph > 0:
+        if a < 3 and spec[a][0] > 0:
+            sg, tc_s = spec[a]
             phi = math.exp(-1.0 / (tc_s * fr))
-            m = Model([*m.components, AR1(phi=phi, sigma2=(sigma_dph * _DPH) ** 2 * (1.0 - phi * phi))])
+            m = Model([*m.components, AR1(phi=phi, sigma2=(sg * _DPH) ** 2 * (1.0 - phi * phi))])
         out.append((m, fr))
     return out
 
@@ -142,8 +176,8 @@ class MotionNoiseLearner:
 
     Attributes
     ----------
-    choice : int
-        Index of the current candidate in ``config.candidates`` (0: nothing added).
+    spec : tuple
+        Current (σ °/h, T_c s) per gyro axis (σ = 0: nothing added).
     history : list of dict
         One entry per decision (accepted or refused by the guard).
     n_rehearsals : int
@@ -156,7 +190,7 @@ class MotionNoiseLearner:
         self.rate = float(rate_hz)
         self.lever = np.asarray(lever, dtype=float)
         self.worker = worker
-        self.choice = 0
+        self.spec = self.cands[0]
         self.history: list[dict] = []
         self.n_rehearsals = 0
         self.scores: list[np.ndarray] = []  # per rehearsal round: log RMS drift per candidate
@@ -175,17 +209,18 @@ class MotionNoiseLearner:
 
     # -- the model ----------------------------------------------------------------------------------
     @property
-    def sigma_dph(self) -> float:
-        return self.cands[self.choice][0]
+    def sigma_dph(self) -> list[float]:
+        """σ [°/h] of the added process per gyro axis (0: none)."""
+        return [a[0] for a in self.spec]
 
     @property
-    def tc(self) -> float:
-        return self.cands[self.choice][1]
+    def tc(self) -> list[float]:
+        """T_c [s] per gyro axis."""
+        return [a[1] for a in self.spec]
 
-    def compose(self, static_models: Sequence[Any], choice: int | None = None) -> list:
-        """``static_models`` with the in-motion part of candidate ``choice`` (default the current one)."""
-        s, tc = self.cands[self.choice if choice is None else choice]
-        return add_motion_gm(static_models, s, tc, self.rate)
+    def compose(self, static_models: Sequence[Any], spec: Sequence[tuple[float, float]] | None = None) -> list:
+        """``static_models`` with the in-motion part ``spec`` (default the current one)."""
+        return add_motion_gm(static_models, self.spec if spec is None else spec, self.rate)
 
     def static_changed(self, t: float, static_models: Sequence[Any]) -> None:
         """The navigator swapped in a new static model at filter time ``t``: the shadows take it at ``t``."""
@@ -237,7 +272,7 @@ class MotionNoiseLearner:
         self._shadows = []
         for k in range(len(self.cands)):
             e = copy.deepcopy(nav.ekf)
-            e.swap_model(self.compose(nav.static_models, k), preserve=True)
+            e.swap_model(self.compose(nav.static_models, self.cands[k]), preserve=True)
             self._shadows.append(e)
         self._t_sh = float(t)
         self._fixes = [f for f in self._fixes if f[0] > t]
@@ -262,7 +297,8 @@ class MotionNoiseLearner:
         statics = [s for s in self._static if s[0] <= tb[i1 - 1]]
         self._static = [s for s in self._static if s[0] > tb[i1 - 1]]
         i_out = int(np.searchsorted(tb, t0 + c.outage_s, side="right"))
-        job = {"t": tb[i0:i2].copy(), "n_out": i_out - i0, "dth": self._dth[i0:i2].copy(), "dv": self._dv[i0:i2].copy(), "n_adv": i1 - i0,
+        job = {"t": tb[i0:i2].copy(), "n_out": i_out - i0, "dth": self._dth[i0:i2].copy(),
+               "dv": self._dv[i0:i2].copy(), "n_adv": i1 - i0,
                "adv": self._fix_arrays(adv), "out": self._fix_arrays(out), "statics": statics,
                "shadows": self._shadows}
         self._t_sh = float(tb[i1 - 1])
@@ -330,7 +366,7 @@ class MotionNoiseLearner:
                                          in_place=True)
                     nis[k] += (np.nansum(g), np.isfinite(g).sum())
                     j0 = j1 - 1
-                e.swap_model(self.compose(models, k), preserve=True)
+                e.swap_model(self.compose(models, self.cands[k]), preserve=True)
             if n_adv - j0 >= 2:
                 m = (at > t[j0]) & (at <= t[n_adv - 1])
                 _, _, g = e.rehearse(t[j0:n_adv], dth[j0:n_adv], dv[j0:n_adv], at[m], allh[m], asig[m], with_nis=True,
@@ -346,48 +382,80 @@ class MotionNoiseLearner:
         c = self.config
         if len(self.scores) < c.min_pairs:
             return
-        if c.criterion == "nis":
-            m = self._nis[:, 0] / np.maximum(self._nis[:, 1], 1.0)
-            best = int(np.argmin(np.abs(np.log(np.maximum(m, 1e-9) / 3.0))))
-            if best != self.choice:
-                self.history.append({"from_sigma_dph": self.sigma_dph, "sigma_dph": self.cands[best][0],
-                                     "tc_s": self.cands[best][1], "nis_mean": float(m[best]),
-                                     "nis_mean_current": float(m[self.choice]), "n_rehearsals": len(self.scores),
-                                     "accepted": True})
-                self.choice = best
-            return
         S = np.array(self.scores)
-        diff = S - S[:, [self.choice]]
-        mean = diff.mean(axis=0)
-        sd = diff.std(axis=0, ddof=1)
-        tstat = np.where(sd > 0, mean / (sd / math.sqrt(S.shape[0]) + 1e-300), 0.0)
-        ok = (mean < -c.margin) & (tstat < -c.min_t)
-        if not np.any(ok):
+        nis = self._nis[:, 0] / np.maximum(self._nis[:, 1], 1.0)
+        if c.criterion == "nis":
+            groups = self._groups()
+            pick = {g: min(ks, key=lambda k: abs(math.log(max(nis[k], 1e-9) / 3.0))) for g, ks in groups.items()}
+        else:
+            # paired against the shadow with nothing added (column 0): mean, t statistic, margin
+            diff = S - S[:, [0]]
+            mean = diff.mean(axis=0)
+            sd = diff.std(axis=0, ddof=1)
+            tstat = np.where(sd > 0, mean / (sd / math.sqrt(S.shape[0]) + 1e-300), 0.0)
+            ok = (mean < -c.margin) & (tstat < -c.min_t)
+            ok[0] = True
+            mean[0] = 0.0
+            pick = {}
+            for g, ks in self._groups().items():
+                cur = self._current_shadow(g)
+                ks = [k for k in ks if ok[k]]
+                best = min(ks, key=lambda k: mean[k])
+                # hysteresis: leave the current choice only for a candidate that also beats it by the margin,
+                # and drop it (back to nothing) only when it has become worse than nothing by the margin
+                if best != cur and cur != 0:
+                    if best == 0 and mean[cur] <= c.margin:
+                        best = cur
+                    elif best != 0 and mean[best] - mean[cur] >= -c.margin:
+                        best = cur
+                if c.guard and best != 0:
+                    # NIS guard: the shadow must agree with its GNSS (inside the band, or closer to 3 than the
+                    # shadow with nothing added)
+                    lo, hi = chi2.ppf([0.025, 0.975], 3 * max(self._nis[best, 1], 1.0)) / max(self._nis[best, 1], 1.0)
+                    if not (lo <= nis[best] <= hi
+                            or abs(math.log(max(nis[best], 1e-9) / 3)) <= abs(math.log(max(nis[0], 1e-9) / 3))):
+                        self._refused(best, nis, float(lo), float(hi))
+                        best = 0
+                pick[g] = best
+        spec = list(self.cands[0])
+        for g, k in pick.items():
+            for j in (range(3) if g == "all" else [g]):
+                spec[j] = self.cands[k][j]
+        spec = tuple(spec)
+        if spec == self.spec:
             return
-        best = int(np.argmin(np.where(ok, mean, np.inf)))
-        info = {"from_sigma_dph": self.sigma_dph, "sigma_dph": self.cands[best][0], "tc_s": self.cands[best][1],
-                "paired_log_score": float(mean[best]), "t_stat": float(tstat[best]), "n_rehearsals": int(S.shape[0])}
-        if c.guard:
-            ok_nis, nis_info = self._consistent(best)
-            info.update(nis_info)
-            if not ok_nis:
-                if not self.history or self.history[-1].get("sigma_dph") != info["sigma_dph"] \
-                        or self.history[-1]["accepted"]:
-                    self.history.append({**info, "accepted": False})
-                return
-        self.choice = best
+        info = {"from_sigma_dph": self.sigma_dph, "sigma_dph": [a[0] for a in spec], "tc_s": [a[1] for a in spec],
+                "n_rehearsals": int(S.shape[0]),
+                "paired_log_score": {str(g): float(np.mean(S[:, k] - S[:, 0])) for g, k in pick.items()},
+                "nis_mean": {str(g): float(nis[k]) for g, k in pick.items()}, "nis_mean_none": float(nis[0])}
+        self.spec = spec
         self.history.append({**info, "accepted": True})
 
-    def _consistent(self, new: int) -> tuple[bool, dict]:
-        """NIS guard (module docstring)."""
-        def mean_nis(k: int) -> tuple[float, float]:
-            s, n = self._nis[k]
-            return s / max(n, 1.0), n
+    def _current_shadow(self, g) -> int:
+        """Index of the shadow that runs the current choice of group ``g`` (0: nothing added)."""
+        none = self.cands[0][0]
+        if g == "all":
+            return self.cands.index(self.spec) if self.spec in self.cands else 0
+        want = tuple(self.spec[g] if i == g else none for i in range(3))
+        if self.spec[g][0] == 0:
+            return 0
+        return self.cands.index(want) if want in self.cands else 0
 
-        m_new, n = mean_nis(new)
-        m_cur, _ = mean_nis(self.choice)
-        lo, hi = chi2.ppf([0.025, 0.975], 3 * max(n, 1.0)) / max(n, 1.0)
-        inside = bool(lo <= m_new <= hi)
-        closer = abs(math.log(max(m_new, 1e-9) / 3.0)) <= abs(math.log(max(m_cur, 1e-9) / 3.0))
-        return inside or closer, {"nis_mean": float(m_new), "nis_mean_current": float(m_cur),
-                                  "nis_band": [float(lo), float(hi)]}
+    def _groups(self) -> dict:
+        """Shadow indices per decision group: one group ("all") for ``search="shared"``, one per gyro axis for
+        ``"axis"``; each includes 0 (nothing added)."""
+        if self.config.search == "shared":
+            return {"all": list(range(len(self.cands)))}
+        out: dict = {j: [0] for j in range(3)}
+        for k, spec in enumerate(self.cands[1:], start=1):
+            j = next(i for i in range(3) if spec[i][0] > 0)
+            out[j].append(k)
+        return out
+
+    def _refused(self, k: int, nis: np.ndarray, lo: float, hi: float) -> None:
+        info = {"sigma_dph": [a[0] for a in self.cands[k]], "tc_s": [a[1] for a in self.cands[k]],
+                "nis_mean": float(nis[k]), "nis_mean_none": float(nis[0]), "nis_band": [lo, hi],
+                "n_rehearsals": self.n_rehearsals, "accepted": False}
+        last = [h for h in self.history if not h["accepted"]]
+        if not last or last[-1]["sigma_dph"] != info["sigma_dph"]:  # log a refusal once, not every round
+            self.history.append(info)

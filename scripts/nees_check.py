@@ -1,0 +1,118 @@
+"""Filter consistency on the simulator: NEES of the GNSS-aided online run per method (issue 13, acceptance 3).
+
+At every 1 Hz reference epoch after the first ``--skip`` seconds of a simulated drive (meter-level GNSS, the
+motion law of the experiments' default), the normalised estimation error squared of the position
+(3 dof: e = estimate − truth in NED metres, NEES = eᵀ P_rr⁻¹ e with P_rr the filter's position covariance) and of
+position + velocity (6 dof), and the share of epochs inside the two-sided 95 % χ² band of their dof. A
+consistent filter has about 95 % of its epochs inside; the mean NEES should be near the dof.
+
+    python scripts/nees_check.py --seeds 0-9 --methods plain,gmwm,gmwm_dyn,oracle --out out/nees
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import multiprocessing as mp
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import chi2
+
+
+def _seeds(text: str) -> list[int]:
+    if "-" in text:
+        a, b = text.split("-")
+        return list(range(int(a), int(b) + 1))
+    return [int(x) for x in text.split(",")]
+
+
+def nees_run(args: tuple) -> dict:
+    seed, method, gnss_spec, motion, skip = args
+    from imunoise.experiments.common import simulate_scenario
+    from imunoise.experiments.dense import method_setup
+    from imunoise.experiments.gnss_regimes import parse_gnss
+    from imunoise.nav.solution import antenna_llh
+    from imunoise.online import OnlineNavigator, ned_offset
+
+    logging.getLogger("imunoise").setLevel(logging.WARNING)
+    sc = simulate_scenario(seed, n_outages=0, motion_noise=motion)
+    gnss = parse_gnss(gnss_spec).apply(sc.gnss, 1_000_003 * seed + 1)
+    cfg, models, upd = method_setup(method, sc)
+    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
+    t = np.asarray(sc.imu.t)
+    dth, dv = sc.imu.increments()
+    gt, gl, gs = np.asarray(gnss.t), np.asarray(gnss.llh), np.asarray(gnss.sigma_ned)
+    rt = np.asarray(sc.ref.t)
+    pick = np.abs(rt - np.round(rt)) < 1e-6  # 1 Hz epochs of the reference
+    pick &= rt >= sc.init.t + skip
+    ref_i = {round(float(x), 6): j for j, x in zip(np.flatnonzero(pick), rt[pick])}
+    n3, n6 = [], []
+    k = 0
+    for i in range(t.size):
+        while k < gt.size and gt[k] <= t[i]:
+            nav.push_gnss(gt[k], gl[k], gs[k])
+            k += 1
+        nav.push_imu(t[i], dth[i], dv[i])
+        if upd is not None:
+            upd.step(nav)
+        j = ref_i.get(round(float(t[i]), 6))
+        if j is None:
+            continue
+        st = nav.ekf.state()
+        ant = antenna_llh(st["llh"][None], st["euler"][None], sc.lever)
+        dn, de = ned_offset(ant, sc.ref.llh[j][None])
+        e = np.array([dn[0], de[0], -(ant[0, 2] - sc.ref.llh[j][2]), *(st["vel_ned"] - sc.ref.vel_ned[j])])
+        P = nav.ekf.P[:6, :6]
+        n3.append(float(e[:3] @ np.linalg.solve(P[:3, :3], e[:3])))
+        n6.append(float(e @ np.linalg.solve(P, e)))
+    return {"seed": seed, "method": method, "nees3": n3, "nees6": n6}
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--seeds", default="0-9", help="simulator seeds, a-b or a,b,c (default 0-9)")
+    p.add_argument("--methods", default="plain,gmwm,gmwm_dyn,oracle")
+    p.add_argument("--gnss", default="noise:1.5,3,1")
+    p.add_argument("--motion-noise", default="drive0708")
+    p.add_argument("--skip", type=float, default=60.0, help="seconds after the start not scored (alignment)")
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--out", required=True)
+    a = p.parse_args()
+    seeds = _seeds(a.seeds)
+    methods = [m.strip() for m in a.methods.split(",") if m.strip()]
+    jobs = [(s, m, a.gnss, a.motion_noise, a.skip) for s in seeds for m in methods]
+    with mp.get_context("fork").Pool(a.workers) as pool:
+        runs = pool.map(nees_run, jobs)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = {}
+    lines = [f"NEES on {len(seeds)} simulated drives (seeds {a.seeds}, GNSS {a.gnss}, motion law {a.motion_noise}), "
+             f"1 Hz epochs after {a.skip:g} s", "",
+             "| method | epochs | pos NEES mean (3 dof) | inside 95 % band | pos+vel NEES mean (6 dof) | inside |",
+             "|---|---:|---:|---:|---:|---:|"]
+    for m in methods:
+        n3 = np.concatenate([r["nees3"] for r in runs if r["method"] == m])
+        n6 = np.concatenate([r["nees6"] for r in runs if r["method"] == m])
+        b3 = chi2.ppf([0.025, 0.975], 3)
+        b6 = chi2.ppf([0.025, 0.975], 6)
+        in3 = float(np.mean((n3 >= b3[0]) & (n3 <= b3[1])))
+        in6 = float(np.mean((n6 >= b6[0]) & (n6 <= b6[1])))
+        rows[m] = {"epochs": int(n3.size), "nees3_mean": float(n3.mean()), "inside3": in3,
+                   "nees6_mean": float(n6.mean()), "inside6": in6,
+                   "per_drive_inside3": [float(np.mean((np.array(r["nees3"]) >= b3[0])
+                                                       & (np.array(r["nees3"]) <= b3[1])))
+                                         for r in runs if r["method"] == m]}
+        lines.append(f"| {m} | {n3.size} | {n3.mean():.2f} | {in3:.1%} | {n6.mean():.2f} | {in6:.1%} |")
+    text = "\n".join(lines)
+    (out / "nees.json").write_text(json.dumps({"seeds": seeds, "gnss": a.gnss, "motion": a.motion_noise,
+                                               "methods": rows}, indent=1))
+    (out / "nees.md").write_text(text + "\n")
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
