@@ -158,3 +158,17 @@ def test_thread_worker_runs_the_same_rehearsals_without_blocking(drive):
     nav_t, res = _dyn_run(sc, gnss, push=False, worker="thread")
     assert len(nav_t._motion.scores) >= 2 and nav_t._motion._future is None  # finish() waited for it
     assert np.allclose(nav_t._motion.scores[0], nav_i._motion.scores[0], rtol=1e-2)
+
+
+def test_shadows_wait_out_a_gnss_outage_and_restart(drive):
+    # 60 s without GNSS while driving: the round that finds no fix stops the shadows (nothing to score, nothing
+    # to learn); they restart from the live filter at the first aided moving step after it and go on scoring
+    sc, gnss = drive
+    t0 = float(sc.init.t) + 200.0
+    cut = gnss.without([(t0, 60.0)])
+    nav, res = _dyn_run(sc, cut, push=False)
+    L = nav._motion
+    assert L.n_starts == 2
+    nav_full, _ = _dyn_run(sc, gnss, push=False)
+    assert 0 < L.n_rehearsals < nav_full._motion.n_rehearsals
+    assert [e["event"] for e in res.events].count("motion_noise_start") == 1

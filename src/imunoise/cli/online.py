@@ -62,6 +62,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scale-factors", action="store_true",
                    help="add gyro and accel scale-factor states to the EKF (KF-GINS' 21-state filter)")
     p.add_argument("--no-floor", action="store_true", help="no plain-default floor on the filter noise")
+    p.add_argument("--learn-motion-noise", action="store_true",
+                   help="learn in-motion gyro noise while driving: shadow filters rehearse GNSS outages on the data "
+                        "seen and the live filter takes what drifts least (the gmwm_dyn method; "
+                        "imunoise.online.motion_noise)")
     p.add_argument("--learn-from", type=float, default=10.0, help="seconds of the first stop to learn λ0 (default 10)")
     p.add_argument("--lambda0", type=float, help="fixed detector λ0 [m/s²] instead of learning it")
     p.add_argument("--out", required=True, help="output folder")
@@ -77,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.io.jsonutil import json_default
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig, load_axis_models
-    from imunoise.online import OnlineConfig, OnlineNavigator
+    from imunoise.online import MotionNoiseConfig, OnlineConfig, OnlineNavigator
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     if args.lambda0 is not None and not (math.isfinite(args.lambda0) and args.lambda0 > 0):
@@ -106,6 +110,7 @@ def run(args: argparse.Namespace) -> int:
         detector=detector, learn_lambda0_s=args.learn_from,
         min_static_s=args.min_static, criterion=args.criterion, latency=args.latency, worker=args.worker,
         gate=not args.no_gate, zupt=args.zupt, floor="none" if args.no_floor else "default",
+        motion_noise=MotionNoiseConfig() if args.learn_motion_noise else None,
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -132,7 +137,8 @@ def run(args: argparse.Namespace) -> int:
     metrics: dict = {"start": float(res.t[0]) if res.t.size else t0, "duration_s": duration,
                      "lambda0_m_s2": res.lambda0, "static_s": float(sum(s.duration for s in res.segments)),
                      "timing": res.timing, "config": {"criterion": config.criterion, "zupt": config.zupt,
-                                                       "floor": config.floor, "latency": config.latency}}
+                                                       "floor": config.floor, "latency": config.latency,
+                                                       "learn_motion_noise": bool(args.learn_motion_noise)}}
     metrics.update(run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)[0])
     if args.outage_runs and windows:
         outs = []
@@ -158,6 +164,10 @@ def _print(m: dict, res) -> None:
             axes = "; ".join(f"{a}: {v['structure']}" for a, v in e.get("axes", {}).items())
             print(f"{e['event']} at {e['t']:.1f} s with {e['static_total_s']:.1f} s static data in "
                   f"{e['elapsed_s']:.3f} s: {axes}")
+        elif e["event"] == "motion_noise":
+            lm = ", ".join(f"{a} {sg:g} °/h (T_c {tc:g} s)" for a, sg, tc in zip("xyz", e["sigma_dph"], e["tc_s"])
+                           if sg > 0) or "nothing"
+            print(f"in-motion gyro noise at {e['t']:.1f} s after {e['n_rehearsals']} rehearsal rounds: {lm}")
         elif e["event"] == "rejected":
             print(f"rejected at {e['t']:.1f} s: {e.get('axis', '')} {e['reason']}")
         elif e["event"] == "warm_up":

@@ -191,11 +191,14 @@ class MotionNoiseLearner:
         self.lever = np.asarray(lever, dtype=float)
         self.worker = worker
         self.spec = self.cands[0]
+        self.t_start: float | None = None  # filter time the shadows started (the first aided moving step)
+        self.n_starts = 0  # starts of the shadows (a restart after every stretch without GNSS)
         self.history: list[dict] = []
         self.n_rehearsals = 0
         self.scores: list[np.ndarray] = []  # per rehearsal round: log RMS drift per candidate
         self._nis = np.zeros((len(self.cands), 2))  # per shadow: sum of NIS, number of fixes
         self._shadows: list[Any] | None = None
+        self._stale = False  # a round found no GNSS: the shadows wait for the next aided moving step
         self._t_sh = math.nan  # time of the shadows
         self._static: list[tuple[float, list]] = []  # (t, static models) not yet given to the shadows
         n0 = 4096
@@ -251,9 +254,10 @@ class MotionNoiseLearner:
         self._keep(t, dth, dv)
         self._fixes.extend(fixes)
         c = self.config
-        if self._shadows is None:
+        if self._shadows is None or self._stale:
+            # start (or, after a stretch without GNSS, restart) the shadows from the live filter
             moving = math.hypot(nav.ekf.nav[3], nav.ekf.nav[4]) >= c.min_speed_mps
-            if fixes and moving:
+            if fixes and moving and self._future is None:
                 self._start(nav, t)
             return
         if self._future is not None or t < self._t_sh + max(c.every_s, c.outage_s):
@@ -269,6 +273,11 @@ class MotionNoiseLearner:
         self._decide(self._round(job))
 
     def _start(self, nav: Any, t: float) -> None:
+        if self.t_start is None:
+            self.t_start = float(t)
+        self.n_starts += 1
+        self._stale = False
+        self._static = []
         self._shadows = []
         for k in range(len(self.cands)):
             e = copy.deepcopy(nav.ekf)
@@ -281,8 +290,7 @@ class MotionNoiseLearner:
         self._n = 1
 
     def _job(self) -> dict | None:
-        """The data of the next round (copied, so a thread can run it), or None in a stretch without GNSS
-        (e.g. a rehearsed window of the experiments), which the shadows then skip."""
+        """The data of the next round (copied, so a thread can run it), or None in a stretch without GNSS."""
         c = self.config
         t0, t1, t2 = self._t_sh, self._t_sh + c.every_s, self._t_sh + max(c.every_s, c.outage_s)
         tb = self._t[: self._n]
@@ -293,6 +301,11 @@ class MotionNoiseLearner:
             return None
         ft = np.array([f[0] for f in self._fixes]) if self._fixes else np.zeros(0)
         adv = np.nonzero((ft > t0) & (ft <= tb[i1 - 1]))[0]
+        if adv.size == 0:
+            # no GNSS for a whole round (an outage, or a rehearsed window of the experiments): nothing to score
+            # and nothing the shadows could learn; they restart from the live filter when fixes return
+            self._stale = True
+            return None
         out = np.nonzero((ft > t0) & (ft <= t0 + c.outage_s))[0]
         statics = [s for s in self._static if s[0] <= tb[i1 - 1]]
         self._static = [s for s in self._static if s[0] > tb[i1 - 1]]

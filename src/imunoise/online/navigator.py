@@ -274,7 +274,8 @@ class OnlineNavigator:
         if t <= self._t_last:
             if self._started and t > self.init.t and self.ekf.update_gnss(*fix):
                 self._t_aided = self._t_last
-                self._motion_fixes.append(fix)
+                if self._motion is not None:
+                    self._motion_fixes.append(fix)
             return
         self._gnss.append(fix)
 
@@ -512,7 +513,8 @@ class OnlineNavigator:
                 fix = self._gnss.pop(0)
                 if fix[0] > self.init.t and self.ekf.update_gnss(*fix):
                     self._t_aided = t
-                    self._motion_fixes.append(fix)
+                    if self._motion is not None:
+                        self._motion_fixes.append(fix)
             if is_static and cfg.stop_guard == "nav":
                 self._record_nav(t)
             if cfg.zupt and self._static_run >= cfg.zupt_after and self._static_run % cfg.zupt_every == 0 \
@@ -750,7 +752,9 @@ class OnlineNavigator:
             self._scheduled.sort(key=lambda x: x[0])
 
     def _motion_events(self, t: float, n_hist: int) -> None:
-        """Log the learner's decisions since ``n_hist`` and swap in an accepted in-motion model."""
+        """Log the learner's start and decisions since ``n_hist``; swap in an accepted in-motion model."""
+        if self._motion.t_start == t:
+            self._event("motion_noise_start", t, shadows=len(self._motion.cands))
         for h in self._motion.history[n_hist:]:
             if h["accepted"]:
                 models = self._motion.compose(self.static_models)
