@@ -129,10 +129,16 @@ def _dyn_run(sc, gnss, push: bool, worker: str = "inline"):
     return nav, nav.finish()
 
 
-def test_learner_moves_off_the_static_model_and_streaming_equals_batch(drive):
+@pytest.fixture(scope="module")
+def inline_run(drive):
+    sc, gnss = drive
+    return _dyn_run(sc, gnss, push=False)
+
+
+def test_learner_moves_off_the_static_model_and_streaming_equals_batch(drive, inline_run):
     # the simulator's default motion law: gyro y/z biases wander 3.75× / 5.8× faster while driving
     sc, gnss = drive
-    nav_b, res_b = _dyn_run(sc, gnss, push=False)
+    nav_b, res_b = inline_run
     nav_s, res_s = _dyn_run(sc, gnss, push=True)
     ev_b = [e for e in res_b.events if e["event"].startswith("motion_noise")]
     ev_s = [e for e in res_s.events if e["event"].startswith("motion_noise")]
@@ -149,18 +155,18 @@ def test_learner_moves_off_the_static_model_and_streaming_equals_batch(drive):
             assert np.mean(S[:, k] - S[:, 0]) < 0
 
 
-def test_thread_worker_runs_the_same_rehearsals_without_blocking(drive):
+def test_thread_worker_runs_the_same_rehearsals_without_blocking(drive, inline_run):
     # a replay runs far faster than real time, so the background thread completes fewer rounds before the end;
     # its first round rehearses what the inline run's first round does (the engine's own fits take effect at
     # slightly different times with a thread, so the numbers agree closely, not bit for bit)
     sc, gnss = drive
-    nav_i, _ = _dyn_run(sc, gnss, push=False)
+    nav_i, _ = inline_run
     nav_t, res = _dyn_run(sc, gnss, push=False, worker="thread")
     assert len(nav_t._motion.scores) >= 2 and nav_t._motion._future is None  # finish() waited for it
     assert np.allclose(nav_t._motion.scores[0], nav_i._motion.scores[0], rtol=1e-2)
 
 
-def test_shadows_wait_out_a_gnss_outage_and_restart(drive):
+def test_shadows_wait_out_a_gnss_outage_and_restart(drive, inline_run):
     # 60 s without GNSS while driving: the round that finds no fix stops the shadows (nothing to score, nothing
     # to learn); they restart from the live filter at the first aided moving step after it and go on scoring
     sc, gnss = drive
@@ -169,6 +175,6 @@ def test_shadows_wait_out_a_gnss_outage_and_restart(drive):
     nav, res = _dyn_run(sc, cut, push=False)
     L = nav._motion
     assert L.n_starts == 2
-    nav_full, _ = _dyn_run(sc, gnss, push=False)
+    nav_full, _ = inline_run
     assert 0 < L.n_rehearsals < nav_full._motion.n_rehearsals
     assert [e["event"] for e in res.events].count("motion_noise_start") == 1
