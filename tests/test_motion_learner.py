@@ -145,6 +145,9 @@ def test_learner_moves_off_the_static_model_and_streaming_equals_batch(drive, in
     assert nav_b._motion.n_rehearsals >= 10
     assert any(e["event"] == "motion_noise" and max(e["sigma_dph"]) > 0 for e in ev_b)
     assert ev_b == ev_s and np.array_equal(res_b.llh, res_s.llh)
+    end = ev_b[-1]  # the summary at the end: what was learned, after how many rounds
+    assert end["event"] == "motion_noise_end" and end["sigma_dph"] == nav_b._motion.sigma_dph
+    assert end["n_rehearsals"] == nav_b._motion.n_rehearsals
     # on every axis that got a process, its shadow's rehearsed drift beats the static model's on the same rounds
     L = nav_b._motion
     S = np.array(L.scores)

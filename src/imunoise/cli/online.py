@@ -148,6 +148,10 @@ def run(args: argparse.Namespace) -> int:
             if e is not None:
                 outs.append(mk["outages"][0])
         metrics.update(outage_summary(outs))
+    end = [e for e in res.events if e["event"] == "motion_noise_end"]
+    if end:
+        metrics["motion_noise"] = {"sigma_dph": end[-1]["sigma_dph"], "tc_s": end[-1]["tc_s"], "axes": ["x", "y", "z"],
+                                   "rehearsal_rounds": end[-1]["n_rehearsals"]}
     metrics["warnings"] = notes
     atomic_write_text(out / "metrics.json", json.dumps(metrics, indent=1, default=json_default))
     fits = {ax: f.to_dict() for ax, f in zip(AXES, res.fits, strict=True) if f is not None}
@@ -168,6 +172,10 @@ def _print(m: dict, res) -> None:
             lm = ", ".join(f"{a} {sg:g} °/h (T_c {tc:g} s)" for a, sg, tc in zip("xyz", e["sigma_dph"], e["tc_s"])
                            if sg > 0) or "nothing"
             print(f"in-motion gyro noise at {e['t']:.1f} s after {e['n_rehearsals']} rehearsal rounds: {lm}")
+        elif e["event"] == "motion_noise_end":
+            lm = ", ".join(f"{a} {sg:g} °/h (T_c {tc:g} s)" for a, sg, tc in zip("xyz", e["sigma_dph"], e["tc_s"])
+                           if sg > 0) or "nothing (no candidate beat the static model)"
+            print(f"in-motion gyro noise learned over {e['n_rehearsals']} rehearsal rounds: {lm}")
         elif e["event"] == "rejected":
             print(f"rejected at {e['t']:.1f} s: {e.get('axis', '')} {e['reason']}")
         elif e["event"] == "warm_up":

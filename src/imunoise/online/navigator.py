@@ -372,6 +372,9 @@ class OnlineNavigator:
             n_hist = len(self._motion.history)
             self._motion.close()
             self._motion_events(self._t_last, n_hist)
+            m = self._motion
+            self._event("motion_noise_end", self._t_last, sigma_dph=m.sigma_dph, tc_s=m.tc,
+                        n_rehearsals=m.n_rehearsals, n_starts=m.n_starts)
         if self.detector is not None:
             self.detector.finish()
         self._elapsed += time.perf_counter() - t0
