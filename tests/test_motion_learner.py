@@ -27,9 +27,9 @@ def drive():
     return sc, gnss
 
 
-def _aided_filter(sc, gnss, t_stop):
-    cfg, _, _ = method_setup("plain", sc)
-    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate)
+def _push(nav, sc, gnss, t_stop=math.inf):
+    """Feed the record through the streaming API up to the first sample at or after ``t_stop``; returns that
+    sample's index and the arrays fed."""
     t = np.asarray(sc.imu.t)
     dth, dv = sc.imu.increments()
     gt, gl, gs = np.asarray(gnss.t), np.asarray(gnss.llh), np.asarray(gnss.sigma_ned)
@@ -42,7 +42,13 @@ def _aided_filter(sc, gnss, t_stop):
         nav.push_imu(t[i], dth[i], dv[i])
         if t[i] >= t_stop:
             break
-    return nav.ekf, i, t, dth, dv, gt, gl, gs
+    return i, t, dth, dv, gt, gl, gs
+
+
+def _aided_filter(sc, gnss, t_stop):
+    cfg, _, _ = method_setup("plain", sc)
+    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate)
+    return (nav.ekf, *_push(nav, sc, gnss, t_stop))
 
 
 def test_rehearse_equals_stepping_and_leaves_the_filter_alone(drive):
@@ -117,15 +123,7 @@ def _dyn_run(sc, gnss, push: bool, worker: str = "inline"):
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
     if not push:
         return nav, nav.run(sc.imu, gnss)
-    t = np.asarray(sc.imu.t)
-    dth, dv = sc.imu.increments()
-    gt, gl, gs = np.asarray(gnss.t), np.asarray(gnss.llh), np.asarray(gnss.sigma_ned)
-    k = 0
-    for i in range(t.size):
-        while k < gt.size and gt[k] <= t[i]:
-            nav.push_gnss(gt[k], gl[k], gs[k])
-            k += 1
-        nav.push_imu(t[i], dth[i], dv[i])
+    _push(nav, sc, gnss)
     return nav, nav.finish()
 
 

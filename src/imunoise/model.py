@@ -343,6 +343,23 @@ class Model:
                 total += 2.0 * c.values[0]
         return total
 
+    def scaled(self, white: float = 1.0, bias: float = 1.0) -> Model:
+        """This model with the white-noise variance σ²_WN × ``white`` and the driving variance of its bias
+        processes (RW γ², AR1 σ²; φ and so T_c kept) × ``bias``; QN and DR unchanged. The one scaling of the
+        motion law's moving regime (:func:`imunoise.sim.motion.scaled_models`) and of the adaptive baseline
+        (:func:`imunoise.nav.adaptive.scale_bias_noise`)."""
+        out: list[Process] = []
+        for c in self.components:
+            if isinstance(c, WN):
+                out.append(WN(sigma2=c.values[0] * white))
+            elif isinstance(c, RW):
+                out.append(RW(gamma2=c.values[0] * bias))
+            elif isinstance(c, AR1):
+                out.append(AR1(phi=c.values[0], sigma2=c.values[1] * bias))
+            else:
+                out.append(c)
+        return Model(out)
+
     def state_space(self, dt: float, freq: float | None = None) -> StateSpace:
         """Discrete (Φ, Q, H) blocks over a filter step dt for parameters per sample at ``freq`` (SPEC §8).
 

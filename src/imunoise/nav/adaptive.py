@@ -26,7 +26,6 @@ import numpy as np
 
 from imunoise.errors import ModelError
 from imunoise.model import Model
-from imunoise.processes import AR1, RW
 
 __all__ = ["AdaptiveConfig", "AdaptiveNoise", "scale_bias_noise"]
 
@@ -63,16 +62,9 @@ class AdaptiveConfig:
 
 def scale_bias_noise(model: Model, factor: float) -> Model:
     """``model`` with the driving noise of its bias states (RW γ², AR1 σ²) times ``factor``; φ, WN, QN and
-    DR unchanged (Q of a bias state is linear in its driving variance)."""
-    out = []
-    for c in model.components:
-        if isinstance(c, RW):
-            out.append(RW(gamma2=c.values[0] * factor))
-        elif isinstance(c, AR1):
-            out.append(AR1(phi=c.values[0], sigma2=c.values[1] * factor))
-        else:
-            out.append(c)
-    return Model(out)
+    DR unchanged (Q of a bias state is linear in its driving variance): :meth:`Model.scaled` with
+    ``bias=factor``."""
+    return model.scaled(bias=factor)
 
 
 class AdaptiveNoise:

@@ -354,18 +354,27 @@ class MotionNoiseLearner:
         """Every shadow: rehearse an outage of ``outage_s`` from its time (a copy, no GNSS; scored on the fixes
         of that span), then advance ``every_s`` with the fixes (in place). Returns the scores and the shadows'
         NIS."""
-        t, dth, dv, n_adv = job["t"], job["dth"], job["dv"], job["n_adv"]
-        ot, ollh, osig = job["out"]
+        t, dth, dv, n_adv, n_out = job["t"], job["dth"], job["dv"], job["n_adv"], job["n_out"]
+        ot, ollh, _ = job["out"]
         at, allh, asig = job["adv"]
-        speed_ok = True
         scores = np.full(len(self.cands), np.nan)
         nis = np.zeros((len(self.cands), 2))
         ks = np.minimum(np.searchsorted(t, ot, side="left"), t.size - 1)
         no_fix = (np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)))
+        sh0 = job["shadows"][0]  # one speed test per round (nothing added), so every candidate is scored alike
+        rehearse = ot.size > 0 and math.hypot(sh0.nav[3], sh0.nav[4]) >= self.config.min_speed_mps
+
+        def advance(e: Any, j0: int, j1: int) -> np.ndarray:
+            """Shadow ``e`` in place over samples j0..j1−1 with the round's fixes there; (ΣNIS, #fixes)."""
+            if j1 - j0 < 2:
+                return np.zeros(2)
+            m = (at > t[j0]) & (at <= t[j1 - 1])
+            _, _, g = e.rehearse(t[j0:j1], dth[j0:j1], dv[j0:j1], at[m], allh[m], asig[m], with_nis=True,
+                                 in_place=True)
+            return np.array([np.nansum(g), np.isfinite(g).sum()])
+
         for k, e in enumerate(job["shadows"]):
-            speed_ok = math.hypot(e.nav[3], e.nav[4]) >= self.config.min_speed_mps if k == 0 else speed_ok
-            if ot.size and speed_ok:
-                n_out = job["n_out"]
+            if rehearse:
                 llh, eul = e.rehearse(t[:n_out], dth[:n_out], dv[:n_out], *no_fix)
                 dn, de = ned_offset(antenna_llh(llh[ks], eul[ks], self.lever), ollh)
                 scores[k] = math.log(max(float(np.sqrt(np.mean(dn * dn + de * de))), 1e-3))
@@ -374,17 +383,10 @@ class MotionNoiseLearner:
             for ts, models in job["statics"]:
                 j1 = int(np.searchsorted(t[:n_adv], ts, side="right"))
                 if j1 - j0 >= 2:
-                    m = (at > t[j0]) & (at <= t[j1 - 1])
-                    _, _, g = e.rehearse(t[j0:j1], dth[j0:j1], dv[j0:j1], at[m], allh[m], asig[m], with_nis=True,
-                                         in_place=True)
-                    nis[k] += (np.nansum(g), np.isfinite(g).sum())
+                    nis[k] += advance(e, j0, j1)
                     j0 = j1 - 1
                 e.swap_model(self.compose(models, self.cands[k]), preserve=True)
-            if n_adv - j0 >= 2:
-                m = (at > t[j0]) & (at <= t[n_adv - 1])
-                _, _, g = e.rehearse(t[j0:n_adv], dth[j0:n_adv], dv[j0:n_adv], at[m], allh[m], asig[m], with_nis=True,
-                                     in_place=True)
-                nis[k] += (np.nansum(g), np.isfinite(g).sum())
+            nis[k] += advance(e, j0, n_adv)
         return {"scores": scores, "nis": nis}
 
     def _decide(self, res: dict) -> None:

@@ -200,23 +200,8 @@ def modulated_errors(models: Mapping[str, Model], n: int, seed: int | np.random.
 def scaled_models(models: Mapping[str, Model], m_white: np.ndarray, m_bias: np.ndarray) -> dict[str, Model]:
     """Each axis' model with WN σ² × M_w², RW γ² × M_b², AR1 σ² × M_b² (T_c kept); QN, DR unchanged.
     ``m_white``/``m_bias``: one multiplier per axis of :data:`imunoise.imu.AXES`."""
-    out: dict[str, Model] = {}
-    for j, ax in enumerate(AXES):
-        if ax not in models:
-            continue
-        kw, kb = float(m_white[j]) ** 2, float(m_bias[j]) ** 2
-        comps = []
-        for c in models[ax].components:
-            if isinstance(c, WN):
-                comps.append(WN(sigma2=c.values[0] * kw))
-            elif isinstance(c, RW):
-                comps.append(RW(gamma2=c.values[0] * kb))
-            elif isinstance(c, AR1):
-                comps.append(AR1(phi=c.values[0], sigma2=c.values[1] * kb))
-            else:
-                comps.append(c)
-        out[ax] = Model(comps)
-    return out
+    return {ax: models[ax].scaled(white=float(m_white[j]) ** 2, bias=float(m_bias[j]) ** 2)
+            for j, ax in enumerate(AXES) if ax in models}
 
 
 def oracle_models(models: Mapping[str, Model], motion: str | MotionNoise, speed: np.ndarray | None = None,
