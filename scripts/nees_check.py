@@ -32,15 +32,17 @@ def _seeds(text: str) -> list[int]:
 def nees_run(args: tuple) -> dict:
     seed, method, gnss_spec, motion, skip = args
     from imunoise.experiments.common import simulate_scenario
-    from imunoise.experiments.dense import method_setup
+    from imunoise.experiments.dense import WARM_METHODS, earlier_prior, method_setup
     from imunoise.experiments.gnss_regimes import parse_gnss
     from imunoise.nav.solution import antenna_llh
     from imunoise.online import OnlineNavigator, ned_offset
 
     logging.getLogger("imunoise").setLevel(logging.WARNING)
     sc = simulate_scenario(seed, n_outages=0, motion_noise=motion)
-    gnss = parse_gnss(gnss_spec).apply(sc.gnss, 1_000_003 * seed + 1)
-    cfg, models, upd = method_setup(method, sc)
+    regime = parse_gnss(gnss_spec)
+    gnss = regime.apply(sc.gnss, 1_000_003 * seed + 1)
+    prior = earlier_prior(seed, regime, 1, motion_noise=motion) if method in WARM_METHODS else None
+    cfg, models, upd = method_setup(method, sc, prior=prior)
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
     t = np.asarray(sc.imu.t)
     dth, dv = sc.imu.increments()

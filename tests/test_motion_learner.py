@@ -10,13 +10,13 @@ import math
 import numpy as np
 import pytest
 
-from imunoise.errors import ModelError
+from imunoise.errors import DataError, ModelError
 from imunoise.experiments.common import simulate_scenario
 from imunoise.experiments.dense import method_setup
 from imunoise.experiments.gnss_regimes import parse_gnss
 from imunoise.nav.defaults import default_axis_models
 from imunoise.online import OnlineNavigator
-from imunoise.online.motion_noise import MotionNoiseConfig, add_motion_gm, horizontal_distance
+from imunoise.online.motion_noise import MotionNoiseConfig, MotionNoisePrior, add_motion_gm, horizontal_distance
 from imunoise.processes import AR1
 
 
@@ -179,3 +179,78 @@ def test_shadows_wait_out_a_gnss_outage_and_restart(drive, inline_run):
     nav_full, _ = inline_run
     assert 0 < L.n_rehearsals < nav_full._motion.n_rehearsals
     assert [e["event"] for e in res.events].count("motion_noise_start") == 1
+
+
+def _learner_cfg(prior=None):
+    return MotionNoiseConfig(min_pairs=3, min_t=0.0, margin=0.0, prior=prior)
+
+
+def test_evidence_carries_to_the_next_drive(drive, inline_run, tmp_path):
+    # what one drive learned is the next drive's start: the filter runs the carried choice from its first
+    # sample, and the first decision of the new drive is made on the carried rounds and its own together
+    sc, gnss = drive
+    nav0, res0 = inline_run
+    ev = nav0._motion.evidence()
+    assert ev.spec == nav0._motion.spec and len(ev.scores) == nav0._motion.n_rehearsals
+    end = [e for e in res0.events if e["event"] == "motion_noise_end"][-1]
+    assert MotionNoisePrior.from_dict(end["evidence"]) == ev
+    # round trip through a metrics.json as `imunoise online` writes it
+    f = tmp_path / "metrics.json"
+    f.write_text(__import__("json").dumps({"motion_noise": {"sigma_dph": [0, 0, 0], "evidence": ev.to_dict()}}))
+    prior = MotionNoisePrior.load(f)
+    assert prior == ev and max(a[0] for a in prior.spec) > 0  # the fixture's drive learned something
+    cfg, models, _ = method_setup("gmwm_dyn", sc)
+    cfg = cfg.with_(latency=1.0, motion_noise=_learner_cfg(prior))
+    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
+    # from the first sample: a Gauss–Markov state on every axis the prior chose, before any stop or round
+    for j, (sg, _) in enumerate(prior.spec):
+        n_gm = sum(isinstance(c, AR1) for c in nav.current_models[j][0].components)
+        n_static = sum(isinstance(c, AR1) for c in nav.static_models[j][0].components)
+        assert n_gm == n_static + (sg > 0)
+    res = nav.run(sc.imu, gnss)
+    L = nav._motion
+    assert L.n_prior == len(prior.scores) and len(L.scores) == L.n_prior + L.n_rehearsals
+    assert np.array_equal(np.array(L.scores[: L.n_prior]), np.array(prior.scores))
+    end2 = [e for e in res.events if e["event"] == "motion_noise_end"][-1]
+    assert end2["n_prior"] == len(prior.scores)
+    for h in L.history:  # every decision of this drive counted the carried rounds
+        if h["accepted"]:
+            assert h["n_rehearsals"] > L.n_prior and h["n_prior"] == L.n_prior
+
+
+def test_prior_of_other_candidates_or_files_is_refused(tmp_path):
+    c = MotionNoiseConfig(sigma_dph=(50.0,), tc_s=(2.0,))
+    none = (0.0, 2.0)
+    good = MotionNoisePrior((none, (50.0, 2.0), none), ((0.1, 0.2, 0.0, 0.3),), tuple(c.candidates))
+    assert MotionNoiseConfig(sigma_dph=(50.0,), tc_s=(2.0,), prior=good).prior is good
+    with pytest.raises(ModelError, match="other candidates"):
+        MotionNoiseConfig(prior=good)  # the default grid has 19 shadows, this prior 4
+    with pytest.raises(ModelError, match="one per candidate"):
+        MotionNoisePrior(good.spec, ((0.1, 0.2),), good.candidates)
+    with pytest.raises(ModelError, match="not a combination"):
+        MotionNoiseConfig(sigma_dph=(50.0,), tc_s=(2.0,),
+                          prior=MotionNoisePrior(((70.0, 2.0), none, none), (), good.candidates))
+    with pytest.raises(DataError, match="does not exist"):
+        MotionNoisePrior.load(tmp_path / "missing.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    with pytest.raises(DataError, match="not a readable JSON"):
+        MotionNoisePrior.load(bad)
+    other = tmp_path / "other.json"
+    other.write_text('{"horizontal_rms_m": 1.0}')
+    with pytest.raises(ModelError, match="not a motion-noise prior"):
+        MotionNoisePrior.load(other)
+
+
+def test_warm_method_needs_an_earlier_drive(drive, inline_run):
+    from imunoise.cli.experiment import select_methods
+
+    sc, _ = drive
+    with pytest.raises(ModelError, match="earlier drive"):
+        method_setup("gmwm_dyn_warm", sc)
+    prior = inline_run[0]._motion.evidence()
+    cfg, _, _ = method_setup("gmwm_dyn_warm+sf", sc, prior=prior)
+    assert cfg.motion_noise.prior is prior and cfg.ekf.scale_factors
+    assert select_methods("online", True, "gmwm,gmwm_dyn_warm", evidence=True) == ("gmwm", "gmwm_dyn_warm")
+    with pytest.raises(ModelError, match="unknown method"):  # a real drive has no earlier drive here
+        select_methods("online", False, "gmwm_dyn_warm", evidence=True)

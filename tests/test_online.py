@@ -339,3 +339,7 @@ def test_cli_online_on_the_shipped_drive(tmp_path):
     assert metrics["horizontal_rms_m"] < 0.05  # residual against the RTK that aids the filter
     assert (tmp_path / "events.jsonl").read_text().count("\n") >= 3
     assert main(["online", "--imu", str(data / "imu_body_inc.txt.gz"), "--out", str(tmp_path / "x")]) == 2
+    # a prior that is not there: a one-line error before anything is written
+    assert main(["online", "--data", str(data), "--motion-noise-prior", str(tmp_path / "none.json"),
+                 "--out", str(tmp_path / "y")]) == 2
+    assert not (tmp_path / "y").exists()

@@ -66,6 +66,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="learn in-motion gyro noise while driving: shadow filters rehearse GNSS outages on the data "
                         "seen and the live filter takes what drifts least (the gmwm_dyn method; "
                         "imunoise.online.motion_noise)")
+    p.add_argument("--motion-noise-prior", metavar="METRICS_JSON",
+                   help="start the in-motion noise learner with what it learned on an earlier drive of the same IMU "
+                        "in the same vehicle: that run's metrics.json (implies --learn-motion-noise)")
     p.add_argument("--learn-from", type=float, default=10.0, help="seconds of the first stop to learn λ0 (default 10)")
     p.add_argument("--lambda0", type=float, help="fixed detector λ0 [m/s²] instead of learning it")
     p.add_argument("--out", required=True, help="output folder")
@@ -81,11 +84,15 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.io.jsonutil import json_default
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig, load_axis_models
-    from imunoise.online import MotionNoiseConfig, OnlineConfig, OnlineNavigator
+    from imunoise.online import MotionNoiseConfig, MotionNoisePrior, OnlineConfig, OnlineNavigator
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     if args.lambda0 is not None and not (math.isfinite(args.lambda0) and args.lambda0 > 0):
         raise ModelError(f"--lambda0 must be a positive threshold in m/s², got {args.lambda0:g}")
+    motion = None  # the learner's prior is read first: a bad file fails before anything is made
+    if args.learn_motion_noise or args.motion_noise_prior:
+        prior = MotionNoisePrior.load(args.motion_noise_prior) if args.motion_noise_prior else None
+        motion = MotionNoiseConfig(prior=prior)
     inp = read_nav_inputs(args, log)
     imu, gnss, ref, notes, windows, lever = inp.imu, inp.gnss, inp.ref, inp.notes, inp.windows, inp.lever
     t0 = args.start if args.start is not None else (inp.dataset.extra.get("start_sow") if inp.dataset else None)
@@ -110,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
         detector=detector, learn_lambda0_s=args.learn_from,
         min_static_s=args.min_static, criterion=args.criterion, latency=args.latency, worker=args.worker,
         gate=not args.no_gate, zupt=args.zupt, floor="none" if args.no_floor else "default",
-        motion_noise=MotionNoiseConfig() if args.learn_motion_noise else None,
+        motion_noise=motion,
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -138,7 +145,8 @@ def run(args: argparse.Namespace) -> int:
                      "lambda0_m_s2": res.lambda0, "static_s": float(sum(s.duration for s in res.segments)),
                      "timing": res.timing, "config": {"criterion": config.criterion, "zupt": config.zupt,
                                                        "floor": config.floor, "latency": config.latency,
-                                                       "learn_motion_noise": bool(args.learn_motion_noise)}}
+                                                       "learn_motion_noise": motion is not None,
+                                                       "motion_noise_prior": args.motion_noise_prior}}
     metrics.update(run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)[0])
     if args.outage_runs and windows:
         outs = []
@@ -151,7 +159,8 @@ def run(args: argparse.Namespace) -> int:
     end = [e for e in res.events if e["event"] == "motion_noise_end"]
     if end:
         metrics["motion_noise"] = {"sigma_dph": end[-1]["sigma_dph"], "tc_s": end[-1]["tc_s"], "axes": ["x", "y", "z"],
-                                   "rehearsal_rounds": end[-1]["n_rehearsals"]}
+                                   "rehearsal_rounds": end[-1]["n_rehearsals"],
+                                   "carried_rounds": end[-1]["n_prior"], "evidence": end[-1]["evidence"]}
     metrics["warnings"] = notes
     atomic_write_text(out / "metrics.json", json.dumps(metrics, indent=1, default=json_default))
     fits = {ax: f.to_dict() for ax, f in zip(AXES, res.fits, strict=True) if f is not None}

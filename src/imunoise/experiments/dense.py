@@ -29,7 +29,10 @@ is unchanged); ``gmwm`` (the online engine, the paper's GOF); ``gmwm_hindsight``
 data); ``oracle`` on the simulator; ``adaptive`` — the plain filter with its bias process noise scaled
 online by covariance matching of the GNSS innovations (:mod:`imunoise.nav.adaptive`; not in the default list);
 ``gmwm_dyn`` — the online engine with in-motion gyro noise learned while driving by shadow filters that rehearse
-GNSS outages on the data seen (:mod:`imunoise.online.motion_noise`; not in the default list).
+GNSS outages on the data seen (:mod:`imunoise.online.motion_noise`; not in the default list);
+``gmwm_dyn_warm`` (simulator only) — ``gmwm_dyn`` starting with what it learned on an earlier drive of the
+same vehicle: the drive of seed + :data:`PRIOR_SEED_OFFSET` (same IMU models and motion law, another
+trajectory, other IMU and GNSS noise), GNSS-aided throughout, in the same GNSS regime (:func:`learn_prior`).
 Any method with the suffix ``+sf`` (e.g. ``gmwm+sf``) is the same
 method in the filter with the six scale-factor states (``EkfConfig.scale_factors``, the 21-state filter of
 KF-GINS), so ``--pairs gmwm+sf/gmwm`` pairs scale factors on against off window by window.
@@ -45,7 +48,7 @@ from __future__ import annotations
 import logging
 import multiprocessing as mp
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -56,12 +59,12 @@ from imunoise.experiments.common import Scenario, baseline_fits, filter_models, 
 from imunoise.experiments.gnss_regimes import GnssRegime
 from imunoise.experiments.stats import default_block, n_independent, paired_entry
 from imunoise.nav.metrics import nav_errors
-from imunoise.online import OnlineConfig, OnlineNavigator
+from imunoise.online import MotionNoisePrior, OnlineConfig, OnlineNavigator
 
 log = logging.getLogger(__name__)
 
 __all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "SF_SUFFIX", "method_setup",
-           "run_windows",
+           "run_windows", "learn_prior", "earlier_prior", "WARM_METHODS", "PRIOR_SEED_OFFSET",
            "run_real", "run_sim", "paired_list", "METRICS"]
 
 EVIDENCE_METHODS = ("plain", "static_var", "av", "em", "av_online", "em_online", "gmwm", "gmwm_hindsight")
@@ -79,7 +82,10 @@ LABELS = {
     "gmwm_hindsight": "GMWM, GOF (all static data)",
     "adaptive": "plain + innovation-based adaptive bias noise (covariance matching)",
     "gmwm_dyn": "GMWM + in-motion gyro noise learned by rehearsed outages",
+    "gmwm_dyn_warm": "gmwm_dyn carrying what it learned on an earlier drive of the same vehicle",
 }
+WARM_METHODS = ("gmwm_dyn_warm",)
+PRIOR_SEED_OFFSET = 7_000_000  # the earlier drive of gmwm_dyn_warm on the simulator: drive seed + this
 
 
 @dataclass(frozen=True)
@@ -243,16 +249,24 @@ def hindsight_fits(sc: Scenario, name: str, cache: dict) -> list:
     return cache[name]
 
 
-def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None,
-                 cache: dict | None = None) -> tuple[OnlineConfig, Any, _StopRefit | _Adaptive | None]:
-    """(OnlineConfig, initial models, stop-refit updater or None) of a method (module docstring)."""
+def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None, cache: dict | None = None, *,
+                 prior: MotionNoisePrior | None = None) -> tuple[OnlineConfig, Any, _StopRefit | _Adaptive | None]:
+    """(OnlineConfig, initial models, stop-refit updater or None) of a method (module docstring); ``prior``:
+    the evidence an earlier drive gives ``gmwm_dyn_warm`` (:func:`learn_prior`)."""
     from imunoise.experiments.online_exp import method_config
 
     cache = cache if cache is not None else {}
     if name.endswith(SF_SUFFIX):
         # the noise model is the method's own; only the filter's state vector gains the scale factors
-        cfg, models, upd = method_setup(name[: -len(SF_SUFFIX)], sc, base, cache)
+        cfg, models, upd = method_setup(name[: -len(SF_SUFFIX)], sc, base, cache, prior=prior)
         return cfg.with_(ekf=cfg.ekf.with_(scale_factors=True)), models, upd
+    if name in WARM_METHODS:
+        if prior is None:
+            raise ModelError(f"{name} needs what the learner learned on an earlier drive of the same vehicle: the "
+                             "simulator makes one (run_sim); for a real vehicle use `imunoise online "
+                             "--motion-noise-prior METRICS.json` of an earlier drive")
+        cfg, models, upd = method_setup("gmwm_dyn", sc, base, cache)
+        return cfg.with_(motion_noise=replace(cfg.motion_noise, prior=prior)), models, upd
     plain_cfg, _ = method_config("plain", sc, base)
     if name in ONLINE_BASELINES:
         gyro, accel = sc.imu.rates()
@@ -360,10 +374,19 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
 
 
 def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfig | None = None,
-                    cache: dict | None = None) -> dict:
+                    cache: dict | None = None, prior: MotionNoisePrior | None = None) -> dict:
     """:func:`run_windows` for one method (:func:`method_setup`)."""
-    cfg, models, upd = method_setup(name, sc, base, cache)
+    cfg, models, upd = method_setup(name, sc, base, cache, prior=prior)
     return run_windows(sc, cfg, gnss, windows, initial_models=models, updater=upd)
+
+
+def learn_prior(sc: Scenario, gnss, base: OnlineConfig | None = None) -> MotionNoisePrior:
+    """What ``gmwm_dyn`` learns on the whole GNSS-aided drive ``sc`` (no outage): the prior of the next drive
+    of the same vehicle (:class:`~imunoise.online.motion_noise.MotionNoisePrior`)."""
+    cfg, models, upd = method_setup("gmwm_dyn", sc, base, {})
+    full = run_windows(sc, cfg, gnss, [], initial_models=models, updater=upd, keep=True)["_full"]
+    end = [e for e in full.events if e["event"] == "motion_noise_end"]
+    return MotionNoisePrior.from_dict(end[-1]["evidence"])
 
 
 # --------------------------------------------------------------------------------------------------
@@ -424,6 +447,19 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = DenseSpec(), regimes: Se
 # --------------------------------------------------------------------------------------------------
 # simulator
 # --------------------------------------------------------------------------------------------------
+def earlier_prior(seed: int, regime: GnssRegime, noise_seed: int, *, base: OnlineConfig | None = None,
+                  earlier: Scenario | None = None, **scen_kw: Any) -> MotionNoisePrior:
+    """The prior of ``gmwm_dyn_warm`` on simulated drive ``seed``: :func:`learn_prior` on the drive of seed +
+    :data:`PRIOR_SEED_OFFSET` (``earlier``, or simulated with ``scen_kw``) in GNSS ``regime``, its noise seeded
+    like the drive's own (``1_000_003 · seed + noise_seed``)."""
+    from imunoise.experiments.common import simulate_scenario
+
+    s = int(seed) + PRIOR_SEED_OFFSET
+    if earlier is None:
+        earlier = simulate_scenario(s, n_outages=0, **scen_kw)
+    return learn_prior(earlier, regime.apply(earlier.gnss, 1_000_003 * s + noise_seed), base)
+
+
 def _sim_job(args: tuple) -> dict:
     seed, methods, regimes, noise_seeds, spec, kw, base = args
     from imunoise.experiments.common import simulate_scenario
@@ -431,14 +467,19 @@ def _sim_job(args: tuple) -> dict:
     logging.getLogger("imunoise").setLevel(logging.WARNING)
     sc = simulate_scenario(seed, n_outages=0, **kw)
     windows = dense_windows(sc, spec)
+    # the earlier drive of the same vehicle (same IMU, same motion law, another trajectory and noise) that the
+    # warm methods learn from
+    earlier = (simulate_scenario(seed + PRIOR_SEED_OFFSET, n_outages=0, **kw)
+               if any(m.removesuffix(SF_SUFFIX) in WARM_METHODS for m in methods) else None)
     cache: dict = {}
     runs = []
     for ri, rg in enumerate(regimes):
         for ns in (noise_seeds if rg.random else [0]):
             # the noise seed is offset by the drive seed so different drives get different GNSS noise
             gnss = rg.apply(sc.gnss, 1_000_003 * seed + ns)
+            prior = earlier_prior(seed, rg, ns, base=base, earlier=earlier) if earlier is not None else None
             for m in methods:
-                runs.append((m, ri, ns, evaluate_method(sc, m, gnss, windows, base=base, cache=cache)))
+                runs.append((m, ri, ns, evaluate_method(sc, m, gnss, windows, base=base, cache=cache, prior=prior)))
     return {"seed": seed, "name": sc.name, "windows": windows, "runs": runs}
 
 

@@ -32,6 +32,7 @@ from imunoise.online.jobs import model_job
 from imunoise.online.motion_noise import (
     MotionNoiseConfig,
     MotionNoiseLearner,
+    MotionNoisePrior,
     add_motion_gm,
     horizontal_distance,
     ned_offset,
@@ -60,6 +61,7 @@ __all__ = [
     "stop_verdict",
     "MotionNoiseConfig",
     "MotionNoiseLearner",
+    "MotionNoisePrior",
     "add_motion_gm",
     "ned_offset",
     "horizontal_distance",

@@ -44,6 +44,15 @@ Guard. A candidate is refused (event ``motion_noise_rejected``, logged once) whe
 with the GNSS it was aided by: the mean NIS of its fixes (3 dof) outside the two-sided 95 % χ² band of their
 number and farther from 3 than the shadow with nothing added.
 
+Carried evidence. The in-motion noise is a property of the IMU in its vehicle, so what one drive learned
+serves the next: :meth:`MotionNoiseLearner.evidence` returns the current choice and every rehearsal round's
+scores (a :class:`MotionNoisePrior`; ``imunoise online`` writes it into ``metrics.json``), and
+``MotionNoiseConfig(prior=...)`` starts a learner with them. The live filter then uses the carried choice from
+its first sample, and every decision of the new drive is made on the carried rounds and its own together (the
+same rule, once the new drive has ``min_pairs`` rounds of its own: until then the carried choice holds, as the
+NIS guard on a few fixes refused carried choices at random on development seeds). A drive of a different
+vehicle or IMU must start without a prior.
+
 Online. The shadows and rehearsals run in the navigator's worker: ``inline`` computes them when due
 (deterministic; the same in :meth:`~imunoise.online.navigator.OnlineNavigator.run` and the push API);
 ``thread`` runs them in a background thread (the kernel releases the GIL) and the choice takes effect at the
@@ -55,24 +64,94 @@ in, and the shadows take the new static model at the same filter time.
 from __future__ import annotations
 
 import copy
+import json
 import math
 from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy.stats import chi2
 
-from imunoise.errors import ModelError
+from imunoise.errors import DataError, ModelError
 from imunoise.model import Model
 from imunoise.nav.earth import radii
 from imunoise.nav.solution import antenna_llh
 from imunoise.processes import AR1
 
-__all__ = ["MotionNoiseConfig", "MotionNoiseLearner", "add_motion_gm", "ned_offset", "horizontal_distance"]
+__all__ = ["MotionNoiseConfig", "MotionNoisePrior", "MotionNoiseLearner", "add_motion_gm", "ned_offset",
+           "horizontal_distance"]
 
 _DPH = math.pi / 180.0 / 3600.0  # °/h → rad/s
+
+
+Spec = tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
+
+
+@dataclass(frozen=True)
+class MotionNoisePrior:
+    """What a learner learned on earlier drives of the same IMU in the same vehicle (module docstring).
+
+    ``spec``: the choice per gyro axis, (σ °/h, T_c s), σ = 0 nothing added; ``scores``: per rehearsal round the
+    log RMS drift [log m] of every shadow, in the order of ``candidates`` (the shadows' specs, which must be
+    the learner's own)."""
+
+    spec: Spec
+    scores: tuple[tuple[float, ...], ...]
+    candidates: tuple[Spec, ...]
+
+    def __post_init__(self) -> None:
+        def as_spec(x: Any) -> Spec:
+            out = tuple((float(a[0]), float(a[1])) for a in x)
+            if len(out) != 3:
+                raise ValueError
+            return out  # type: ignore[return-value]
+
+        try:
+            spec = as_spec(self.spec)
+            cands = tuple(as_spec(c) for c in self.candidates)
+            scores = tuple(tuple(float(v) for v in row) for row in self.scores)
+        except (TypeError, ValueError, IndexError) as exc:
+            raise ModelError("a motion-noise prior needs spec = 3 (σ °/h, T_c s) pairs, candidates = a list of "
+                             "such specs and scores = rows of one number per candidate") from exc
+        if any(len(r) != len(cands) or not all(math.isfinite(v) for v in r) for r in scores):
+            raise ModelError(f"motion-noise prior: every score row needs {len(cands)} finite values "
+                             "(one per candidate)")
+        object.__setattr__(self, "spec", spec)
+        object.__setattr__(self, "candidates", cands)
+        object.__setattr__(self, "scores", scores)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (``imunoise online`` writes it as ``metrics.json["motion_noise"]["evidence"]``)."""
+        return {"spec": [list(a) for a in self.spec], "candidates": [[list(a) for a in c] for c in self.candidates],
+                "scores": [list(r) for r in self.scores]}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> MotionNoisePrior:
+        """From :meth:`to_dict`, or from a whole ``metrics.json`` of ``imunoise online --learn-motion-noise``."""
+        if isinstance(d, dict) and "motion_noise" in d:
+            d = d["motion_noise"]
+        if isinstance(d, dict) and "evidence" in d:
+            d = d["evidence"]
+        if not isinstance(d, dict) or not {"spec", "candidates", "scores"} <= set(d):
+            raise ModelError("not a motion-noise prior: expected the metrics.json of `imunoise online "
+                             "--learn-motion-noise` or a dict with spec, candidates and scores")
+        return cls(d["spec"], d["scores"], d["candidates"])
+
+    @classmethod
+    def load(cls, path: str | Path) -> MotionNoisePrior:
+        """Read a prior from a JSON file (a ``metrics.json`` of ``imunoise online --learn-motion-noise`` or
+        :meth:`to_dict` saved)."""
+        p = Path(path)
+        try:
+            d = json.loads(p.read_text())
+        except FileNotFoundError as exc:
+            raise DataError(f"motion-noise prior {p} does not exist") from exc
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise DataError(f"motion-noise prior {p} is not a readable JSON file: {exc}") from exc
+        return cls.from_dict(d)
 
 
 @dataclass(frozen=True)
@@ -86,7 +165,8 @@ class MotionNoiseConfig:
     rehearsed outage [s]; ``every_s``: one rehearsal per shadow every this many seconds; ``min_speed_mps``:
     rehearse only while the filter's horizontal speed exceeds this; ``min_pairs``: rehearsals a move needs;
     ``margin``: paired mean log-score a move must beat (0.02 ≈ 2 % less drift); ``min_t``: and its paired t
-    statistic must be below −``min_t``; ``guard``: the NIS guard."""
+    statistic must be below −``min_t``; ``guard``: the NIS guard; ``prior``: the evidence of earlier drives of
+    the same IMU in the same vehicle (:class:`MotionNoisePrior`), or None."""
 
     sigma_dph: tuple[float, ...] = (30.0, 100.0, 300.0)
     tc_s: tuple[float, ...] = (3.0, 30.0)
@@ -99,6 +179,7 @@ class MotionNoiseConfig:
     guard: bool = True
     criterion: str = "drift"
     search: str = "axis"
+    prior: MotionNoisePrior | None = None
 
     def __post_init__(self) -> None:
         sg = tuple(float(x) for x in self.sigma_dph)
@@ -116,6 +197,24 @@ class MotionNoiseConfig:
                 and self.min_t >= 0 and self.min_speed_mps >= 0):
             raise ModelError("MotionNoiseConfig: outage_s, every_s > 0 s; min_pairs ≥ 1; margin, min_t, "
                              "min_speed_mps ≥ 0")
+        if self.prior is not None:
+            if not isinstance(self.prior, MotionNoisePrior):
+                raise ModelError(f"MotionNoiseConfig.prior must be a MotionNoisePrior, got {type(self.prior).__name__}")
+            if list(self.prior.candidates) != self.candidates:
+                raise ModelError("the motion-noise prior was learned with other candidates (sigma_dph, tc_s, search) "
+                                 "than this learner's; learn it again with these settings or start without it")
+            if self.prior.spec not in [tuple(c) for c in self._choices()]:
+                raise ModelError(f"the motion-noise prior's choice {self.prior.spec} is not a combination of this "
+                                 "learner's candidates")
+
+    def _choices(self) -> list[Spec]:
+        """Every spec the learner can end in: per axis nothing or a candidate (``"axis"``), or one candidate
+        for the three (``"shared"``)."""
+        none = (0.0, self.tc_s[0])
+        per = [none] + [(sg, tc) for sg in self.sigma_dph for tc in self.tc_s]
+        if self.search == "shared":
+            return [(a, a, a) for a in per]
+        return [(a, b, c) for a in per for b in per for c in per]
 
     @property
     def candidates(self) -> list[tuple[tuple[float, float], ...]]:
@@ -190,12 +289,15 @@ class MotionNoiseLearner:
         self.rate = float(rate_hz)
         self.lever = np.asarray(lever, dtype=float)
         self.worker = worker
-        self.spec = self.cands[0]
+        self.spec = self.cands[0] if config.prior is None else config.prior.spec
+        self.n_prior = 0 if config.prior is None else len(config.prior.scores)  # rounds carried from earlier drives
         self.t_start: float | None = None  # filter time the shadows started (the first aided moving step)
         self.n_starts = 0  # starts of the shadows (a restart after every stretch without GNSS)
         self.history: list[dict] = []
         self.n_rehearsals = 0
-        self.scores: list[np.ndarray] = []  # per rehearsal round: log RMS drift per candidate
+        # per rehearsal round: log RMS drift per candidate (the carried rounds first)
+        self.scores: list[np.ndarray] = ([] if config.prior is None else
+                                         [np.array(r, dtype=float) for r in config.prior.scores])
         self._nis = np.zeros((len(self.cands), 2))  # per shadow: sum of NIS, number of fixes
         self._shadows: list[Any] | None = None
         self._stale = False  # a round found no GNSS: the shadows wait for the next aided moving step
@@ -220,6 +322,11 @@ class MotionNoiseLearner:
     def tc(self) -> list[float]:
         """T_c [s] per gyro axis."""
         return [a[1] for a in self.spec]
+
+    def evidence(self) -> MotionNoisePrior:
+        """The current choice and every rehearsal round's scores (the carried ones included): the prior of the
+        next drive of the same IMU in the same vehicle (module docstring)."""
+        return MotionNoisePrior(self.spec, tuple(tuple(float(v) for v in r) for r in self.scores), tuple(self.cands))
 
     def compose(self, static_models: Sequence[Any], spec: Sequence[tuple[float, float]] | None = None) -> list:
         """``static_models`` with the in-motion part ``spec`` (default the current one)."""
@@ -395,7 +502,9 @@ class MotionNoiseLearner:
             self.scores.append(res["scores"])
             self.n_rehearsals += 1
         c = self.config
-        if len(self.scores) < c.min_pairs:
+        if self.n_rehearsals < c.min_pairs:
+            # a carried choice holds until this drive has its own min_pairs rounds: the NIS guard and a change
+            # need this drive's data, not a few of its fixes
             return
         S = np.array(self.scores)
         nis = self._nis[:, 0] / np.maximum(self._nis[:, 1], 1.0)
@@ -440,7 +549,7 @@ class MotionNoiseLearner:
         if spec == self.spec:
             return
         info = {"from_sigma_dph": self.sigma_dph, "sigma_dph": [a[0] for a in spec], "tc_s": [a[1] for a in spec],
-                "n_rehearsals": int(S.shape[0]),
+                "n_rehearsals": int(S.shape[0]), "n_prior": self.n_prior,
                 "paired_log_score": {str(g): float(np.mean(S[:, k] - S[:, 0])) for g, k in pick.items()},
                 "nis_mean": {str(g): float(nis[k]) for g, k in pick.items()}, "nis_mean_none": float(nis[0])}
         self.spec = spec

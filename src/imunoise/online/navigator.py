@@ -138,6 +138,13 @@ class OnlineNavigator:
         self.init = init
         models = initial_models if initial_models is not None else default_axis_models(self.rate,
                                                                                         config.ekf.fallback)
+        # the models without the learned in-motion part (the stops' model; what the learner adds to)
+        self.static_models = normalize_axis_models(models, self.rate)
+        self._motion = (MotionNoiseLearner(config.motion_noise, self.rate, config.ekf.lever_arm, worker=config.worker)
+                        if config.motion_noise is not None else None)
+        if self._motion is not None and config.motion_noise.prior is not None:
+            # the choice carried from earlier drives holds from the first sample
+            models = self._motion.compose(self.static_models)
         self.ekf = LooselyCoupledEKF(config.ekf, models, init, imu_rate_hz=self.rate)
         self._floor = [m for m, _ in default_axis_models(self.rate, config.ekf.fallback)]
         self._started = False  # first sample after init.t seen
@@ -184,10 +191,6 @@ class OnlineNavigator:
         self._gate_log: list[bool] = []
         self._elapsed = 0.0
         self.current_models = models
-        # the models without the learned in-motion part (the stops' model; what the learner adds to)
-        self.static_models = normalize_axis_models(models, self.rate)
-        self._motion = (MotionNoiseLearner(config.motion_noise, self.rate, config.ekf.lever_arm, worker=config.worker)
-                        if config.motion_noise is not None else None)
         self._motion_fixes: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._job_cache = job_cache
         self._ekf_models_log: list[tuple[float, list[str]]] = []
@@ -374,7 +377,8 @@ class OnlineNavigator:
             self._motion_events(self._t_last, n_hist)
             m = self._motion
             self._event("motion_noise_end", self._t_last, sigma_dph=m.sigma_dph, tc_s=m.tc,
-                        n_rehearsals=m.n_rehearsals, n_starts=m.n_starts)
+                        n_rehearsals=m.n_rehearsals, n_prior=m.n_prior, n_starts=m.n_starts,
+                        evidence=m.evidence().to_dict())
         if self.detector is not None:
             self.detector.finish()
         self._elapsed += time.perf_counter() - t0
