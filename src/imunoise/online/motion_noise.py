@@ -49,9 +49,8 @@ serves the next: :meth:`MotionNoiseLearner.evidence` returns the current choice 
 scores (a :class:`MotionNoisePrior`; ``imunoise online`` writes it into ``metrics.json``), and
 ``MotionNoiseConfig(prior=...)`` starts a learner with them. The live filter then uses the carried choice from
 its first sample, and every decision of the new drive is made on the carried rounds and its own together (the
-same rule, once the new drive has ``min_pairs`` rounds of its own: until then the carried choice holds, as the
-NIS guard on a few fixes refused carried choices at random on development seeds). A drive of a different
-vehicle or IMU must start without a prior.
+same rule and guard from the new drive's first round on). A drive of a different vehicle or IMU must start
+without a prior.
 
 Online. The shadows and rehearsals run in the navigator's worker: ``inline`` computes them when due
 (deterministic; the same in :meth:`~imunoise.online.navigator.OnlineNavigator.run` and the push API);
@@ -502,9 +501,7 @@ class MotionNoiseLearner:
             self.scores.append(res["scores"])
             self.n_rehearsals += 1
         c = self.config
-        if self.n_rehearsals < c.min_pairs:
-            # a carried choice holds until this drive has its own min_pairs rounds: the NIS guard and a change
-            # need this drive's data, not a few of its fixes
+        if len(self.scores) < c.min_pairs:  # carried rounds count: a warm learner decides from its first round
             return
         S = np.array(self.scores)
         nis = self._nis[:, 0] / np.maximum(self._nis[:, 1], 1.0)
