@@ -41,7 +41,8 @@ def nees_run(args: tuple) -> dict:
     sc = simulate_scenario(seed, n_outages=0, motion_noise=motion)
     regime = parse_gnss(gnss_spec)
     gnss = regime.apply(sc.gnss, 1_000_003 * seed + 1)
-    prior = earlier_prior(seed, regime, 1, motion_noise=motion) if method in WARM_METHODS else None
+    prior = (earlier_prior(seed, regime, 1, n_drives=WARM_METHODS[method], motion_noise=motion)
+             if method in WARM_METHODS else None)
     cfg, models, upd = method_setup(method, sc, prior=prior)
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
     t = np.asarray(sc.imu.t)

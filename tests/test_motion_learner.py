@@ -12,7 +12,7 @@ import pytest
 
 from imunoise.errors import DataError, ModelError
 from imunoise.experiments.common import simulate_scenario
-from imunoise.experiments.dense import method_setup
+from imunoise.experiments.dense import PRIOR_SEED_OFFSET, earlier_prior, learn_prior, method_setup
 from imunoise.experiments.gnss_regimes import parse_gnss
 from imunoise.nav.defaults import default_axis_models
 from imunoise.online import OnlineNavigator
@@ -254,3 +254,16 @@ def test_warm_method_needs_an_earlier_drive(drive, inline_run):
     assert select_methods("online", True, "gmwm,gmwm_dyn_warm", evidence=True) == ("gmwm", "gmwm_dyn_warm")
     with pytest.raises(ModelError, match="unknown method"):  # a real drive has no earlier drive here
         select_methods("online", False, "gmwm_dyn_warm", evidence=True)
+
+
+def test_warm_prior_chains_the_earlier_drives_oldest_first():
+    # earlier drives in a row: each starts with what the ones before it learned, so the last one's evidence
+    # holds the oldest drive's rounds first, unchanged, and then the later drive's own
+    sc = simulate_scenario(5, n_outages=0, duration_s=300.0, n_stops=2)
+    regime = parse_gnss("noise:1.5,3")
+    oldest = learn_prior(sc, regime.apply(sc.gnss, 1_000_003 * (9 + 2 * PRIOR_SEED_OFFSET) + 1))
+    chained = earlier_prior(9, regime, 1, n_drives=2, earlier=[sc, sc])
+    assert 0 < len(oldest.scores) < len(chained.scores)
+    assert chained.scores[: len(oldest.scores)] == oldest.scores
+    with pytest.raises(ModelError, match="at least one earlier drive"):
+        earlier_prior(9, regime, 1, n_drives=0, earlier=[sc])

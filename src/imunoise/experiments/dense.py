@@ -32,7 +32,9 @@ online by covariance matching of the GNSS innovations (:mod:`imunoise.nav.adapti
 GNSS outages on the data seen (:mod:`imunoise.online.motion_noise`; not in the default list);
 ``gmwm_dyn_warm`` (simulator only) — ``gmwm_dyn`` starting with what it learned on an earlier drive of the
 same vehicle: the drive of seed + :data:`PRIOR_SEED_OFFSET` (same IMU models and motion law, another
-trajectory, other IMU and GNSS noise), GNSS-aided throughout, in the same GNSS regime (:func:`learn_prior`).
+trajectory, other IMU and GNSS noise), GNSS-aided throughout, in the same GNSS regime (:func:`learn_prior`);
+``gmwm_dyn_warm3`` — the same after three earlier drives (seed + 3, 2, 1 × :data:`PRIOR_SEED_OFFSET`, in that
+order, each starting with what the drives before it learned; the last is ``gmwm_dyn_warm``'s).
 Any method with the suffix ``+sf`` (e.g. ``gmwm+sf``) is the same
 method in the filter with the six scale-factor states (``EkfConfig.scale_factors``, the 21-state filter of
 KF-GINS), so ``--pairs gmwm+sf/gmwm`` pairs scale factors on against off window by window.
@@ -83,9 +85,10 @@ LABELS = {
     "adaptive": "plain + innovation-based adaptive bias noise (covariance matching)",
     "gmwm_dyn": "GMWM + in-motion gyro noise learned by rehearsed outages",
     "gmwm_dyn_warm": "gmwm_dyn carrying what it learned on an earlier drive of the same vehicle",
+    "gmwm_dyn_warm3": "gmwm_dyn carrying what it learned on three earlier drives of the same vehicle",
 }
-WARM_METHODS = ("gmwm_dyn_warm",)
-PRIOR_SEED_OFFSET = 7_000_000  # the earlier drive of gmwm_dyn_warm on the simulator: drive seed + this
+WARM_METHODS: dict[str, int] = {"gmwm_dyn_warm": 1, "gmwm_dyn_warm3": 3}  # method → earlier drives it carries
+PRIOR_SEED_OFFSET = 7_000_000  # the k-th drive before drive seed on the simulator: seed + k · this
 
 
 @dataclass(frozen=True)
@@ -380,10 +383,12 @@ def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfi
     return run_windows(sc, cfg, gnss, windows, initial_models=models, updater=upd)
 
 
-def learn_prior(sc: Scenario, gnss, base: OnlineConfig | None = None) -> MotionNoisePrior:
-    """What ``gmwm_dyn`` learns on the whole GNSS-aided drive ``sc`` (no outage): the prior of the next drive
-    of the same vehicle (:class:`~imunoise.online.motion_noise.MotionNoisePrior`)."""
-    cfg, models, upd = method_setup("gmwm_dyn", sc, base, {})
+def learn_prior(sc: Scenario, gnss, base: OnlineConfig | None = None,
+                prior: MotionNoisePrior | None = None) -> MotionNoisePrior:
+    """What ``gmwm_dyn`` learns on the whole GNSS-aided drive ``sc`` (no outage), starting from ``prior`` (what
+    the drives before it learned) if given: the prior of the next drive of the same vehicle
+    (:class:`~imunoise.online.motion_noise.MotionNoisePrior`; its rounds are the carried ones and this drive's)."""
+    cfg, models, upd = method_setup("gmwm_dyn" if prior is None else "gmwm_dyn_warm", sc, base, {}, prior=prior)
     full = run_windows(sc, cfg, gnss, [], initial_models=models, updater=upd, keep=True)["_full"]
     end = [e for e in full.events if e["event"] == "motion_noise_end"]
     return MotionNoisePrior.from_dict(end[-1]["evidence"])
@@ -447,17 +452,26 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = DenseSpec(), regimes: Se
 # --------------------------------------------------------------------------------------------------
 # simulator
 # --------------------------------------------------------------------------------------------------
-def earlier_prior(seed: int, regime: GnssRegime, noise_seed: int, *, base: OnlineConfig | None = None,
-                  earlier: Scenario | None = None, **scen_kw: Any) -> MotionNoisePrior:
-    """The prior of ``gmwm_dyn_warm`` on simulated drive ``seed``: :func:`learn_prior` on the drive of seed +
-    :data:`PRIOR_SEED_OFFSET` (``earlier``, or simulated with ``scen_kw``) in GNSS ``regime``, its noise seeded
-    like the drive's own (``1_000_003 · seed + noise_seed``)."""
+def earlier_prior(seed: int, regime: GnssRegime, noise_seed: int, *, n_drives: int = 1,
+                  base: OnlineConfig | None = None, earlier: Sequence[Scenario] | None = None,
+                  **scen_kw: Any) -> MotionNoisePrior:
+    """The prior of a warm method on simulated drive ``seed`` after ``n_drives`` earlier drives of the same
+    vehicle: :func:`learn_prior` on the drives of seed + k · :data:`PRIOR_SEED_OFFSET`, k = ``n_drives`` … 1 in
+    that order, each starting with what the ones before it learned. ``earlier[k - 1]`` is drive k if given (else
+    it is simulated with ``scen_kw``); each in GNSS ``regime``, its noise seeded like a drive's own
+    (``1_000_003 · drive seed + noise_seed``)."""
     from imunoise.experiments.common import simulate_scenario
 
-    s = int(seed) + PRIOR_SEED_OFFSET
-    if earlier is None:
-        earlier = simulate_scenario(s, n_outages=0, **scen_kw)
-    return learn_prior(earlier, regime.apply(earlier.gnss, 1_000_003 * s + noise_seed), base)
+    if n_drives < 1:
+        raise ModelError(f"a warm method needs at least one earlier drive, not {n_drives}")
+    prior = None
+    for k in range(n_drives, 0, -1):
+        s = int(seed) + k * PRIOR_SEED_OFFSET
+        sc = (earlier[k - 1] if earlier is not None and len(earlier) >= k
+              else simulate_scenario(s, n_outages=0, **scen_kw))
+        prior = learn_prior(sc, regime.apply(sc.gnss, 1_000_003 * s + noise_seed), base, prior)
+    assert prior is not None
+    return prior
 
 
 def _sim_job(args: tuple) -> dict:
@@ -469,16 +483,19 @@ def _sim_job(args: tuple) -> dict:
     windows = dense_windows(sc, spec)
     # the earlier drive of the same vehicle (same IMU, same motion law, another trajectory and noise) that the
     # warm methods learn from
-    earlier = (simulate_scenario(seed + PRIOR_SEED_OFFSET, n_outages=0, **kw)
-               if any(m.removesuffix(SF_SUFFIX) in WARM_METHODS for m in methods) else None)
+    n_warm = {m: WARM_METHODS[m.removesuffix(SF_SUFFIX)] for m in methods if m.removesuffix(SF_SUFFIX) in WARM_METHODS}
+    earlier = [simulate_scenario(seed + k * PRIOR_SEED_OFFSET, n_outages=0, **kw)
+               for k in range(1, max(n_warm.values(), default=0) + 1)]
     cache: dict = {}
     runs = []
     for ri, rg in enumerate(regimes):
         for ns in (noise_seeds if rg.random else [0]):
             # the noise seed is offset by the drive seed so different drives get different GNSS noise
             gnss = rg.apply(sc.gnss, 1_000_003 * seed + ns)
-            prior = earlier_prior(seed, rg, ns, base=base, earlier=earlier) if earlier is not None else None
+            priors = {n: earlier_prior(seed, rg, ns, n_drives=n, base=base, earlier=earlier)
+                      for n in sorted(set(n_warm.values()))}
             for m in methods:
+                prior = priors[n_warm[m]] if m in n_warm else None
                 runs.append((m, ri, ns, evaluate_method(sc, m, gnss, windows, base=base, cache=cache, prior=prior)))
     return {"seed": seed, "name": sc.name, "windows": windows, "runs": runs}
 

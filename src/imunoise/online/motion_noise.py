@@ -102,19 +102,21 @@ class MotionNoisePrior:
     candidates: tuple[Spec, ...]
 
     def __post_init__(self) -> None:
-        def as_spec(x: Any) -> Spec:
-            out = tuple((float(a[0]), float(a[1])) for a in x)
-            if len(out) != 3:
-                raise ValueError
-            return out  # type: ignore[return-value]
+        def as_spec(x: Any) -> tuple[tuple[float, float], ...]:
+            return tuple((float(a[0]), float(a[1])) for a in x)
 
         try:
             spec = as_spec(self.spec)
             cands = tuple(as_spec(c) for c in self.candidates)
             scores = tuple(tuple(float(v) for v in row) for row in self.scores)
         except (TypeError, ValueError, IndexError) as exc:
+            spec = cands = ()  # the message below says what is wrong
+            bad: BaseException | None = exc
+        else:
+            bad = None
+        if bad is not None or len(spec) != 3 or any(len(c) != 3 for c in cands):
             raise ModelError("a motion-noise prior needs spec = 3 (σ °/h, T_c s) pairs, candidates = a list of "
-                             "such specs and scores = rows of one number per candidate") from exc
+                             "such specs and scores = rows of one number per candidate") from bad
         if any(len(r) != len(cands) or not all(math.isfinite(v) for v in r) for r in scores):
             raise ModelError(f"motion-noise prior: every score row needs {len(cands)} finite values "
                              "(one per candidate)")
