@@ -2,8 +2,9 @@
 
 Reads ``results.json`` of one or more runs and prints, per run and GNSS regime, the paired geometric-mean
 ratios of every method against ``plain`` and ``static_var`` (drift, RMS inside the window, aided RMS) with
-their 95 % CIs, **bold** where the CI excludes 1, then the extra pairs asked with ``--pairs``. Used for the
-tables in docs/acceptance/.
+their 95 % CIs, **bold** where the CI excludes 1, then the extra pairs asked with ``--pairs``, and, when the run
+has ``oracle`` and ``plain``, every method's share of the oracle's log-gain over plain in end drift (issue 13,
+acceptance 1) with its paired bootstrap CI. Used for the tables in docs/acceptance/.
 
     python scripts/evidence_tables.py out/evidence/results.json [more/results.json ...]
 """
@@ -13,6 +14,8 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+
+from imunoise.experiments.stats import drive_log_ratios, gain_share
 
 METRICS = (("drift", "drift"), ("rms", "rms"), ("aided_rms", "aided RMS"))
 
@@ -50,7 +53,26 @@ def tables(res: dict) -> str:
             lines += ["", "| pair | " + " | ".join(lab for _, lab in METRICS) + " |", "|---|---|---|---|"]
             for a, b in extra:
                 lines.append(f"| {a} / {b} | " + " | ".join(_cell(by.get((g, a, b, k))) for k, _ in METRICS) + " |")
+        lines += _share_rows(res, g)
     return "\n".join(lines)
+
+
+def _share_rows(res: dict, g: str) -> list[str]:
+    """Each method's share of the oracle's log-gain over plain in end drift, with its 95 % CI."""
+    drift = res.get("per_window", {}).get(g, {}).get("drift", {})
+    if "oracle" not in drift or "plain" not in drift:
+        return []
+    proto = res["protocol"]
+    ref = [drive_log_ratios(a, b) for a, b in zip(drift["oracle"], drift["plain"], strict=True)]
+    out = ["", "| share of the oracle's log-gain over plain (end drift) | share [95 % CI] |", "|---|---|"]
+    for m in res["methods"]:
+        if m in ("plain", "oracle") or m not in drift:
+            continue
+        groups = [drive_log_ratios(a, b) for a, b in zip(drift[m], drift["plain"], strict=True)]
+        r = gain_share(groups, ref, proto["block"], n_boot=proto.get("n_boot", 2000), seed=proto.get("boot_seed", 0))
+        if r["share"] is not None:
+            out.append(f"| {m} | {100 * r['share']:.1f} % [{100 * r['ci'][0]:.1f}, {100 * r['ci'][1]:.1f}] |")
+    return out
 
 
 def main(paths: list[str]) -> int:

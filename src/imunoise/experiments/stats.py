@@ -34,7 +34,8 @@ from scipy import stats
 
 from imunoise.errors import DataError, ModelError
 
-__all__ = ["default_block", "n_independent", "log_ratios", "drive_log_ratios", "bootstrap_ratio", "paired_entry"]
+__all__ = ["default_block", "n_independent", "log_ratios", "drive_log_ratios", "bootstrap_ratio", "paired_entry",
+           "gain_share"]
 
 
 def default_block(length_s: float, step_s: float) -> int:
@@ -68,14 +69,17 @@ def log_ratios(a: Sequence[float | None], b: Sequence[float | None]) -> np.ndarr
     return out
 
 
-def _mbb_sums(x: np.ndarray, block: int, n_draw: int, rng: np.random.Generator) -> np.ndarray:
-    """``n_draw`` moving-block-bootstrap sums of the series ``x`` (same length, blocks of ``block``)."""
-    n = x.size
+def _mbb_index(n: int, block: int, n_draw: int, rng: np.random.Generator) -> np.ndarray:
+    """``n_draw`` moving-block-bootstrap resamples (rows of indices into a series of length ``n``)."""
     b = max(1, min(block, n))
     m = math.ceil(n / b)
     starts = rng.integers(0, n - b + 1, size=(n_draw, m))
-    idx = (starts[:, :, None] + np.arange(b)[None, None, :]).reshape(n_draw, m * b)[:, :n]
-    return x[idx].sum(axis=1)
+    return (starts[:, :, None] + np.arange(b)[None, None, :]).reshape(n_draw, m * b)[:, :n]
+
+
+def _mbb_sums(x: np.ndarray, block: int, n_draw: int, rng: np.random.Generator) -> np.ndarray:
+    """``n_draw`` moving-block-bootstrap sums of the series ``x`` (same length, blocks of ``block``)."""
+    return x[_mbb_index(x.size, block, n_draw, rng)].sum(axis=1)
 
 
 def bootstrap_ratio(groups: Sequence[np.ndarray], block: int, *, n_boot: int = 2000, level: float = 0.95,
@@ -162,3 +166,57 @@ def paired_entry(method: str, baseline: str, metric: str, values: dict, block: i
     return {"method": method, "baseline": baseline, "metric": metric, "ratio": r["ratio"], "ci": r["ci"],
             "n_windows": r["n_windows"], "n_drives": r["n_drives"], "n_independent": n_independent_total,
             "significant": bool(sig)}
+
+
+def gain_share(groups: Sequence[np.ndarray], ref_groups: Sequence[np.ndarray], block: int, *, n_boot: int = 2000,
+               level: float = 0.95, seed: int = 0) -> dict:
+    """Share of a reference's log-gain that a method captures: ``Σ log(m/plain) / Σ log(ref/plain)`` over the
+    windows where both are finite (= log ratio_m / log ratio_ref of the geometric means there; issue 13,
+    acceptance 1, with ref = the oracle), with a percentile CI from the two-level bootstrap of
+    :func:`bootstrap_ratio` drawing the same drives and windows for numerator and denominator (paired).
+
+    Parameters
+    ----------
+    groups, ref_groups
+        Per drive, the method's and the reference's log-ratios against the same baseline, windows in time order.
+    block, n_boot, level, seed
+        As :func:`bootstrap_ratio`.
+
+    Returns
+    -------
+    dict
+        ``share`` (None if the reference gains nothing), ``ci`` [lo, hi] (percentile; replicates whose reference
+        gain is 0 are dropped), ``n_windows``, ``n_drives``.
+    """
+    if len(groups) != len(ref_groups):
+        raise DataError(f"gain share needs the same drives, got {len(groups)} and {len(ref_groups)}")
+    pairs = []
+    for g, r in zip(groups, ref_groups, strict=True):
+        g, r = np.asarray(g, dtype=float), np.asarray(r, dtype=float)
+        if g.shape != r.shape:
+            raise DataError(f"gain share needs the same windows per drive, got {g.size} and {r.size}")
+        ok = np.isfinite(g) & np.isfinite(r)
+        if ok.any():
+            pairs.append((g[ok], r[ok]))
+    n_win = int(sum(g.size for g, _ in pairs))
+    den = float(sum(r.sum() for _, r in pairs))
+    if not pairs or den == 0.0:
+        return {"share": None, "ci": [None, None], "n_windows": n_win, "n_drives": len(pairs)}
+    if not (0 < level < 1) or n_boot < 10:
+        raise ModelError(f"bootstrap needs 0 < level < 1 and n_boot ≥ 10, got {level}, {n_boot}")
+    share = float(sum(g.sum() for g, _ in pairs)) / den
+    rng = np.random.default_rng(seed)
+    d = len(pairs)
+    pick = rng.integers(0, d, size=(n_boot, d)) if d > 1 else np.zeros((n_boot, 1), dtype=int)
+    num_b = np.zeros(n_boot)
+    den_b = np.zeros(n_boot)
+    for j, (g, r) in enumerate(pairs):
+        rows = np.nonzero(pick == j)[0]
+        if not rows.size:
+            continue
+        idx = _mbb_index(g.size, block, rows.size, rng)
+        np.add.at(num_b, rows, g[idx].sum(axis=1))
+        np.add.at(den_b, rows, r[idx].sum(axis=1))
+    ok = den_b != 0.0
+    q = np.quantile(num_b[ok] / den_b[ok], [0.5 - level / 2, 0.5 + level / 2])
+    return {"share": share, "ci": [float(q[0]), float(q[1])], "n_windows": n_win, "n_drives": d}
