@@ -180,11 +180,13 @@ def _print(m: dict, res) -> None:
         elif e["event"] == "motion_noise":
             lm = ", ".join(f"{a} {sg:g} °/h (T_c {tc:g} s)" for a, sg, tc in zip("xyz", e["sigma_dph"], e["tc_s"])
                            if sg > 0) or "nothing"
-            print(f"in-motion gyro noise at {e['t']:.1f} s after {e['n_rehearsals']} rehearsal rounds: {lm}")
+            carried = f" ({e['n_prior']} of them carried from earlier drives)" if e.get("n_prior") else ""
+            print(f"in-motion gyro noise at {e['t']:.1f} s after {e['n_rehearsals']} rehearsal rounds{carried}: {lm}")
         elif e["event"] == "motion_noise_end":
             lm = ", ".join(f"{a} {sg:g} °/h (T_c {tc:g} s)" for a, sg, tc in zip("xyz", e["sigma_dph"], e["tc_s"])
                            if sg > 0) or "nothing (no candidate beat the static model)"
-            print(f"in-motion gyro noise learned over {e['n_rehearsals']} rehearsal rounds: {lm}")
+            carried = f" and {e['n_prior']} carried from earlier drives" if e.get("n_prior") else ""
+            print(f"in-motion gyro noise learned over {e['n_rehearsals']} rehearsal rounds{carried}: {lm}")
         elif e["event"] == "rejected":
             print(f"rejected at {e['t']:.1f} s: {e.get('axis', '')} {e['reason']}")
         elif e["event"] == "warm_up":
