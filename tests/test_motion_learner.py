@@ -259,7 +259,7 @@ def test_warm_method_needs_an_earlier_drive(drive, inline_run):
 def test_warm_prior_chains_the_earlier_drives_oldest_first():
     # earlier drives in a row: each starts with what the ones before it learned, so the last one's evidence
     # holds the oldest drive's rounds first, unchanged, and then the later drive's own
-    sc = simulate_scenario(5, n_outages=0, duration_s=300.0, n_stops=2)
+    sc = simulate_scenario(5, n_outages=0, duration_s=180.0, n_stops=1)
     regime = parse_gnss("noise:1.5,3")
     oldest = learn_prior(sc, regime.apply(sc.gnss, 1_000_003 * (9 + 2 * PRIOR_SEED_OFFSET) + 1))
     chained = earlier_prior(9, regime, 1, n_drives=2, earlier=[sc, sc])
