@@ -77,9 +77,25 @@ def _mbb_index(n: int, block: int, n_draw: int, rng: np.random.Generator) -> np.
     return (starts[:, :, None] + np.arange(b)[None, None, :]).reshape(n_draw, m * b)[:, :n]
 
 
-def _mbb_sums(x: np.ndarray, block: int, n_draw: int, rng: np.random.Generator) -> np.ndarray:
-    """``n_draw`` moving-block-bootstrap sums of the series ``x`` (same length, blocks of ``block``)."""
-    return x[_mbb_index(x.size, block, n_draw, rng)].sum(axis=1)
+def _two_level_sums(drives: Sequence[Sequence[np.ndarray]], block: int, n_boot: int,
+                    rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """The two-level bootstrap (module docstring): each replicate fills the D slots with drives drawn with
+    replacement and draws one moving-block resample per slot. ``drives[j]`` holds series of equal length of
+    drive j that share that resample (paired). Returns the replicates' sums, one row per series, and their
+    window counts."""
+    d = len(drives)
+    pick = rng.integers(0, d, size=(n_boot, d)) if d > 1 else np.zeros((n_boot, 1), dtype=int)
+    sums = np.zeros((len(drives[0]), n_boot))
+    cnt = np.zeros(n_boot)
+    for j, series in enumerate(drives):
+        rows = np.nonzero(pick == j)[0]  # a row appears once per slot it gave to drive j
+        if not rows.size:
+            continue
+        idx = _mbb_index(series[0].size, block, rows.size, rng)
+        for s, x in enumerate(series):
+            np.add.at(sums[s], rows, x[idx].sum(axis=1))
+        np.add.at(cnt, rows, float(series[0].size))
+    return sums, cnt
 
 
 def bootstrap_ratio(groups: Sequence[np.ndarray], block: int, *, n_boot: int = 2000, level: float = 0.95,
@@ -112,27 +128,12 @@ def bootstrap_ratio(groups: Sequence[np.ndarray], block: int, *, n_boot: int = 2
     mean = float(np.concatenate(gs).mean())
     if not (0 < level < 1) or n_boot < 10:
         raise ModelError(f"bootstrap needs 0 < level < 1 and n_boot ≥ 10, got {level}, {n_boot}")
-    rng = np.random.default_rng(seed)
-    d = len(gs)
-    sizes = np.array([g.size for g in gs], dtype=float)
-    # cluster level: which drives fill the D slots of each replicate; one independent block draw per slot
-    pick = rng.integers(0, d, size=(n_boot, d)) if d > 1 else np.zeros((n_boot, 1), dtype=int)
-    tot = np.zeros(n_boot)
-    cnt = np.zeros(n_boot)
-    for j in range(d):
-        mask = pick == j
-        k = int(mask.sum())
-        if not k:
-            continue
-        sums = _mbb_sums(gs[j], block, k, rng)
-        rows = np.nonzero(mask)[0]
-        np.add.at(tot, rows, sums)
-        np.add.at(cnt, rows, sizes[j])
-    se = float(np.std(tot / cnt, ddof=1))
+    sums, cnt = _two_level_sums([(g,) for g in gs], block, n_boot, np.random.default_rng(seed))
+    se = float(np.std(sums[0] / cnt, ddof=1))
     df = max((n_indep if n_indep is not None else n_win) - 1, 1)
     half = float(stats.t.ppf(0.5 + level / 2, df)) * se
     return {"ratio": math.exp(mean), "ci": [math.exp(mean - half), math.exp(mean + half)], "n_windows": n_win,
-            "n_drives": d, "se_log": se}
+            "n_drives": len(gs), "se_log": se}
 
 
 def drive_log_ratios(a, b) -> np.ndarray:
@@ -205,18 +206,7 @@ def gain_share(groups: Sequence[np.ndarray], ref_groups: Sequence[np.ndarray], b
     if not (0 < level < 1) or n_boot < 10:
         raise ModelError(f"bootstrap needs 0 < level < 1 and n_boot ≥ 10, got {level}, {n_boot}")
     share = float(sum(g.sum() for g, _ in pairs)) / den
-    rng = np.random.default_rng(seed)
-    d = len(pairs)
-    pick = rng.integers(0, d, size=(n_boot, d)) if d > 1 else np.zeros((n_boot, 1), dtype=int)
-    num_b = np.zeros(n_boot)
-    den_b = np.zeros(n_boot)
-    for j, (g, r) in enumerate(pairs):
-        rows = np.nonzero(pick == j)[0]
-        if not rows.size:
-            continue
-        idx = _mbb_index(g.size, block, rows.size, rng)
-        np.add.at(num_b, rows, g[idx].sum(axis=1))
-        np.add.at(den_b, rows, r[idx].sum(axis=1))
+    (num_b, den_b), _ = _two_level_sums(pairs, block, n_boot, np.random.default_rng(seed))
     ok = den_b != 0.0
     q = np.quantile(num_b[ok] / den_b[ok], [0.5 - level / 2, 0.5 + level / 2])
-    return {"share": share, "ci": [float(q[0]), float(q[1])], "n_windows": n_win, "n_drives": d}
+    return {"share": share, "ci": [float(q[0]), float(q[1])], "n_windows": n_win, "n_drives": len(pairs)}
