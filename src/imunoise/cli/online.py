@@ -171,6 +171,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _learned(e: dict, nothing: str) -> str:
+    """The in-motion processes of a ``motion_noise``/``motion_noise_end`` event, or ``nothing``."""
+    return ", ".join(f"{a} {sg:g} °/h (T_c {tc:g} s)" for a, sg, tc in zip("xyz", e["sigma_dph"], e["tc_s"])
+                     if sg > 0) or nothing
+
+
 def _print(m: dict, res) -> None:
     for e in res.events:
         if e["event"] in ("identified", "refit"):
@@ -178,15 +184,13 @@ def _print(m: dict, res) -> None:
             print(f"{e['event']} at {e['t']:.1f} s with {e['static_total_s']:.1f} s static data in "
                   f"{e['elapsed_s']:.3f} s: {axes}")
         elif e["event"] == "motion_noise":
-            lm = ", ".join(f"{a} {sg:g} °/h (T_c {tc:g} s)" for a, sg, tc in zip("xyz", e["sigma_dph"], e["tc_s"])
-                           if sg > 0) or "nothing"
             carried = f" ({e['n_prior']} of them carried from earlier drives)" if e.get("n_prior") else ""
-            print(f"in-motion gyro noise at {e['t']:.1f} s after {e['n_rehearsals']} rehearsal rounds{carried}: {lm}")
+            print(f"in-motion gyro noise at {e['t']:.1f} s after {e['n_rehearsals']} rehearsal rounds{carried}: "
+                  f"{_learned(e, 'nothing')}")
         elif e["event"] == "motion_noise_end":
-            lm = ", ".join(f"{a} {sg:g} °/h (T_c {tc:g} s)" for a, sg, tc in zip("xyz", e["sigma_dph"], e["tc_s"])
-                           if sg > 0) or "nothing (no candidate beat the static model)"
             carried = f" and {e['n_prior']} carried from earlier drives" if e.get("n_prior") else ""
-            print(f"in-motion gyro noise learned over {e['n_rehearsals']} rehearsal rounds{carried}: {lm}")
+            print(f"in-motion gyro noise learned over {e['n_rehearsals']} rehearsal rounds{carried}: "
+                  f"{_learned(e, 'nothing (no candidate beat the static model)')}")
         elif e["event"] == "rejected":
             print(f"rejected at {e['t']:.1f} s: {e.get('axis', '')} {e['reason']}")
         elif e["event"] == "warm_up":
