@@ -150,9 +150,10 @@ def test_cli_evidence_on_two_simulated_drives(tmp_path):
     out = tmp_path / "ev"
     rc = main(["experiment", "online", "--sim", "--seeds", "2", "--duration", "200", "--stops", "1",
                "--outages", "dense:30:30:60", "--methods", "plain,static_var", "--pairs", "plain/static_var",
-               "--workers", "1", "--bootstrap", "200", "--out", str(out)])
+               "--workers", "1", "--bootstrap", "200", "--latency", "0.5", "--out", str(out)])
     assert rc == 0
     res = json.loads((out / "results.json").read_text())
+    assert res["latency_s"] == 0.5
     keys = {"method", "baseline", "metric", "ratio", "ci", "n_windows", "n_drives"}
     assert res["paired"] and all(keys <= set(e) for e in res["paired"])
     got = {(e["method"], e["baseline"], e["metric"]) for e in res["paired"]}
@@ -165,6 +166,36 @@ def test_cli_evidence_on_two_simulated_drives(tmp_path):
     md = (out / "report.md").read_text()
     assert md.index("Paired ratios") < md.index("Paper-style view")
     assert md.index("Paired ratios") < md.index("paired_drift.png") < md.index("Paper-style view")
+
+
+def test_fixed_latency_puts_every_model_in_effect_at_stop_end_plus_latency(short_drive):
+    """With ``latency`` fixed the hot-swap moments do not depend on the machine: every accepted model takes
+    effect exactly ``latency`` s after its stop, and a second run repeats the first to the bit."""
+    from imunoise.online import OnlineConfig
+
+    sc = short_drive
+    runs = []
+    for _ in range(2):
+        sc.extra.pop("job_cache", None)  # recompute the fits: their measured compute times differ run to run
+        cfg, models, upd = dense.method_setup("gmwm", sc, OnlineConfig(latency=1.25))
+        assert cfg.latency == 1.25 and cfg.modelling
+        runs.append(dense.run_windows(sc, cfg, sc.gnss, [(sc.init.t + 120.0, 30.0)], initial_models=models,
+                                      updater=upd, keep=True))
+    ups = [u for u in runs[0]["_full"].updates if u.t_effect is not None]
+    assert ups and all(sum(u.elapsed_s) > 0 for u in ups)
+    assert all(u.t_effect == u.t_stop + 1.25 for u in ups)
+    assert [u.t_effect for u in runs[1]["_full"].updates] == [u.t_effect for u in runs[0]["_full"].updates]
+    assert runs[1]["windows"] == runs[0]["windows"]
+
+
+@pytest.mark.parametrize("args, msg", [(["online", "--latency", "-1"], "--latency must be"),
+                                        (["denial", "--latency", "1"], "belongs to the online experiment")])
+def test_cli_latency_is_checked_before_anything_is_written(tmp_path, capsys, args, msg):
+    from imunoise.cli import main
+
+    out = tmp_path / "never"
+    assert main(["experiment", *args, "--sim", "--seeds", "1", "--out", str(out)]) == 2
+    assert msg in capsys.readouterr().err and not out.exists()
 
 
 def test_sf_suffix_adds_the_scale_factor_states_to_the_same_method(short_drive):

@@ -67,6 +67,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--methods", help="comma-separated subset of the methods")
     p.add_argument("--start", type=float, help="real data: navigation start [s, data time base]")
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
+    p.add_argument("--latency", type=float, default=None,
+                   help="online methods: fixed delay [s] from a stop's end to its model in the filter, so a run "
+                        "repeats to the bit (default: the measured compute time, as the paper; the hot-swap "
+                        "moment then follows the machine's load)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=run)
 
@@ -117,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.cli.options import prepare_out_dir
 
     args.motion_noise = _motion_arg(args)  # checked before the output folder is made
+    args.base = _base_config(args)
     out = prepare_out_dir(args.out)
     t0 = time.perf_counter()
     from imunoise.experiments.dense import parse_outages
@@ -145,7 +150,8 @@ def run(args: argparse.Namespace) -> int:
             res = denial.run_sim(seeds, methods=methods, workers=args.workers,
                                  static_recording_s=3600.0 * args.static_hours, progress=step, **kw)
         else:
-            res = online_exp.run_sim(seeds, methods=methods, workers=args.workers, progress=step, **kw)
+            res = online_exp.run_sim(seeds, methods=methods, workers=args.workers, progress=step, base=args.base,
+                                     **kw)
         bar.close()
         html = write_sim(res, out, title=f"imunoise: {args.which} experiment, Monte Carlo ({len(seeds)} seeds)")
     else:
@@ -163,12 +169,25 @@ def run(args: argparse.Namespace) -> int:
 
                 windows = read_outages(outages)
             res, sc = online_exp.run_real(data, methods=methods, workers=args.workers, start=args.start, progress=step,
-                                          windows=windows)
+                                          windows=windows, base=args.base)
             bar.close()
             html = write_online_real(res, sc, out)
     print_headline(headline_rows(res), fmt)
     print(f"\nreport: {html.resolve()}  ({time.perf_counter() - t0:.1f} s)")
     return 0
+
+
+def _base_config(args: argparse.Namespace):
+    """The online engine's settings every method starts from: the defaults, with ``--latency`` if given."""
+    from imunoise.online import OnlineConfig
+
+    if args.latency is None:
+        return None
+    if args.which != "online":
+        raise ModelError("--latency belongs to the online experiment (the denial experiment swaps no model)")
+    if not (args.latency >= 0 and args.latency < float("inf")):
+        raise ModelError(f"--latency must be a finite number of seconds ≥ 0, got {args.latency}")
+    return OnlineConfig(latency=args.latency)
 
 
 def _motion_arg(args: argparse.Namespace) -> str | None:
@@ -221,7 +240,8 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
         if a not in methods or b not in methods:
             raise ModelError(f"--pairs {a}/{b}: both must be among the methods ({', '.join(methods)})")
     kw = {"spec": spec, "regimes": regimes, "noise_seeds": noise_seeds, "methods": methods, "pairs": pairs,
-          "workers": args.workers, "n_boot": args.bootstrap, "boot_seed": args.boot_seed}
+          "workers": args.workers, "n_boot": args.bootstrap, "boot_seed": args.boot_seed,
+          "base": args.base}
     if args.sim:
         if args.seeds < 1:
             raise ModelError(f"--seeds must be ≥ 1, got {args.seeds}")
@@ -241,6 +261,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
         title = f"imunoise: dense-window evidence on {data}"
     bar.close()
     res["elapsed_s"] = time.perf_counter() - t0
+    res["latency_s"] = args.latency  # None: each model took effect after its measured compute time
     html = write_evidence(res, out, title=title)
     rows = paired_rows(res)
     heads = ["GNSS", "method", "baseline", "metric", "ratio", "95 % CI", "n_win", "n_ind", "n_drv", "verdict"]
