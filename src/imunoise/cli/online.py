@@ -20,6 +20,7 @@ from imunoise.cli.options import (
 )
 from imunoise.errors import ModelError
 from imunoise.io.atomic import atomic_path, atomic_write_text
+from imunoise.io.static_npz import load_static_pieces, save_static_pieces
 
 EXAMPLES = """examples:
   imunoise online --data data/drive_0708 --out out/online
@@ -27,11 +28,13 @@ EXAMPLES = """examples:
   imunoise online --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --zupt --out out/on
   imunoise online --data sim/ --criterion wvic --latency 0 --out out/sim_online
   imunoise online --imu drive.bag --gnss rtk.pos --lever-arm 0 -0.05 0 --out out/bag_online   # ROS bag + RTKLIB
+  imunoise online --imu next.bag --gnss next.pos --earlier-static out/bag_online/static.npz --out out/next
 
 Writes DIR/trajectory.nav (KF-GINS result format, IMU point), DIR/metrics.json (SPEC §8 keys, errors of
 the GNSS antenna at the reference epochs, m and m/s; plus the modelling timing), DIR/events.jsonl (stops,
 identification per axis with structure/GOF/time, refits, model swaps, gate open/close, rejected fits) and
-DIR/model.json (the last GMWM fit of every axis, per-sample SI parameters and continuous equivalents).
+DIR/model.json (the last GMWM fit of every axis, per-sample SI parameters and continuous equivalents) and
+DIR/static.npz (the static pieces the model was fitted on: --earlier-static of the next drive of this IMU).
 The static detector learns λ0 from the first --learn-from s of the IMU file, which must be a stop."""
 
 log = logging.getLogger("imunoise.online")
@@ -69,6 +72,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--motion-noise-prior", metavar="METRICS_JSON",
                    help="start the in-motion noise learner with what it learned on an earlier drive of the same IMU "
                         "in the same vehicle: that run's metrics.json (implies --learn-motion-noise)")
+    p.add_argument("--earlier-static", nargs="+", metavar="STATIC_NPZ",
+                   help="pool the stops of earlier drives of the same IMU with this drive's: the static.npz those "
+                        "runs wrote (the last of a chain holds all before it); the model of the earlier stops runs "
+                        "from the first sample")
     p.add_argument("--learn-from", type=float, default=10.0, help="seconds of the first stop to learn λ0 (default 10)")
     p.add_argument("--lambda0", type=float, help="fixed detector λ0 [m/s²] instead of learning it")
     p.add_argument("--out", required=True, help="output folder")
@@ -95,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
         motion = MotionNoiseConfig(prior=prior)
     inp = read_nav_inputs(args, log)
     imu, gnss, ref, notes, windows, lever = inp.imu, inp.gnss, inp.ref, inp.notes, inp.windows, inp.lever
+    earlier = load_static_pieces(args.earlier_static, imu.rate_hz) if args.earlier_static else None
     t0 = args.start if args.start is not None else (inp.dataset.extra.get("start_sow") if inp.dataset else None)
     if t0 is None:
         t0 = max(float(imu.t[0]), float(gnss.t[0]))
@@ -131,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
             bar.n = k
             bar.refresh()
 
-        nav = OnlineNavigator(config, init, imu_rate_hz=rate, initial_models=models)
+        nav = OnlineNavigator(config, init, imu_rate_hz=rate, initial_models=models, earlier_static=earlier)
         r = nav.run(imu, g, progress=prog)
         bar.close()
         return r
@@ -143,6 +151,7 @@ def run(args: argparse.Namespace) -> int:
         res.write_events(tmp)
     metrics: dict = {"start": float(res.t[0]) if res.t.size else t0, "duration_s": duration,
                      "lambda0_m_s2": res.lambda0, "static_s": float(sum(s.duration for s in res.segments)),
+                     "earlier_static_s": float(sum(p.shape[0] for p in earlier or ()) / rate),
                      "timing": res.timing, "config": {"criterion": config.criterion, "zupt": config.zupt,
                                                        "floor": config.floor, "latency": config.latency,
                                                        "learn_motion_noise": motion is not None,
@@ -166,8 +175,11 @@ def run(args: argparse.Namespace) -> int:
     fits = {ax: f.to_dict() for ax, f in zip(AXES, res.fits, strict=True) if f is not None}
     if fits:
         ImuModel(float(rate), fits).save(out / "model.json")
+    if res.static_pieces:
+        save_static_pieces(out / "static.npz", res.static_pieces, rate)
     _print(metrics, res)
-    print(f"wrote {out / 'trajectory.nav'}, {out / 'metrics.json'}, {out / 'events.jsonl'}", file=sys.stderr)
+    print(f"wrote {out / 'trajectory.nav'}, {out / 'metrics.json'}, {out / 'events.jsonl'}"
+          + (f", {out / 'static.npz'}" if res.static_pieces else ""), file=sys.stderr)
     return 0
 
 
@@ -179,6 +191,8 @@ def _learned(e: dict, nothing: str) -> str:
 
 def _print(m: dict, res) -> None:
     for e in res.events:
+        if e["event"] == "earlier_static":
+            print(f"pooled {e['static_s']:.1f} s of static data in {e['pieces']} pieces from earlier drives")
         if e["event"] in ("identified", "refit"):
             axes = "; ".join(f"{a}: {v['structure']}" for a, v in e.get("axes", {}).items())
             print(f"{e['event']} at {e['t']:.1f} s with {e['static_total_s']:.1f} s static data in "

@@ -35,6 +35,11 @@ same vehicle: the drive of seed + :data:`PRIOR_SEED_OFFSET` (same IMU models and
 trajectory, other IMU and GNSS noise), GNSS-aided throughout, in the same GNSS regime (:func:`learn_prior`);
 ``gmwm_dyn_warm3`` — the same after three earlier drives (seed + 3, 2, 1 × :data:`PRIOR_SEED_OFFSET`, in that
 order, each starting with what the drives before it learned; the last is ``gmwm_dyn_warm``'s).
+``gmwm_warm`` / ``gmwm_warm3`` (simulator only) — their baselines with the same earlier data: ``gmwm`` pooling
+the stops the online engine kept on the same one / three earlier drives with this drive's stops
+(``OnlineNavigator(earlier_static=...)``; :func:`earlier_stops`), so the model of the earlier stops runs from the
+first sample and every stop of this drive refits on the pool; ``gmwm_dyn_warm3_stops`` — ``gmwm_dyn_warm3`` with
+the stops of ``gmwm_warm3`` pooled too (the learner's carried evidence as ``gmwm_dyn_warm3``'s).
 Any method with the suffix ``+sf`` (e.g. ``gmwm+sf``) is the same
 method in the filter with the six scale-factor states (``EkfConfig.scale_factors``, the 21-state filter of
 KF-GINS), so ``--pairs gmwm+sf/gmwm`` pairs scale factors on against off window by window.
@@ -66,7 +71,8 @@ from imunoise.online import MotionNoisePrior, OnlineConfig, OnlineNavigator
 log = logging.getLogger(__name__)
 
 __all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "SF_SUFFIX", "method_setup",
-           "run_windows", "learn_prior", "earlier_prior", "WARM_METHODS", "PRIOR_SEED_OFFSET",
+           "run_windows", "learn_prior", "earlier_prior", "earlier_stops", "WARM_METHODS", "STATIC_WARM_METHODS",
+           "PRIOR_SEED_OFFSET",
            "run_real", "run_sim", "paired_list", "METRICS"]
 
 EVIDENCE_METHODS = ("plain", "static_var", "av", "em", "av_online", "em_online", "gmwm", "gmwm_hindsight")
@@ -86,8 +92,15 @@ LABELS = {
     "gmwm_dyn": "GMWM + in-motion gyro noise learned by rehearsed outages",
     "gmwm_dyn_warm": "gmwm_dyn carrying what it learned on an earlier drive of the same vehicle",
     "gmwm_dyn_warm3": "gmwm_dyn carrying what it learned on three earlier drives of the same vehicle",
+    "gmwm_warm": "GMWM pooling the stops of an earlier drive of the same vehicle",
+    "gmwm_warm3": "GMWM pooling the stops of three earlier drives of the same vehicle",
+    "gmwm_dyn_warm3_stops": "gmwm_dyn_warm3 also pooling the stops of its three earlier drives",
 }
-WARM_METHODS: dict[str, int] = {"gmwm_dyn_warm": 1, "gmwm_dyn_warm3": 3}  # method → earlier drives it carries
+# method → earlier drives whose learner evidence it carries
+WARM_METHODS: dict[str, int] = {"gmwm_dyn_warm": 1, "gmwm_dyn_warm3": 3, "gmwm_dyn_warm3_stops": 3}
+# method → (the method it is, earlier drives whose stops it pools)
+STATIC_WARM_METHODS: dict[str, tuple[str, int]] = {"gmwm_warm": ("gmwm", 1), "gmwm_warm3": ("gmwm", 3),
+                                                   "gmwm_dyn_warm3_stops": ("gmwm_dyn_warm3", 3)}
 PRIOR_SEED_OFFSET = 7_000_000  # the k-th drive before drive seed on the simulator: seed + k · this
 
 
@@ -263,6 +276,8 @@ def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None, cach
         # the noise model is the method's own; only the filter's state vector gains the scale factors
         cfg, models, upd = method_setup(name[: -len(SF_SUFFIX)], sc, base, cache, prior=prior)
         return cfg.with_(ekf=cfg.ekf.with_(scale_factors=True)), models, upd
+    if name in STATIC_WARM_METHODS:  # the earlier stops go to the navigator (run_windows)
+        return method_setup(STATIC_WARM_METHODS[name][0], sc, base, cache, prior=prior)
     if name in WARM_METHODS:
         if prior is None:
             raise ModelError(f"{name} needs what the learner learned on an earlier drive of the same vehicle: the "
@@ -313,8 +328,10 @@ def _branch_errors(res, sc: Scenario, start: float):
 
 
 def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tuple[float, float]], *,
-                initial_models=None, updater: _StopRefit | _Adaptive | None = None, keep: bool = False) -> dict:
-    """One aided run (``gnss`` everywhere) with a GNSS-free branch per window (module docstring).
+                initial_models=None, updater: _StopRefit | _Adaptive | None = None, keep: bool = False,
+                earlier_static: Sequence[np.ndarray] | None = None) -> dict:
+    """One aided run (``gnss`` everywhere) with a GNSS-free branch per window (module docstring);
+    ``earlier_static``: the navigator's (static pieces of earlier drives of the same IMU).
 
     Returns ``windows`` (per window ``drift``, ``rms``, ``drift_v``, ``aided_rms``) and the aided run's
     ``horizontal_rms_m``/``vertical_rms_m``; ``_full`` (the aided OnlineResult) when ``keep``."""
@@ -324,7 +341,8 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
     order = np.argsort(gt, kind="stable")
     gt, gllh, gsig = gt[order], np.asarray(gnss.llh)[order], np.asarray(gnss.sigma_ned)[order]
     cache = sc.extra.setdefault("job_cache", {})
-    nav = OnlineNavigator(config, sc.init, imu_rate_hz=sc.rate, initial_models=initial_models, job_cache=cache)
+    nav = OnlineNavigator(config, sc.init, imu_rate_hz=sc.rate, initial_models=initial_models, job_cache=cache,
+                          earlier_static=earlier_static)
     shared = [cache, sc, t, dth, dv, gt, gllh, gsig, sc.imu, sc.ref, config]
     if updater is not None:
         shared += list(updater.shared())
@@ -377,10 +395,15 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
 
 
 def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfig | None = None,
-                    cache: dict | None = None, prior: MotionNoisePrior | None = None) -> dict:
-    """:func:`run_windows` for one method (:func:`method_setup`)."""
+                    cache: dict | None = None, prior: MotionNoisePrior | None = None,
+                    earlier_static: Sequence[np.ndarray] | None = None) -> dict:
+    """:func:`run_windows` for one method (:func:`method_setup`); ``earlier_static`` the earlier drives' stops
+    a ``gmwm_warm`` method pools (:func:`earlier_stops`)."""
+    if (name.removesuffix(SF_SUFFIX) in STATIC_WARM_METHODS) != (earlier_static is not None):
+        raise ModelError(f"{name}: earlier drives' stops are for {', '.join(STATIC_WARM_METHODS)} only, and those "
+                         "need them (the simulator makes them: run_sim)")
     cfg, models, upd = method_setup(name, sc, base, cache, prior=prior)
-    return run_windows(sc, cfg, gnss, windows, initial_models=models, updater=upd)
+    return run_windows(sc, cfg, gnss, windows, initial_models=models, updater=upd, earlier_static=earlier_static)
 
 
 def learn_prior(sc: Scenario, gnss, base: OnlineConfig | None = None,
@@ -474,6 +497,29 @@ def earlier_prior(seed: int, regime: GnssRegime, noise_seed: int, *, n_drives: i
     return prior
 
 
+def earlier_stops(seed: int, regime: GnssRegime, noise_seed: int, *, n_drives: int = 1,
+                  base: OnlineConfig | None = None, earlier: Sequence[Scenario] | None = None,
+                  **scen_kw: Any) -> list[np.ndarray]:
+    """The static pieces ``gmwm`` pooled on ``n_drives`` earlier drives of the same vehicle (the drives of
+    :func:`earlier_prior`, in the same order and GNSS), each run online GNSS-aided starting with the pieces
+    of the drives before it (:attr:`OnlineResult.static_pieces`): the ``earlier_static`` of drive ``seed``."""
+    from imunoise.experiments.common import simulate_scenario
+
+    if n_drives < 1:
+        raise ModelError(f"a warm method needs at least one earlier drive, not {n_drives}")
+    pieces: list[np.ndarray] | None = None
+    for k in range(n_drives, 0, -1):
+        s = int(seed) + k * PRIOR_SEED_OFFSET
+        sc = (earlier[k - 1] if earlier is not None and len(earlier) >= k
+              else simulate_scenario(s, n_outages=0, **scen_kw))
+        cfg, models, upd = method_setup("gmwm", sc, base, {})
+        full = run_windows(sc, cfg, regime.apply(sc.gnss, 1_000_003 * s + noise_seed), [], initial_models=models,
+                           updater=upd, keep=True, earlier_static=pieces)["_full"]
+        pieces = full.static_pieces
+    assert pieces is not None
+    return pieces
+
+
 def _sim_job(args: tuple) -> dict:
     seed, methods, regimes, noise_seeds, spec, kw, base = args
     from imunoise.experiments.common import simulate_scenario
@@ -484,8 +530,10 @@ def _sim_job(args: tuple) -> dict:
     # the earlier drive of the same vehicle (same IMU, same motion law, another trajectory and noise) that the
     # warm methods learn from
     n_warm = {m: WARM_METHODS[m.removesuffix(SF_SUFFIX)] for m in methods if m.removesuffix(SF_SUFFIX) in WARM_METHODS}
+    n_stops = {m: STATIC_WARM_METHODS[m.removesuffix(SF_SUFFIX)][1] for m in methods
+               if m.removesuffix(SF_SUFFIX) in STATIC_WARM_METHODS}
     earlier = [simulate_scenario(seed + k * PRIOR_SEED_OFFSET, n_outages=0, **kw)
-               for k in range(1, max(n_warm.values(), default=0) + 1)]
+               for k in range(1, max((*n_warm.values(), *n_stops.values()), default=0) + 1)]
     cache: dict = {}
     runs = []
     for ri, rg in enumerate(regimes):
@@ -494,9 +542,13 @@ def _sim_job(args: tuple) -> dict:
             gnss = rg.apply(sc.gnss, 1_000_003 * seed + ns)
             priors = {n: earlier_prior(seed, rg, ns, n_drives=n, base=base, earlier=earlier)
                       for n in sorted(set(n_warm.values()))}
+            stops = {n: earlier_stops(seed, rg, ns, n_drives=n, base=base, earlier=earlier)
+                     for n in sorted(set(n_stops.values()))}
             for m in methods:
                 prior = priors[n_warm[m]] if m in n_warm else None
-                runs.append((m, ri, ns, evaluate_method(sc, m, gnss, windows, base=base, cache=cache, prior=prior)))
+                pooled = stops[n_stops[m]] if m in n_stops else None
+                runs.append((m, ri, ns, evaluate_method(sc, m, gnss, windows, base=base, cache=cache, prior=prior,
+                                                        earlier_static=pooled)))
     return {"seed": seed, "name": sc.name, "windows": windows, "runs": runs}
 
 

@@ -74,9 +74,11 @@ first IMU sample with t ≥ t_g, as in :func:`imunoise.nav.ekf.run_ekf`).
 from __future__ import annotations
 
 import copy
+import hashlib
 import logging
 import math
 import time
+from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import replace
 from typing import Any
@@ -126,10 +128,19 @@ class OnlineNavigator:
         modelling job on the same static segments with the same settings is computed once, and its
         measured compute time is reused so the model takes effect at the same time in every replay
         (inline worker only).
+    earlier_static : sequence of (N, 6) arrays, optional
+        Static IMU samples of earlier drives of the same IMU (rad/s, m/s²; columns gyro x, y, z, accel x, y,
+        z; one array per stop, e.g. :meth:`OnlineResult.static_pieces` of an earlier run, or
+        ``static.npz`` of ``imunoise online``). They are pooled with this drive's stops (each piece's
+        bias removed, no wavelet coefficient across pieces: SPEC §7). With modelling on and at least
+        ``min_static_s`` of them, the model is identified on them at construction (computed here, before
+        the first sample, with either worker) and the filter runs it from the first sample; every stop of
+        this drive then refits on the pool. ``static_s`` counts them.
     """
 
     def __init__(self, config: OnlineConfig, init: InitialState, *, imu_rate_hz: float = 100.0,
-                 initial_models=None, job_cache: dict | None = None):
+                 initial_models=None, job_cache: dict | None = None,
+                 earlier_static: Sequence[np.ndarray] | None = None):
         if not (math.isfinite(imu_rate_hz) and imu_rate_hz > 0):
             raise DataError(f"imu_rate_hz must be a positive rate in Hz, got {imu_rate_hz!r}")
         self.config = config
@@ -165,6 +176,8 @@ class OnlineNavigator:
         self._gnss: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._acc = [WVAccumulator(freq=self.rate) for _ in range(6)]
         self.static_s = 0.0
+        self._pieces: list[np.ndarray] = []  # every pooled static piece, bias removed (static_pieces)
+        self._earlier_key: tuple = ()  # what the job cache must tell apart: the earlier drives' static data
         self.segments: list[StaticSegment] = []
         self.detected_segments: list[StaticSegment] = []  # every completed detector segment, before the guard
         self.rejected_segments: list[StaticSegment] = []  # the parts of them the stop guard dropped
@@ -196,7 +209,9 @@ class OnlineNavigator:
         self._ekf_models_log: list[tuple[float, list[str]]] = []
         self._event("start", init.t, lambda0=self.lambda0, config=config_summary(config))
         self._warm: Future | None = None
-        if config.modelling and config.warm_up:
+        if earlier_static is not None:
+            self._pool_earlier(earlier_static, init.t)
+        if config.modelling and config.warm_up and all(f is None for f in self.fits):
             self._start_warm_up()
 
     # -- helpers ----------------------------------------------------------------------------------
@@ -680,12 +695,49 @@ class OnlineNavigator:
             self._event("rejected", t_now, reason=f"{int((~ok).sum())} non-finite samples in the stop "
                         f"{seg.t0:.2f}–{seg.t1:.2f} s; used the {len(pieces)} finite pieces")
         for piece in pieces:
-            piece = piece - piece.mean(axis=0)  # bias removal (SPEC §7)
-            for ax in range(6):
-                self._acc[ax].add(piece[:, ax])
+            self._pool_piece(piece)
         self.static_s += seg.duration
         self.segments.append(seg)
         self._event("stop_end", t_now, t0=seg.t0, t1=seg.t1, duration_s=seg.duration, static_total_s=self.static_s)
+
+    def _pool_earlier(self, earlier: Sequence[np.ndarray], t0: float) -> None:
+        """Pool the static pieces of earlier drives (``earlier_static``) and identify on them if enough."""
+        n_before = len(self._pieces)
+        for k, x in enumerate(earlier):
+            x = np.asarray(x, dtype=float)
+            if x.ndim != 2 or x.shape[1] != 6:
+                raise DataError(f"earlier_static[{k}]: expected an (N, 6) array of static samples (gyro x, y, z "
+                                f"rad/s, accel x, y, z m/s²), got shape {x.shape}")
+            if not np.all(np.isfinite(x)):
+                raise DataError(f"earlier_static[{k}]: {int((~np.isfinite(x)).sum())} non-finite values; pass "
+                                "only finite static samples")
+            if x.shape[0] >= 16:
+                self._pool_piece(x, centred=True)
+        n = sum(p.shape[0] for p in self._pieces[n_before:])
+        self.static_s += n / self.rate
+        digest = hashlib.sha1()
+        for p in self._pieces[n_before:]:
+            digest.update(p.tobytes())
+        self._earlier_key = (n, digest.hexdigest())
+        self._event("earlier_static", t0, pieces=len(self._pieces) - n_before, static_s=n / self.rate)
+        if self.config.modelling and self.static_s >= self.config.min_static_s:
+            wvs = self._wvs(t0)
+            if wvs is not None:
+                out = model_job("identify", wvs, self.fits, self.config, self.rate)
+                self._accept("identify", t0, out, t0)  # computed before the drive: in effect from its start
+
+    def _pool_piece(self, piece: np.ndarray, *, centred: bool = False) -> None:
+        """Pool one static piece (bias removed here unless ``centred``: an earlier drive's piece is kept with
+        its exact values, so a chain of drives hands on the same bytes and a repeated piece is recognised)."""
+        self._pieces.append(piece if centred else piece - piece.mean(axis=0))  # bias removal (SPEC §7)
+        x = self._pieces[-1] - piece.mean(axis=0) if centred else self._pieces[-1]
+        for ax in range(6):
+            self._acc[ax].add(x[:, ax])
+
+    def static_pieces(self) -> list[np.ndarray]:
+        """Every static piece pooled so far, (N, 6) each: the earlier drives' as given, then this drive's stops
+        with their bias removed; the ``earlier_static`` of the next drive of the same IMU."""
+        return [p.copy() for p in self._pieces]
 
     def _wvs(self, t_now: float) -> list | None:
         """The per-axis WVs of the static data so far, or None after a 'rejected' event when one fails."""
@@ -702,7 +754,8 @@ class OnlineNavigator:
         key = None
         if self._job_cache is not None:
             c = self.config
-            key = (kind, tuple((sg.i0, sg.i1) for sg in self.segments), c.criterion, c.complete, c.weights, c.top,
+            key = (kind, self._earlier_key, tuple((sg.i0, sg.i1) for sg in self.segments), c.criterion, c.complete,
+                   c.weights, c.top,
                    tuple(None if f is None else (str(f.model), tuple(f.model.vector)) for f in self.fits))
         out = self._job_cache.get(key) if key is not None else None
         if out is None:
@@ -814,17 +867,17 @@ class OnlineNavigator:
             lambda0=float(self.lambda0) if self.lambda0 is not None else float("nan"),
             elapsed_s=self._elapsed, final_models=list(self.current_models), fits=list(self.fits),
             sample_t=np.array(self._sample_t), rejected_segments=list(self.rejected_segments),
-            detected_segments=list(self.detected_segments),
+            detected_segments=list(self.detected_segments), static_pieces=list(self._pieces),
         )
 
 
 def run_online(imu, gnss, init: InitialState, config: OnlineConfig | None = None, *, initial_models=None,
-               progress: Any = None) -> OnlineResult:
+               progress: Any = None, earlier_static: Sequence[np.ndarray] | None = None) -> OnlineResult:
     """Batch convenience: ``OnlineNavigator(config, init).run(imu, gnss)``.
 
     Parameters
     ----------
-    imu, gnss, init, initial_models, progress
+    imu, gnss, init, initial_models, progress, earlier_static
         As for :class:`OnlineNavigator` and :meth:`OnlineNavigator.run`; the rate is ``imu.rate_hz``.
     config : OnlineConfig, optional
         Default ``OnlineConfig()``.
@@ -834,5 +887,6 @@ def run_online(imu, gnss, init: InitialState, config: OnlineConfig | None = None
     OnlineResult
     """
     config = config or OnlineConfig()
-    nav = OnlineNavigator(config, init, imu_rate_hz=float(imu.rate_hz), initial_models=initial_models)
+    nav = OnlineNavigator(config, init, imu_rate_hz=float(imu.rate_hz), initial_models=initial_models,
+                          earlier_static=earlier_static)
     return nav.run(imu, gnss, progress=progress)

@@ -47,7 +47,9 @@ class OnlineResult(NavSolution):
     ``detected_segments``: every segment the static detector completed (IMU only); ``segments``: what was
     modelled of them (all, or the pieces the stop guard kept, ``OnlineConfig.stop_guard``);
     ``rejected_segments``: the pieces the navigation solution contradicted, never modelled;
-    ``static_raw``/``sample_t``: the detector's per-sample test over every pushed sample."""
+    ``static_raw``/``sample_t``: the detector's per-sample test over every pushed sample; ``static_pieces``:
+    every static piece the model was fitted on, (N, 6) each: those given as ``earlier_static`` unchanged, then
+    this drive's stops with their bias removed; the ``earlier_static`` of the next drive of the same IMU."""
 
     events: list[dict]
     updates: list[ModelUpdate]
@@ -61,6 +63,7 @@ class OnlineResult(NavSolution):
     sample_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rejected_segments: list[StaticSegment] = field(default_factory=list)
     detected_segments: list[StaticSegment] = field(default_factory=list)
+    static_pieces: list[np.ndarray] = field(default_factory=list)
 
     @property
     def timing(self) -> dict[str, Any]:
