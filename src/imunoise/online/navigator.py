@@ -128,9 +128,9 @@ class OnlineNavigator:
         modelling job on the same static segments with the same settings is computed once, and its
         measured compute time is reused so the model takes effect at the same time in every replay
         (inline worker only).
-    earlier_static : sequence of (N, 6) arrays, optional
-        Static IMU samples of earlier drives of the same IMU (rad/s, m/s²; columns gyro x, y, z, accel x, y,
-        z; one array per stop, e.g. :meth:`OnlineResult.static_pieces` of an earlier run, or
+    earlier_static : sequence of numpy.ndarray, optional
+        Static IMU samples of earlier drives of the same IMU, one array of shape (n, 6) per stop (rad/s, m/s²;
+        columns gyro x, y, z, accel x, y, z; e.g. :attr:`OnlineResult.static_pieces` of an earlier run, or
         ``static.npz`` of ``imunoise online``). They are pooled with this drive's stops (each piece's
         bias removed, no wavelet coefficient across pieces: SPEC §7). With modelling on and at least
         ``min_static_s`` of them, the model is identified on them at construction (computed here, before
