@@ -172,3 +172,19 @@ def test_experiment_methods_pool_the_earlier_drives_stops():
             dense.evaluate_method(sc, name, sc.gnss, [], earlier_static=pooled)
     cfg, _, _ = dense.method_setup("gmwm_warm3", sc)
     assert cfg == dense.method_setup("gmwm", sc)[0]
+
+
+def test_static_npz_round_trip_and_refusals(tmp_path):
+    from imunoise.io.static_npz import load_static_pieces, save_static_pieces
+
+    pieces = _pieces(3, n=3, seconds=1.0)
+    save_static_pieces(tmp_path / "s.npz", pieces, RATE)
+    back = load_static_pieces([tmp_path / "s.npz", tmp_path / "s.npz"], RATE)  # the second file adds nothing
+    assert len(back) == 3 and all(np.array_equal(a, b) for a, b in zip(back, pieces, strict=True))
+    (tmp_path / "junk.npz").write_bytes(b"not a zip")
+    np.savez(tmp_path / "other.npz", x=np.zeros(3))
+    save_static_pieces(tmp_path / "five.npz", [np.zeros((10, 5))], RATE)
+    for name, msg in (("missing.npz", "no such file"), ("junk.npz", "not a static.npz"),
+                      ("other.npz", "needs rate_hz and piece_NNN"), ("five.npz", "not a finite \\(N, 6\\) array")):
+        with pytest.raises(DataError, match=msg):
+            load_static_pieces([tmp_path / name], RATE)
