@@ -20,7 +20,6 @@ from imunoise.cli.options import (
 )
 from imunoise.errors import ModelError
 from imunoise.io.atomic import atomic_path, atomic_write_text
-from imunoise.io.static_npz import load_static_pieces, save_static_pieces
 
 EXAMPLES = """examples:
   imunoise online --data data/drive_0708 --out out/online
@@ -89,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.imu import AXES
     from imunoise.imu_model import ImuModel
     from imunoise.io.jsonutil import json_default
+    from imunoise.io.static_npz import load_static_pieces, save_static_pieces
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig, load_axis_models
     from imunoise.online import MotionNoiseConfig, MotionNoisePrior, OnlineConfig, OnlineNavigator
