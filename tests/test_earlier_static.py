@@ -92,8 +92,8 @@ def test_bad_earlier_static_is_refused_with_a_one_line_reason(drive, bad, msg):
 # ------------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def short_files(tmp_path_factory):
-    """60 s of the shipped drive (34.5 s still, then driving) as plain files, and the same from 1 s later (a
-    stand-in for another drive of the IMU: other static samples)."""
+    """60 s and 150 s of the shipped drive (34.5 s still, then driving) as plain files, and the same from 1 s
+    later (a stand-in for another drive of the IMU: other samples)."""
     import gzip
     from pathlib import Path
 
@@ -102,9 +102,11 @@ def short_files(tmp_path_factory):
         pytest.skip("data/drive_0708 is not in this checkout")
     d = tmp_path_factory.mktemp("short")
     with gzip.open(drive_dir / "imu_body_inc.txt.gz", "rt") as fh:
-        lines = [next(fh) for _ in range(6000)]
-    (d / "imu.txt").write_text("".join(lines))
-    (d / "imu_b.txt").write_text("".join(lines[100:]))
+        lines = [next(fh) for _ in range(15000)]
+    (d / "imu.txt").write_text("".join(lines[:6000]))
+    (d / "imu_b.txt").write_text("".join(lines[100:6000]))
+    (d / "imu_long.txt").write_text("".join(lines))  # 150 s: two minutes of driving for the learner's rounds
+    (d / "imu_long_b.txt").write_text("".join(lines[100:]))
     gnss = (drive_dir / "gnss_rtk.txt").read_text().splitlines(keepends=True)
     (d / "gnss.txt").write_text("".join(gnss[:400]))
     return d
@@ -188,3 +190,17 @@ def test_static_npz_round_trip_and_refusals(tmp_path):
                       ("other.npz", "needs rate_hz and piece_NNN"), ("five.npz", "not a finite \\(N, 6\\) array")):
         with pytest.raises(DataError, match=msg):
             load_static_pieces([tmp_path / name], RATE)
+
+
+def test_cli_carries_the_motion_noise_evidence_to_the_next_drive(short_files, tmp_path):
+    """`--learn-motion-noise` writes its evidence into metrics.json; `--motion-noise-prior` of that file starts the
+    next run with it (the two-command chain of the README, on 150 s of the shipped drive)."""
+    m1 = _online(short_files, tmp_path / "a", "--learn-motion-noise", imu="imu_long.txt")
+    ev = m1["motion_noise"]["evidence"]
+    assert m1["config"]["learn_motion_noise"] and m1["motion_noise"]["carried_rounds"] == 0
+    assert len(ev["scores"]) == m1["motion_noise"]["rehearsal_rounds"] >= 3, m1["motion_noise"]["rehearsal_rounds"]
+    m2 = _online(short_files, tmp_path / "b", "--motion-noise-prior", tmp_path / "a" / "metrics.json",
+                 imu="imu_long_b.txt")
+    assert m2["config"]["motion_noise_prior"] == str(tmp_path / "a" / "metrics.json")
+    assert m2["motion_noise"]["carried_rounds"] == len(ev["scores"])
+    assert m2["motion_noise"]["evidence"]["scores"][: len(ev["scores"])] == ev["scores"]
