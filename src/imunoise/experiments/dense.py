@@ -475,6 +475,19 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = DenseSpec(), regimes: Se
 # --------------------------------------------------------------------------------------------------
 # simulator
 # --------------------------------------------------------------------------------------------------
+def _earlier_drives(seed: int, n_drives: int, earlier: Sequence[Scenario] | None, scen_kw: dict):
+    """(seed, scenario) of the ``n_drives`` earlier drives of simulated drive ``seed``, oldest first: seed + k ·
+    :data:`PRIOR_SEED_OFFSET`, k = ``n_drives`` … 1; ``earlier[k - 1]`` is drive k if given, else simulated."""
+    from imunoise.experiments.common import simulate_scenario
+
+    if n_drives < 1:
+        raise ModelError(f"a warm method needs at least one earlier drive, not {n_drives}")
+    for k in range(n_drives, 0, -1):
+        s = int(seed) + k * PRIOR_SEED_OFFSET
+        yield s, (earlier[k - 1] if earlier is not None and len(earlier) >= k
+                  else simulate_scenario(s, n_outages=0, **scen_kw))
+
+
 def earlier_prior(seed: int, regime: GnssRegime, noise_seed: int, *, n_drives: int = 1,
                   base: OnlineConfig | None = None, earlier: Sequence[Scenario] | None = None,
                   **scen_kw: Any) -> MotionNoisePrior:
@@ -483,15 +496,8 @@ def earlier_prior(seed: int, regime: GnssRegime, noise_seed: int, *, n_drives: i
     that order, each starting with what the ones before it learned. ``earlier[k - 1]`` is drive k if given (else
     it is simulated with ``scen_kw``); each in GNSS ``regime``, its noise seeded like a drive's own
     (``1_000_003 · drive seed + noise_seed``)."""
-    from imunoise.experiments.common import simulate_scenario
-
-    if n_drives < 1:
-        raise ModelError(f"a warm method needs at least one earlier drive, not {n_drives}")
     prior = None
-    for k in range(n_drives, 0, -1):
-        s = int(seed) + k * PRIOR_SEED_OFFSET
-        sc = (earlier[k - 1] if earlier is not None and len(earlier) >= k
-              else simulate_scenario(s, n_outages=0, **scen_kw))
+    for s, sc in _earlier_drives(seed, n_drives, earlier, scen_kw):
         prior = learn_prior(sc, regime.apply(sc.gnss, 1_000_003 * s + noise_seed), base, prior)
     assert prior is not None
     return prior
@@ -503,15 +509,8 @@ def earlier_stops(seed: int, regime: GnssRegime, noise_seed: int, *, n_drives: i
     """The static pieces ``gmwm`` pooled on ``n_drives`` earlier drives of the same vehicle (the drives of
     :func:`earlier_prior`, in the same order and GNSS), each run online GNSS-aided starting with the pieces
     of the drives before it (:attr:`OnlineResult.static_pieces`): the ``earlier_static`` of drive ``seed``."""
-    from imunoise.experiments.common import simulate_scenario
-
-    if n_drives < 1:
-        raise ModelError(f"a warm method needs at least one earlier drive, not {n_drives}")
     pieces: list[np.ndarray] | None = None
-    for k in range(n_drives, 0, -1):
-        s = int(seed) + k * PRIOR_SEED_OFFSET
-        sc = (earlier[k - 1] if earlier is not None and len(earlier) >= k
-              else simulate_scenario(s, n_outages=0, **scen_kw))
+    for s, sc in _earlier_drives(seed, n_drives, earlier, scen_kw):
         cfg, models, upd = method_setup("gmwm", sc, base, {})
         full = run_windows(sc, cfg, regime.apply(sc.gnss, 1_000_003 * s + noise_seed), [], initial_models=models,
                            updater=upd, keep=True, earlier_static=pieces)["_full"]

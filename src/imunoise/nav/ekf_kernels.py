@@ -25,8 +25,6 @@ I_CDTH = 16  # Σ C̄[i, a] Δθ̂_a at 16 + 3i + a (gyro scale-factor coupling)
 I_CDV = 25  # Σ C̄[i, a] Δv̂_a at 25 + 3i + a (accel scale-factor coupling)
 
 
-# Plain-loop linear algebra: the matrices are small and sparse-ish, and loops keep the JIT compile short
-# (numba's generic `@`/LAPACK paths cost tens of seconds of compilation for no speed gain here).
 @njit(cache=True)
 def _mm(A, B):
     """A @ B, skipping zeros of A."""

@@ -176,7 +176,7 @@ class OnlineNavigator:
         self._gnss: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._acc = [WVAccumulator(freq=self.rate) for _ in range(6)]
         self.static_s = 0.0
-        self._pieces: list[np.ndarray] = []  # every pooled static piece, bias removed (static_pieces)
+        self._pieces: list[np.ndarray] = []  # every pooled static piece (static_pieces)
         self._earlier_key: tuple = ()  # what the job cache must tell apart: the earlier drives' static data
         self.segments: list[StaticSegment] = []
         self.detected_segments: list[StaticSegment] = []  # every completed detector segment, before the guard
@@ -712,7 +712,7 @@ class OnlineNavigator:
                 raise DataError(f"earlier_static[{k}]: {int((~np.isfinite(x)).sum())} non-finite values; pass "
                                 "only finite static samples")
             if x.shape[0] >= 16:
-                self._pool_piece(x, centred=True)
+                self._pool_piece(x, keep_as_given=True)
         n = sum(p.shape[0] for p in self._pieces[n_before:])
         self.static_s += n / self.rate
         digest = hashlib.sha1()
@@ -726,13 +726,14 @@ class OnlineNavigator:
                 out = model_job("identify", wvs, self.fits, self.config, self.rate)
                 self._accept("identify", t0, out, t0)  # computed before the drive: in effect from its start
 
-    def _pool_piece(self, piece: np.ndarray, *, centred: bool = False) -> None:
-        """Pool one static piece (bias removed here unless ``centred``: an earlier drive's piece is kept with
-        its exact values, so a chain of drives hands on the same bytes and a repeated piece is recognised)."""
-        self._pieces.append(piece if centred else piece - piece.mean(axis=0))  # bias removal (SPEC §7)
-        x = self._pieces[-1] - piece.mean(axis=0) if centred else self._pieces[-1]
+    def _pool_piece(self, piece: np.ndarray, *, keep_as_given: bool = False) -> None:
+        """Pool one static piece, its bias removed (SPEC §7). ``keep_as_given``: an earlier drive's piece is
+        stored with its exact values, so a chain of drives hands on the same bytes and a repeated piece is
+        recognised (:func:`imunoise.io.static_npz.load_static_pieces`)."""
+        centred = piece - piece.mean(axis=0)
+        self._pieces.append(piece if keep_as_given else centred)
         for ax in range(6):
-            self._acc[ax].add(x[:, ax])
+            self._acc[ax].add(centred[:, ax])
 
     def static_pieces(self) -> list[np.ndarray]:
         """Every static piece pooled so far, (N, 6) each: the earlier drives' as given, then this drive's stops
