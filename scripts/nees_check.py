@@ -7,6 +7,7 @@ position + velocity (6 dof), and the share of epochs inside the two-sided 95 % Ï
 consistent filter has about 95 % of its epochs inside; the mean NEES should be near the dof.
 
     python scripts/nees_check.py --seeds 0-9 --methods plain,gmwm,gmwm_dyn,oracle --out out/nees
+    python scripts/nees_check.py --seeds 0-9 --methods gmwm_dyn --duration 1800 --stops 12 --out out/nees_long
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ def _seeds(text: str) -> list[int]:
 
 
 def nees_run(args: tuple) -> dict:
-    seed, method, gnss_spec, motion, skip = args
+    seed, method, gnss_spec, motion, skip, duration, stops = args
     from imunoise.experiments.common import simulate_scenario
     from imunoise.experiments.dense import WARM_METHODS, earlier_prior, method_setup
     from imunoise.experiments.gnss_regimes import parse_gnss
@@ -38,10 +39,11 @@ def nees_run(args: tuple) -> dict:
     from imunoise.online import OnlineNavigator, ned_offset
 
     logging.getLogger("imunoise").setLevel(logging.WARNING)
-    sc = simulate_scenario(seed, n_outages=0, motion_noise=motion)
+    scen_kw = {"motion_noise": motion, "duration_s": duration, "n_stops": stops}
+    sc = simulate_scenario(seed, n_outages=0, **scen_kw)
     regime = parse_gnss(gnss_spec)
     gnss = regime.apply(sc.gnss, 1_000_003 * seed + 1)
-    prior = (earlier_prior(seed, regime, 1, n_drives=WARM_METHODS[method], motion_noise=motion)
+    prior = (earlier_prior(seed, regime, 1, n_drives=WARM_METHODS[method], **scen_kw)
              if method in WARM_METHODS else None)
     cfg, models, upd = method_setup(method, sc, prior=prior)
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
@@ -80,19 +82,22 @@ def main() -> int:
     p.add_argument("--methods", default="plain,gmwm,gmwm_dyn,oracle")
     p.add_argument("--gnss", default="noise:1.5,3,1")
     p.add_argument("--motion-noise", default="drive0708")
+    p.add_argument("--duration", type=float, default=600.0, help="drive length in s (default 600, the simulator's)")
+    p.add_argument("--stops", type=int, default=4, help="stops in a drive (default 4, the simulator's)")
     p.add_argument("--skip", type=float, default=60.0, help="seconds after the start not scored (alignment)")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--out", required=True)
     a = p.parse_args()
     seeds = _seeds(a.seeds)
     methods = [m.strip() for m in a.methods.split(",") if m.strip()]
-    jobs = [(s, m, a.gnss, a.motion_noise, a.skip) for s in seeds for m in methods]
+    jobs = [(s, m, a.gnss, a.motion_noise, a.skip, a.duration, a.stops) for s in seeds for m in methods]
     with mp.get_context("fork").Pool(a.workers) as pool:
         runs = pool.map(nees_run, jobs)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = {}
-    lines = [f"NEES on {len(seeds)} simulated drives (seeds {a.seeds}, GNSS {a.gnss}, motion law {a.motion_noise}), "
+    lines = [f"NEES on {len(seeds)} simulated drives of {a.duration:g} s with {a.stops} stops (seeds {a.seeds}, "
+             f"GNSS {a.gnss}, motion law {a.motion_noise}), "
              f"1 Hz epochs after {a.skip:g} s", "",
              "| method | epochs | pos NEES mean (3 dof) | inside 95 % band | pos+vel NEES mean (6 dof) | inside |",
              "|---|---:|---:|---:|---:|---:|"]
@@ -111,6 +116,7 @@ def main() -> int:
         lines.append(f"| {m} | {n3.size} | {n3.mean():.2f} | {in3:.1%} | {n6.mean():.2f} | {in6:.1%} |")
     text = "\n".join(lines)
     (out / "nees.json").write_text(json.dumps({"seeds": seeds, "gnss": a.gnss, "motion": a.motion_noise,
+                                               "duration_s": a.duration, "stops": a.stops,
                                                "methods": rows}, indent=1))
     (out / "nees.md").write_text(text + "\n")
     print(text)
