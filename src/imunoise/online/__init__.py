@@ -11,6 +11,9 @@ name importable from ``imunoise.online``:
 ``jobs``
     The modelling job (:func:`model_job`: identification or refit per axis, plausibility check), a pure
     function run inline or in a worker thread.
+``modeller``
+    :class:`StopModeller`: the static data pooled from the stops, the per-axis fits, the modelling jobs (inline
+    or on the worker thread) and the updates waiting for their effect time; the navigator asks it which are due.
 ``result``
     :class:`ModelUpdate`, :class:`OnlineResult` and the per-epoch :class:`EpochStore`.
 ``stops``
@@ -29,6 +32,7 @@ from __future__ import annotations
 
 from imunoise.online.config import COMPLETE, NEGLIGIBLE, OnlineConfig, config_summary
 from imunoise.online.jobs import model_job
+from imunoise.online.modeller import StopModeller
 from imunoise.online.motion_noise import (
     MotionNoiseConfig,
     MotionNoiseLearner,
@@ -56,6 +60,7 @@ __all__ = [
     "NEGLIGIBLE",
     "config_summary",
     "model_job",
+    "StopModeller",
     "EpochStore",
     "StopVerdict",
     "stop_verdict",

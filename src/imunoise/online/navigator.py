@@ -4,14 +4,15 @@ Per IMU sample the navigator (1) feeds the static detector (SPEC §7), (2) sets 
 (3) propagates the loosely coupled EKF (SPEC §8) and applies queued GNSS fixes, (4) optionally applies
 ZUPT/ZARU while the detector says "static", (5) applies a new error model whose effect time has come.
 
-Modelling (paper §2.2–2.3). Every completed static segment (trimmed, bias removed = segment mean, all six
-axes) is added to one :class:`~imunoise.wv.WVAccumulator` per axis (pooled WV, no junction crosses two
-stops). Once ``min_static_s`` of static data exist, the structure is identified per axis over every
-sub-model of ``complete`` (:func:`imunoise.selection.select_model`, criterion ``"wvic"``, the
-library's default, or ``"gof"`` as the paper); after every later stop the fixed structure is re-estimated
-on all static data so far, warm-started from the previous fit (:func:`imunoise.estimator.refit`). A fit is
-rejected (the current model is kept and the reason logged) when it has non-finite parameters or when its
-GOF on the new WV is worse than the current parameters' GOF on the same WV and Ω.
+Modelling (paper §2.2–2.3; held by :class:`~imunoise.online.modeller.StopModeller`, which the navigator feeds
+the kept stops and asks at every sample which model updates are due). Every completed static segment (trimmed,
+bias removed = segment mean, all six axes) is added to one :class:`~imunoise.wv.WVAccumulator` per axis (pooled
+WV, no junction crosses two stops). Once ``min_static_s`` of static data exist, the structure is identified per
+axis over every sub-model of ``complete`` (:func:`imunoise.selection.select_model`, criterion ``"wvic"``, the
+library's default, or ``"gof"`` as the paper); after every later stop the fixed structure is re-estimated on all
+static data so far, warm-started from the previous fit (:func:`imunoise.estimator.refit`). A fit is rejected
+(the current model is kept and the reason logged) when it has non-finite parameters or when its GOF on the new
+WV is worse than the current parameters' GOF on the same WV and Ω.
 
 From a GMWM fit to filter noise (``ekf_axis_model``). The static fit describes the sensor at rest; the
 EKF needs a model of the error that drives the navigation states while driving. Everything that does not
@@ -74,12 +75,10 @@ first IMU sample with t ≥ t_g, as in :func:`imunoise.nav.ekf.run_ekf`).
 from __future__ import annotations
 
 import copy
-import hashlib
 import logging
 import math
 import time
 from collections.abc import Sequence
-from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import replace
 from typing import Any
 
@@ -90,15 +89,14 @@ from imunoise.errors import DataError, ImunoiseError, ModelError
 from imunoise.estimator import GMWMFit
 from imunoise.model import Model
 from imunoise.nav.defaults import default_axis_models
-from imunoise.nav.ekf import AXES, InitialState, LooselyCoupledEKF, normalize_axis_models
+from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, normalize_axis_models
 from imunoise.nav.mechanization import I_Q
 from imunoise.online.config import OnlineConfig, config_summary
-from imunoise.online.jobs import model_job
+from imunoise.online.modeller import StopModeller
 from imunoise.online.motion_noise import MotionNoiseLearner
 from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
 from imunoise.online.stops import stop_verdict
 from imunoise.online.to_filter import filter_axis_models
-from imunoise.wv import WVAccumulator
 
 log = logging.getLogger(__name__)
 _RUN_CHUNK = 4096  # IMU samples per StaticDetector.push_chunk call in OnlineNavigator.run
@@ -174,11 +172,6 @@ class OnlineNavigator:
         self._rows: list[np.ndarray] = []  # raw samples (rates) kept for the segments
         self._raw_t0 = 0  # absolute index of _rows[0]
         self._gnss: list[tuple[float, np.ndarray, np.ndarray]] = []
-        self._acc = [WVAccumulator(freq=self.rate) for _ in range(6)]
-        self.static_s = 0.0
-        self._pieces: list[np.ndarray] = []  # every pooled static piece (static_pieces)
-        self._earlier_key: tuple = ()  # what the job cache must tell apart: the earlier drives' static data
-        self.segments: list[StaticSegment] = []
         self.detected_segments: list[StaticSegment] = []  # every completed detector segment, before the guard
         self.rejected_segments: list[StaticSegment] = []  # the parts of them the stop guard dropped
         self._t_aided = -math.inf  # filter time of the last GNSS fix the filter used
@@ -188,14 +181,8 @@ class OnlineNavigator:
         self._run_nav = np.empty((1024, 4))
         self._run_len = 0
         self._run_i0 = 0
-        self.fits: list[GMWMFit | None] = [None] * 6
-        self.updates: list[ModelUpdate] = []
-        self._scheduled: list[tuple[float, ModelUpdate]] = []
-        self._executor: ThreadPoolExecutor | None = None
-        self._future: Future | None = None
-        self._future_meta: tuple[str, float, float] | None = None
-        self._dirty = False  # new static data arrived while a thread job runs
         self.events: list[dict] = []
+        self.modeller = StopModeller(config, self.rate, self.events, job_cache)
         self._gate = False
         self._static_run = 0
         self._store = EpochStore() if config.store else None
@@ -205,44 +192,18 @@ class OnlineNavigator:
         self._elapsed = 0.0
         self.current_models = models
         self._motion_fixes: list[tuple[float, np.ndarray, np.ndarray]] = []
-        self._job_cache = job_cache
         self._ekf_models_log: list[tuple[float, list[str]]] = []
         self._event("start", init.t, lambda0=self.lambda0, config=config_summary(config))
-        self._warm: Future | None = None
         if earlier_static is not None:
-            self._pool_earlier(earlier_static, init.t)
+            self.modeller.add_earlier(earlier_static, init.t)
         if config.modelling and config.warm_up and all(f is None for f in self.fits):
-            self._start_warm_up()
+            self.modeller.start_warm_up(init.t)
 
     # -- helpers ----------------------------------------------------------------------------------
     def _event(self, event: str, t: float, **kw: Any) -> None:
         e = {"t": float(t), "event": event}
         e.update(kw)
         self.events.append(e)
-
-    def _start_warm_up(self) -> None:
-        """Compile or load the modelling kernels before the first stop (:func:`imunoise.fitting.warm.warm_up`):
-        inline here, or as the worker thread's first job (the identification queues behind it, so its
-        measured compute time never includes the warm-up)."""
-        from imunoise.fitting.warm import warm_up
-
-        if self.config.worker == "thread":
-            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="imunoise-gmwm")
-            self._warm = self._executor.submit(warm_up)
-            return
-        try:
-            info = warm_up()
-        except Exception as exc:  # noqa: BLE001 - a failed warm-up only means compiling later, in the first fit
-            info = {"error": f"{type(exc).__name__}: {exc}"}
-        self._event("warm_up", self.init.t, worker="inline", **info)
-
-    def _collect_warm_up(self, t: float) -> None:
-        fut, self._warm = self._warm, None
-        try:
-            info = fut.result()
-        except Exception as exc:  # noqa: BLE001 - see _start_warm_up
-            info = {"error": f"{type(exc).__name__}: {exc}"}
-        self._event("warm_up", t, worker="thread", **info)
 
     def _make_detector(self, cfg: DetectorConfig) -> None:
         self.detector = StaticDetector(cfg, self.rate)
@@ -360,8 +321,8 @@ class OnlineNavigator:
         if self.config.worker != "inline":
             raise ModelError("fork() needs OnlineConfig(worker='inline'): a worker thread cannot be copied")
         memo = {id(o): o for o in share}
-        if self._job_cache is not None:
-            memo[id(self._job_cache)] = self._job_cache
+        if self.modeller.job_cache is not None:
+            memo[id(self.modeller.job_cache)] = self.modeller.job_cache
         nav, *rest = copy.deepcopy((self, *others), memo)
         if nav._store is not None:
             nav._store = EpochStore()
@@ -378,14 +339,7 @@ class OnlineNavigator:
         t0 = time.perf_counter()
         if self.detector is None and self._pending_samples:
             self._learn_finish()
-        if self._warm is not None:
-            self._warm.exception()  # wait; _collect_warm_up logs the outcome
-            self._collect_warm_up(self._t_last)
-        if self._future is not None:
-            self._future.result()
-            self._collect_thread(self._t_last)
-        if self._executor is not None:
-            self._executor.shutdown(wait=True)
+        self.modeller.finish(self._t_last)
         if self._motion is not None:
             n_hist = len(self._motion.history)
             self._motion.close()
@@ -666,151 +620,38 @@ class OnlineNavigator:
         kept = self._guard(seg, t_now)
         for s in kept:
             self._add_static(s, t_now)
-        if not kept:
-            return
-        if not self.config.modelling:
-            return
-        if self.static_s < self.config.min_static_s:
-            self._event("waiting", t_now, static_total_s=self.static_s, need_s=self.config.min_static_s)
-            return
-        kind = "identify" if all(f is None for f in self.fits) else "refit"
-        if self.config.worker == "thread":
-            if self._future is not None:
-                self._dirty = True
-                return
-            self._submit(kind, t_now)
-            return
-        self._run_inline(kind, t_now)
+        if kept:
+            self.modeller.stop_done(t_now)
 
     def _add_static(self, seg: StaticSegment, t_now: float) -> None:
-        """Pool one modelled segment into the per-axis wavelet variances (bias removed, split at non-finite
-        samples) and log its ``stop_end``."""
+        """Hand the raw samples of one kept segment to the modeller."""
         a, b = seg.i0 - self._raw_t0, seg.i1 - self._raw_t0
-        data = np.array(self._rows[a:b])
-        ok = np.all(np.isfinite(data), axis=1)
-        # a non-finite sample splits the segment (no wavelet coefficient may span it)
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
-        pieces = [data[p:q] for p, q in zip(edges[::2], edges[1::2]) if q - p >= 16]
-        if not ok.all():
-            self._event("rejected", t_now, reason=f"{int((~ok).sum())} non-finite samples in the stop "
-                        f"{seg.t0:.2f}–{seg.t1:.2f} s; used the {len(pieces)} finite pieces")
-        for piece in pieces:
-            self._pool_piece(piece)
-        self.static_s += seg.duration
-        self.segments.append(seg)
-        self._event("stop_end", t_now, t0=seg.t0, t1=seg.t1, duration_s=seg.duration, static_total_s=self.static_s)
+        self.modeller.add_stop(seg, np.array(self._rows[a:b]), t_now)
 
-    def _pool_earlier(self, earlier: Sequence[np.ndarray], t0: float) -> None:
-        """Pool the static pieces of earlier drives (``earlier_static``) and identify on them if enough."""
-        n_before = len(self._pieces)
-        for k, x in enumerate(earlier):
-            x = np.asarray(x, dtype=float)
-            if x.ndim != 2 or x.shape[1] != 6:
-                raise DataError(f"earlier_static[{k}]: expected an (N, 6) array of static samples (gyro x, y, z "
-                                f"rad/s, accel x, y, z m/s²), got shape {x.shape}")
-            if not np.all(np.isfinite(x)):
-                raise DataError(f"earlier_static[{k}]: {int((~np.isfinite(x)).sum())} non-finite values; pass "
-                                "only finite static samples")
-            if x.shape[0] >= 16:
-                self._pool_piece(x, keep_as_given=True)
-        n = sum(p.shape[0] for p in self._pieces[n_before:])
-        self.static_s += n / self.rate
-        digest = hashlib.sha1()
-        for p in self._pieces[n_before:]:
-            digest.update(p.tobytes())
-        self._earlier_key = (n, digest.hexdigest())
-        self._event("earlier_static", t0, pieces=len(self._pieces) - n_before, static_s=n / self.rate)
-        if self.config.modelling and self.static_s >= self.config.min_static_s:
-            wvs = self._wvs(t0)
-            if wvs is not None:
-                out = model_job("identify", wvs, self.fits, self.config, self.rate)
-                self._accept("identify", t0, out, t0)  # computed before the drive: in effect from its start
+    @property
+    def fits(self) -> list[GMWMFit | None]:
+        """The modeller's current fit per axis (gyro x, y, z, accel x, y, z; None before identification)."""
+        return self.modeller.fits
 
-    def _pool_piece(self, piece: np.ndarray, *, keep_as_given: bool = False) -> None:
-        """Pool one static piece, its bias removed (SPEC §7). ``keep_as_given``: an earlier drive's piece is
-        stored with its exact values, so a chain of drives hands on the same bytes and a repeated piece is
-        recognised (:func:`imunoise.io.static_npz.load_static_pieces`)."""
-        centred = piece - piece.mean(axis=0)
-        self._pieces.append(piece if keep_as_given else centred)
-        for ax in range(6):
-            self._acc[ax].add(centred[:, ax])
+    @property
+    def updates(self) -> list[ModelUpdate]:
+        """Every modelling job's outcome so far (:attr:`StopModeller.updates`)."""
+        return self.modeller.updates
+
+    @property
+    def segments(self) -> list[StaticSegment]:
+        """The stops pooled so far (after the stop guard)."""
+        return self.modeller.segments
+
+    @property
+    def static_s(self) -> float:
+        """Static data pooled so far [s], the earlier drives' included."""
+        return self.modeller.static_s
 
     def static_pieces(self) -> list[np.ndarray]:
-        """Every static piece pooled so far, (N, 6) each: the earlier drives' as given, then this drive's stops
-        with their bias removed; the ``earlier_static`` of the next drive of the same IMU."""
-        return [p.copy() for p in self._pieces]
-
-    def _wvs(self, t_now: float) -> list | None:
-        """The per-axis WVs of the static data so far, or None after a 'rejected' event when one fails."""
-        try:
-            return [acc.result() for acc in self._acc]
-        except ImunoiseError as exc:
-            self._event("rejected", t_now, reason=f"wavelet variance: {exc}")
-            return None
-
-    def _run_inline(self, kind: str, t_now: float) -> None:
-        wvs = self._wvs(t_now)
-        if wvs is None:
-            return
-        key = None
-        if self._job_cache is not None:
-            c = self.config
-            key = (kind, self._earlier_key, tuple((sg.i0, sg.i1) for sg in self.segments), c.criterion, c.complete,
-                   c.weights, c.top,
-                   tuple(None if f is None else (str(f.model), tuple(f.model.vector)) for f in self.fits))
-        out = self._job_cache.get(key) if key is not None else None
-        if out is None:
-            out = model_job(kind, wvs, self.fits, self.config, self.rate)
-            if key is not None:
-                self._job_cache[key] = out
-        delay = self.config.latency if self.config.latency is not None else float(sum(out["elapsed"]))
-        self._accept(kind, t_now, out, t_now + delay)
-
-    def _submit(self, kind: str, t_now: float) -> None:
-        wvs = self._wvs(t_now)
-        if wvs is None:
-            return
-        if self._executor is None:
-            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="imunoise-gmwm")
-        self._future = self._executor.submit(model_job, kind, wvs, list(self.fits), self.config, self.rate)
-        self._future_meta = (kind, t_now, self.static_s)
-        self._dirty = False
-
-    def _collect_thread(self, t_now: float) -> None:
-        fut, (kind, t_stop, _) = self._future, self._future_meta
-        self._future = None
-        try:
-            out = fut.result()
-        except Exception as exc:  # noqa: BLE001 - a worker failure must never stop the filter
-            self._event("rejected", t_now, reason=f"worker failed: {type(exc).__name__}: {exc}")
-            return
-        self._accept(kind, t_stop, out, t_now)
-        if self._dirty:
-            self._submit("refit" if any(f is not None for f in self.fits) else "identify", t_now)
-
-    def _accept(self, kind: str, t_stop: float, out: dict, t_effect: float) -> None:
-        fits = out["fits"]
-        for a, reason in enumerate(out["rejected"]):
-            if reason:
-                self._event("rejected", t_stop, axis=AXES[a], job=kind, reason=reason)
-                log.info("%s fit of %s rejected: %s", kind, AXES[a], reason)
-        ok = any(f is not None for f in fits)
-        upd = ModelUpdate(kind, t_stop, t_effect if ok else None, self.static_s, fits, out["elapsed"],
-                          out["rankings"], out["rejected"])
-        self.updates.append(upd)
-        per_axis = {
-            AXES[a]: {"structure": str(f.model), "gof": f.objective, "time_s": out["elapsed"][a],
-                      "wvic": f.extra.get("wvic")}
-            for a, f in enumerate(fits) if f is not None
-        }
-        self._event("identified" if kind == "identify" else "refit", t_stop, static_total_s=self.static_s,
-                    axes=per_axis, elapsed_s=float(sum(out["elapsed"])), t_effect=upd.t_effect)
-        if ok:
-            for a, f in enumerate(fits):
-                if f is not None:
-                    self.fits[a] = f
-            self._scheduled.append((upd.t_effect, upd))
-            self._scheduled.sort(key=lambda x: x[0])
+        """Every static piece pooled so far (:meth:`StopModeller.static_pieces`): the ``earlier_static`` of the
+        next drive of the same IMU."""
+        return self.modeller.static_pieces()
 
     def _motion_events(self, t: float, n_hist: int) -> None:
         """Log the learner's start and decisions since ``n_hist``; swap in an accepted in-motion model."""
@@ -830,12 +671,7 @@ class OnlineNavigator:
             n_hist = len(self._motion.history)
             self._motion.poll()
             self._motion_events(t, n_hist)
-        if self._warm is not None and self._warm.done():
-            self._collect_warm_up(t)
-        if self._future is not None and self._future.done():
-            self._collect_thread(t)
-        while self._scheduled and self._scheduled[0][0] <= t:
-            _, upd = self._scheduled.pop(0)
+        for upd in self.modeller.due(t):
             self._swap(t, upd)
 
     def filter_models(self) -> list[tuple[Model, float]]:
@@ -868,7 +704,7 @@ class OnlineNavigator:
             lambda0=float(self.lambda0) if self.lambda0 is not None else float("nan"),
             elapsed_s=self._elapsed, final_models=list(self.current_models), fits=list(self.fits),
             sample_t=np.array(self._sample_t), rejected_segments=list(self.rejected_segments),
-            detected_segments=list(self.detected_segments), static_pieces=list(self._pieces),
+            detected_segments=list(self.detected_segments), static_pieces=self.modeller.static_pieces(copy=False),
         )
 
 
