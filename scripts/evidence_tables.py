@@ -6,16 +6,22 @@ their 95 % CIs, **bold** where the CI excludes 1, then the extra pairs asked wit
 has ``oracle`` and ``plain``, every method's share of the oracle's log-gain over plain in end drift (issue 13,
 acceptance 1) with its paired bootstrap CI. Used for the tables in docs/acceptance/.
 
+``--across OTHER.json --pairs A/B[,C/D]`` pairs method A of the (one) run given with method B of run OTHER,
+window by window: both runs must hold the same drives and windows (same seeds, scenario and ``--outages``), e.g.
+a method added in a later run against a baseline of an earlier one.
+
     python scripts/evidence_tables.py out/evidence/results.json [more/results.json ...]
+    python scripts/evidence_tables.py out/run_a/results.json --across out/run_b/results.json --pairs x/y
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
 
-from imunoise.experiments.stats import drive_log_ratios, gain_share
+from imunoise.experiments.stats import drive_log_ratios, gain_share, paired_entry
 
 METRICS = (("drift", "drift"), ("rms", "rms"), ("aided_rms", "aided RMS"))
 
@@ -75,13 +81,64 @@ def _share_rows(res: dict, g: str) -> list[str]:
     return out
 
 
-def main(paths: list[str]) -> int:
-    if not paths:
-        print(__doc__.strip().splitlines()[-1].strip(), file=sys.stderr)
-        return 2
-    for p in paths:
-        res = json.loads(Path(p).read_text())
-        print(f"### {p}\n")
+def cross_pairs(res_a: dict, res_b: dict, pairs: list[tuple[str, str]]) -> list[dict]:
+    """``paired`` entries of method A of run ``res_a`` against method B of run ``res_b`` per GNSS regime they share
+    and metric; the two runs must have the same windows (else ValueError saying what differs)."""
+    if res_a.get("windows") != res_b.get("windows"):
+        raise ValueError("the two runs do not hold the same drives and windows (run both with the same --seeds, "
+                         "--seed0, scenario and --outages)")
+    regimes = [g for g in res_a["gnss"] if g in res_b["gnss"]]
+    if not regimes:
+        raise ValueError(f"no GNSS regime in common ({res_a['gnss']} vs {res_b['gnss']})")
+    proto = res_a["protocol"]
+    out = []
+    for a, b in pairs:
+        for name, res in ((a, res_a), (b, res_b)):
+            if name not in res["methods"]:
+                raise ValueError(f"method {name!r} is not in its run (methods: {', '.join(res['methods'])})")
+        for g in regimes:
+            for met, _ in METRICS:
+                vals = {"A": res_a["per_window"][g][met][a], "B": res_b["per_window"][g][met][b]}
+                e = paired_entry("A", "B", met, vals, proto["block"], n_independent_total=res_a["n_independent"],
+                                 n_boot=proto.get("n_boot", 2000), seed=proto.get("boot_seed", 0))
+                out.append(dict(e, method=a, baseline=b, gnss=g))
+    return out
+
+
+def cross_table(entries: list[dict]) -> str:
+    """The markdown of :func:`cross_pairs`."""
+    by = {(e["gnss"], e["method"], e["baseline"], e["metric"]): e for e in entries}
+    lines = []
+    for g in dict.fromkeys(e["gnss"] for e in entries):
+        lines += ["", f"#### GNSS {g}", "", "| pair (across runs) | " + " | ".join(lab for _, lab in METRICS) + " |",
+                  "|---|---|---|---|"]
+        for a, b in dict.fromkeys((e["method"], e["baseline"]) for e in entries if e["gnss"] == g):
+            lines.append(f"| {a} / {b} | " + " | ".join(_cell(by.get((g, a, b, k))) for k, _ in METRICS) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str]) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("results", nargs="+", help="results.json of dense-window runs")
+    p.add_argument("--across", help="results.json of a second run of the same windows: pair across the two runs")
+    p.add_argument("--pairs", help="with --across: A/B[,C/D], A of the first run against B of the second")
+    a = p.parse_args(argv)
+    if a.across:
+        from imunoise.experiments.dense import parse_pairs
+
+        if len(a.results) != 1 or not a.pairs:
+            p.error("--across needs exactly one results.json and --pairs A/B")
+        try:
+            entries = cross_pairs(json.loads(Path(a.results[0]).read_text()), json.loads(Path(a.across).read_text()),
+                                  parse_pairs(a.pairs))
+        except ValueError as exc:
+            p.error(str(exc))
+        print(f"### {a.results[0]} against {a.across}")
+        print(cross_table(entries))
+        return 0
+    for path in a.results:
+        res = json.loads(Path(path).read_text())
+        print(f"### {path}\n")
         print(tables(res))
         print()
     return 0

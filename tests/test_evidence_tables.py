@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from imunoise.experiments.stats import paired_entry
 
@@ -35,3 +37,36 @@ def test_tables_show_ratios_and_the_oracle_share():
     assert "| half | **0.775 [0.775, 0.775]** |" in md  # √0.6, the CI degenerate and excluding 1
     assert "| half | 50.0 % [50.0, 50.0] |" in md
     assert "| oracle |" in md and "| oracle | 100" not in md  # the oracle has no share row of its own
+
+
+def _run(method: str, scale: float, windows: dict) -> dict:
+    rng = np.random.default_rng(5)  # the same draws in both runs: the second run's method is scale × the first's
+    per = {met: {method: [[list(scale * rng.uniform(50, 300, 6))] for _ in range(2)]}
+           for met in ("drift", "rms", "aided_rms")}
+    return {"methods": [method], "gnss": ["rtk"], "n_independent": 4, "windows": windows,
+            "protocol": {"block": 3, "n_boot": 200, "boot_seed": 0}, "per_window": {"rtk": per}}
+
+
+def test_across_pairs_two_runs_of_the_same_windows(capsys, tmp_path):
+    windows = {"seed 0": [[60.0, 120.0]] * 6, "seed 1": [[60.0, 120.0]] * 6}
+    a, b = _run("x", 1.0, windows), _run("y", 0.8, windows)
+    entries = evidence_tables.cross_pairs(a, b, [("x", "y")])
+    assert {e["metric"] for e in entries} == {"drift", "rms", "aided_rms"}
+    for e in entries:
+        assert (e["method"], e["baseline"], e["gnss"]) == ("x", "y", "rtk")
+        assert abs(e["ratio"] - 1.25) < 1e-12 and e["significant"]  # x / (0.8 x) in every window
+    (tmp_path / "a.json").write_text(json.dumps(a))
+    (tmp_path / "b.json").write_text(json.dumps(b))
+    assert evidence_tables.main([str(tmp_path / "a.json"), "--across", str(tmp_path / "b.json"), "--pairs", "x/y"]) == 0
+    assert "| x / y | **1.250 [1.250, 1.250]** |" in capsys.readouterr().out
+
+
+def test_across_refuses_runs_of_other_windows_and_unknown_methods():
+    a = _run("x", 1.0, {"seed 0": [[60.0, 120.0]]})
+    b = _run("y", 1.0, {"seed 0": [[80.0, 140.0]]})
+    with pytest.raises(ValueError, match="same drives and windows"):
+        evidence_tables.cross_pairs(a, b, [("x", "y")])
+    with pytest.raises(ValueError, match="method 'z' is not in its run"):
+        evidence_tables.cross_pairs(a, _run("y", 1.0, a["windows"]), [("x", "z")])
+    with pytest.raises(SystemExit):
+        evidence_tables.main(["a.json", "--across", "b.json"])  # no --pairs: usage error
