@@ -154,7 +154,7 @@ def test_outlier_rejected_then_forced_after_max_rejects(caplog):
     llh[40, 0] += 50.0 / 6.37e6  # one 50 m outlier
     llh[80:90, 0] += 30.0 / 6.37e6  # a 30 m jump lasting 10 epochs: accepted after 4 rejections
     ec = EkfConfig(gate_max_reject=4)
-    with caplog.at_level(logging.INFO):
+    with caplog.at_level(logging.INFO, logger="imunoise"):
         res = run_ekf(imu, GnssData(gnss.t, llh, gnss.sigma_ned), init, ec, None)
     assert res.gnss_status[40] == 0
     assert np.all(res.gnss_status[80:84] == 0) and res.gnss_status[84] == 2
@@ -230,7 +230,7 @@ def test_bad_inputs_are_errors_or_handled(caplog):
     sig = gnss.sigma_ned.copy()
     sig[3] = np.nan
     sig[4] = 0.0
-    with caplog.at_level(logging.WARNING):
+    with caplog.at_level(logging.WARNING, logger="imunoise"):
         res = run_ekf(ImuData(t2, dth, dv), GnssData(gnss.t, gnss.llh, sig), init, EkfConfig(), None)
     text = caplog.text
     assert "duplicated" in text and "gaps" in text and "NaN" in text and "floor" in text

@@ -66,11 +66,14 @@ def noisy_drive():
     """300 s on the noisy IMU (seed 0): its learned λ0 lets smooth cruising pass the IMU-only test."""
     from imunoise.experiments.common import simulate_scenario
 
-    logging.getLogger("imunoise").setLevel(logging.ERROR)
+    logger = logging.getLogger("imunoise")
+    level = logger.level
+    logger.setLevel(logging.ERROR)  # quiet for this module's tests only: later tests read the warnings
     # moving = static errors (motion_noise "none"): with the in-motion vibration of the default law the detector
     # alone already separates cruising from stops on this drive (precision 0.98)
-    return simulate_scenario(0, imu_models="noisy", duration_s=300.0, n_stops=2, n_outages=0, static_s=30.0,
-                             motion_noise="none")
+    yield simulate_scenario(0, imu_models="noisy", duration_s=300.0, n_stops=2, n_outages=0, static_s=30.0,
+                            motion_noise="none")
+    logger.setLevel(level)
 
 
 def _mask(n, segments):
