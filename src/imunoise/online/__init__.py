@@ -15,7 +15,8 @@ name importable from ``imunoise.online``:
     :class:`StopModeller`: the static data pooled from the stops, the per-axis fits, the modelling jobs (inline
     or on the worker thread) and the updates waiting for their effect time; the navigator asks it which are due.
 ``result``
-    :class:`ModelUpdate`, :class:`OnlineResult` and the per-epoch :class:`EpochStore`.
+    :class:`ModelUpdate`, :class:`OnlineResult`, the per-epoch :class:`EpochStore` and :func:`log_event` (one
+    entry of the run's event log).
 ``stops``
     Which detected stops are modelled: :func:`stop_verdict` (the navigation check of a static segment,
     ``OnlineConfig.stop_guard``) and its :class:`StopVerdict`.
@@ -42,7 +43,7 @@ from imunoise.online.motion_noise import (
     ned_offset,
 )
 from imunoise.online.navigator import OnlineNavigator, run_online
-from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
+from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult, log_event
 from imunoise.online.stops import StopVerdict, stop_verdict
 from imunoise.online.to_filter import data_horizon, dr_equivalent_rw, ekf_axis_model, filter_axis_models
 
@@ -62,6 +63,7 @@ __all__ = [
     "model_job",
     "StopModeller",
     "EpochStore",
+    "log_event",
     "StopVerdict",
     "stop_verdict",
     "MotionNoiseConfig",

@@ -24,7 +24,7 @@ from imunoise.estimator import GMWMFit
 from imunoise.nav.ekf import AXES
 from imunoise.online.config import OnlineConfig
 from imunoise.online.jobs import model_job
-from imunoise.online.result import ModelUpdate
+from imunoise.online.result import ModelUpdate, log_event
 from imunoise.wv import WVAccumulator
 
 log = logging.getLogger(__name__)
@@ -77,14 +77,12 @@ class StopModeller:
         self._scheduled: list[tuple[float, ModelUpdate]] = []
         self._executor: ThreadPoolExecutor | None = None
         self._future: Future | None = None
-        self._future_meta: tuple[str, float, float] | None = None
+        self._future_meta: tuple[str, float] | None = None  # (kind, stop time) of the running job
         self._dirty = False  # new static data arrived while a thread job runs
         self._warm: Future | None = None
 
     def _event(self, event: str, t: float, **kw: Any) -> None:
-        e = {"t": float(t), "event": event}
-        e.update(kw)
-        self.events.append(e)
+        log_event(self.events, event, t, **kw)
 
     @property
     def busy(self) -> bool:
@@ -226,11 +224,11 @@ class StopModeller:
         if self._executor is None:
             self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="imunoise-gmwm")
         self._future = self._executor.submit(model_job, kind, wvs, list(self.fits), self.config, self.rate)
-        self._future_meta = (kind, t_now, self.static_s)
+        self._future_meta = (kind, t_now)
         self._dirty = False
 
     def _collect_thread(self, t_now: float) -> None:
-        fut, (kind, t_stop, _) = self._future, self._future_meta
+        fut, (kind, t_stop) = self._future, self._future_meta
         self._future = None
         try:
             out = fut.result()

@@ -94,7 +94,7 @@ from imunoise.nav.mechanization import I_Q
 from imunoise.online.config import OnlineConfig, config_summary
 from imunoise.online.modeller import StopModeller
 from imunoise.online.motion_noise import MotionNoiseLearner
-from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
+from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult, log_event
 from imunoise.online.stops import stop_verdict
 from imunoise.online.to_filter import filter_axis_models
 
@@ -201,9 +201,7 @@ class OnlineNavigator:
 
     # -- helpers ----------------------------------------------------------------------------------
     def _event(self, event: str, t: float, **kw: Any) -> None:
-        e = {"t": float(t), "event": event}
-        e.update(kw)
-        self.events.append(e)
+        log_event(self.events, event, t, **kw)
 
     def _make_detector(self, cfg: DetectorConfig) -> None:
         self.detector = StaticDetector(cfg, self.rate)

@@ -18,12 +18,19 @@ from imunoise.nav.earth import dcm_to_euler
 from imunoise.nav.mechanization import quat_to_dcm
 from imunoise.nav.solution import NavSolution
 
-__all__ = ["ModelUpdate", "OnlineResult", "EpochStore"]
+__all__ = ["ModelUpdate", "OnlineResult", "EpochStore", "log_event"]
 
 
 # --------------------------------------------------------------------------------------------------
 # results
 # --------------------------------------------------------------------------------------------------
+def log_event(events: list[dict], event: str, t: float, **kw: Any) -> None:
+    """Append one entry ``{"t", "event", **kw}`` to an online run's event log (:attr:`OnlineResult.events`)."""
+    e = {"t": float(t), "event": event}
+    e.update(kw)
+    events.append(e)
+
+
 @dataclass
 class ModelUpdate:
     """One modelling job: ``kind`` "identify" or "refit"; ``t_stop`` completion time of the stop that
