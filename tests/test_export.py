@@ -150,18 +150,23 @@ def test_model_file_round_trip_and_single_axis(tmp_path, imu_model, base_fit):
     assert m.axes["gyro_x"] == imu_model.fit("gyro_x").to_dict()  # per-axis dicts are GMWMFit.to_dict()
     base_fit.save(str(tmp_path / "model.json"))
     single = load_model(tmp_path / "model.json")
-    text = export_text(single, "kalibr")  # rad/s: a gyro, no --sensor needed
-    assert read_export_text(text) == read_export_text(export_text(single, "kalibr", sensor="gyro"))
+    # a gyro-only fit cannot make a file Kalibr reads (ImuParameters needs the accelerometer keys): refused,
+    # naming the keys; the gyro block alone on request (--sensor, partial=True)
+    with pytest.raises(ModelError, match="needs accelerometer_noise_density, accelerometer_random_walk"):
+        export_text(single, "kalibr")
+    text = export_text(single, "kalibr", partial=True)  # rad/s: a gyro, no --sensor needed
+    assert read_export_text(text) == read_export_text(export_text(single, "kalibr", sensor="gyro", partial=True))
+    assert "SENSOR BLOCK ONLY (gyro)" in text
     unitless = _with(base_fit, "WN+RW", base_fit.params, "u")
     with pytest.raises(ModelError, match="--sensor"):
         export_text(unitless, "kalibr")
     by_name = _with(base_fit, "WN+RW", base_fit.params, "u")
     by_name.extra["column"] = "accel_z"
-    assert "accelerometer_noise_density: " in export_text(by_name, "kalibr")
+    assert "accelerometer_noise_density: " in export_text(by_name, "kalibr", partial=True)
     assert "# accelerometer_noise_density: not exported" in text
     assert read_export_text(text)["gyroscope_noise_density"] == axis_noise(base_fit).N
     with pytest.raises(UnitError, match="needs m/s²"):
-        export_text(single, "kalibr", sensor="accel")  # the fit is in rad/s
+        export_text(single, "kalibr", sensor="accel", partial=True)  # the fit is in rad/s
 
 
 def read_export_text(text: str) -> dict:
@@ -213,7 +218,7 @@ def test_cli_warns_when_the_pair_cannot_follow_the_model(tmp_path, base_fit, cap
     fit = _with(base_fit, "AR1+WN+RW", p, "rad/s")
     fit.save(str(tmp_path / "model.json"))
     capsys.readouterr()
-    assert main(["export", str(tmp_path / "model.json"), "--out", str(tmp_path / "imu.yaml")]) == 0
+    assert main(["export", str(tmp_path / "model.json"), "--sensor", "gyro", "--out", str(tmp_path / "imu.yaml")]) == 0
     err = capsys.readouterr().err
     assert "warning: gyro: the exported pair's Allan variance is" in err
     text = (tmp_path / "imu.yaml").read_text()

@@ -46,6 +46,7 @@ from imunoise.equivalent_noise import WARN_RATIO, Equivalent, default_horizon_s,
 from imunoise.errors import DataError, ModelError, UnitError
 from imunoise.estimator import GMWMFit
 from imunoise.imu_model import ImuModel, load_model
+from imunoise.io.atomic import atomic_write_text
 from imunoise.io.imu_input import sensor_of
 from imunoise.units import quantity_of
 
@@ -62,6 +63,9 @@ __all__ = [
     "parse_inflate",
     "export_text",
     "write_export",
+    "update_into",
+    "model_topic",
+    "required_keys",
     "read_export",
     "format_float",
     "density_units",
@@ -606,6 +610,93 @@ def _kalibr_lines(sensors: dict[str, SensorNoise], s: str, indent: str = "") -> 
     ]
 
 
+# The OpenVINS >= v2.7 intrinsics, as OpenVINS' config/euroc_mav/kalibr_imu_chain.yaml writes them: nested
+# sequences, which YamlParser::parse(.., Eigen::Matrix3d&) reads row by row as node[r][c] (an !!opencv-matrix
+# map would not index so); identity = no intrinsic calibration, zero Tg = no gravity sensitivity.
+_EYE3 = ("- [ 1.0, 0.0, 0.0 ]", "- [ 0.0, 1.0, 0.0 ]", "- [ 0.0, 0.0, 1.0 ]")
+OPENVINS_INTRINSICS: dict[str, tuple[str, ...]] = {
+    "Tw": _EYE3,
+    "R_IMUtoGYRO": _EYE3,
+    "Ta": _EYE3,
+    "R_IMUtoACC": _EYE3,
+    "Tg": ("- [ 0.0, 0.0, 0.0 ]",) * 3,
+}
+OPENVINS_VERSIONS = (
+    "Read by OpenVINS v2.6 (imu0: the four noise densities, rostopic) and >= v2.7, which also requires model "
+    "and the 3x3 Tw, R_IMUtoGYRO, Ta, R_IMUtoACC, Tg (identity / zero here: no IMU intrinsic calibration)."
+)
+ORBSLAM3_VERSIONS = (
+    'ORB-SLAM3 v1.0 settings (File.version: "1.0") read IMU.Frequency as a real; legacy settings (no File.version, '
+    "ORB-SLAM3 <= 0.4) need an integer (imunoise export --legacy, or --into detects it)."
+)
+
+
+def model_topic(model: ImuModel | GMWMFit) -> str | None:
+    """The ROS topic of the bag the model's data came from, as recorded in its metadata (``source.topic`` of a
+    multi-axis model, else its axes' ``extra.topic``; ``extra.topic`` of a single fit); None when not recorded.
+
+    Parameters
+    ----------
+    model : ImuModel or GMWMFit
+        The model.
+
+    Returns
+    -------
+    str or None
+    """
+    if isinstance(model, ImuModel):
+        if model.source.get("topic"):
+            return str(model.source["topic"])
+        extras = [d.get("extra") or {} for d in model.axes.values()]
+        topics = {str(e["topic"]) for e in extras if e.get("topic")}
+        return topics.pop() if len(topics) == 1 else None
+    return str(model.extra["topic"]) if model.extra.get("topic") else None
+
+
+def required_keys(fmt: str, *, legacy: bool = False) -> tuple[str, ...]:
+    """The IMU keys a tool requires (its reader stops without them; tests/test_export_clients.py cites the reads).
+
+    Parameters
+    ----------
+    fmt : {"kalibr", "openvins", "orbslam3"}
+        The tool.
+    legacy : bool
+        ORB-SLAM3 legacy settings (``Tbc`` instead of ``IMU.T_b_c1``).
+
+    Returns
+    -------
+    tuple of str
+    """
+    noise = tuple(k for s in ("gyro", "accel") for k in (_KALIBR_KEYS if fmt != "orbslam3" else _ORB_KEYS)[s])
+    if fmt == "kalibr":
+        return (*noise, "rostopic", "update_rate")
+    if fmt == "openvins":
+        return (*noise, "rostopic", "model", *OPENVINS_INTRINSICS)
+    return (*noise, "IMU.Frequency", "Tbc" if legacy else "IMU.T_b_c1")
+
+
+def _one_sensor_error(sensors: Mapping[str, SensorNoise], fmt: str, what: str) -> ModelError:
+    have = next(iter(sensors))
+    other = "accel" if have == "gyro" else "gyro"
+    keys = (_ORB_KEYS if fmt == "orbslam3" else _KALIBR_KEYS)[other]
+    name = {"kalibr": "Kalibr imu.yaml", "openvins": "OpenVINS imu0 block", "orbslam3": "ORB-SLAM3 settings file"}[fmt]
+    return ModelError(
+        f"{what} has no {other} axes, and a {name} needs {', '.join(keys)} (the tool stops without them): "
+        f"write the {have} block alone with --sensor {have}, merge it into an existing file with --into FILE, "
+        "or use --to json"
+    )
+
+
+def _frequency_text(freq: float, legacy: bool) -> tuple[str, str | None]:
+    """IMU.Frequency: a real for v1.0, an integer for legacy ORB-SLAM3 (and a note when rounded)."""
+    if not legacy:
+        return repr(float(freq)), None
+    n = int(round(freq))
+    note = None if abs(n - freq) <= 1e-6 * freq else (
+        f"IMU.Frequency written as {n}: legacy ORB-SLAM3 reads an integer, the data rate is {freq:.6g} Hz")
+    return str(n), note
+
+
 def export_text(
     model: ImuModel | GMWMFit | str | Path,
     fmt: str,
@@ -616,10 +707,13 @@ def export_text(
     inflate: Mapping[str, float] | str | None = None,
     source: str | None = None,
     horizon_s: float | None = None,
+    partial: bool = False,
+    legacy: bool = False,
 ) -> str:
     """The file text of ``fmt`` (kalibr, openvins, orbslam3, json) for a multi-axis model or a single
     fit (``sensor`` when its unit and column name do not say). ``topic`` defaults to the model's recorded
-    ROS topic, else ``/imu0``; ``horizon_s`` the longest averaging time matched on (default: the data's).
+    ROS topic (:func:`model_topic`), else ``/imu0``; ``horizon_s`` the longest averaging time matched on
+    (default: the data's).
 
     Parameters
     ----------
@@ -628,15 +722,20 @@ def export_text(
     fmt : str
         One of :data:`FORMATS`.
     sensor : {"gyro", "accel"}, optional
-        For a single fit whose unit and column name do not say.
+        Export only this sensor; for a single fit, which sensor it is when its unit and column name do not say.
     topic : str, optional
-        ROS topic written (Kalibr/OpenVINS).
+        ROS topic written (Kalibr/OpenVINS); default: the topic of the model's bag.
     combine, inflate
         As for :func:`sensor_noise` (``inflate`` also as text, :func:`parse_inflate`).
     source : str, optional
         Where the model came from, for the header comment.
     horizon_s : float, optional
         Longest averaging time matched on [s].
+    partial : bool
+        Allow a file with one sensor's keys only (the sensor block, to merge by hand). Without it a
+        one-sensor export to kalibr/openvins/orbslam3, which each tool refuses, raises :class:`ModelError`.
+    legacy : bool
+        ORB-SLAM3: write ``IMU.Frequency`` as the integer legacy settings (no ``File.version``) need.
 
     Returns
     -------
@@ -651,10 +750,15 @@ def export_text(
     if isinstance(inflate, str) or inflate is None:
         inflate = parse_inflate(inflate)
     sensors = model_sensors(model, sensor, combine, inflate, horizon_s)
+    if fmt != "json" and len(sensors) < len(SENSORS) and not partial:
+        raise _one_sensor_error(sensors, fmt, source or "the model")
     freq = next(iter(sensors.values())).freq_hz
-    if topic is None:
-        src = model.source if isinstance(model, ImuModel) else model.extra
-        topic = src.get("topic") or "/imu0"
+    known = topic or model_topic(model)
+    topic = known or "/imu0"
+    topic_note = "the IMU ROS topic" + (
+        " of the data" if known else " (not recorded with the data: the default; set it with --topic)")
+    block = ([f"# SENSOR BLOCK ONLY ({', '.join(sensors)}): not a complete file for the tool; merge it with --into"]
+             if fmt != "json" and len(sensors) < len(SENSORS) else [])
     if fmt == "json":
         return json.dumps(
             {
@@ -671,7 +775,7 @@ def export_text(
             indent=1,
         )
     if fmt == "kalibr":
-        lines = _header(model, sensors, "Kalibr IMU noise file (imu.yaml)", source)
+        lines = _header(model, sensors, "Kalibr IMU noise file (imu.yaml)", source) + block
         for s, title in (("accel", "#Accelerometers"), ("gyro", "#Gyroscopes")):
             lines += ["", title]
             if s in sensors:
@@ -680,13 +784,14 @@ def export_text(
                 lines += _missing_lines(sensors, {x: _KALIBR_KEYS[x] for x in SENSORS if x == s})
         lines += [
             "",
-            f"rostopic: {topic}  # the IMU ROS topic",
+            f"rostopic: {topic}  # {topic_note}",
             f"update_rate: {freq!r}  # [Hz] sample rate the continuous densities are discretised with",
         ]
         return "\n".join(lines) + "\n"
     if fmt == "openvins":
         lines = ["%YAML:1.0 # need to specify the file type at the top!"]
-        lines += _header(model, sensors, "OpenVINS IMU file (kalibr_imu_chain.yaml)", source)
+        lines += _header(model, sensors, "OpenVINS IMU file (kalibr_imu_chain.yaml)", source) + block
+        lines += [f"# {OPENVINS_VERSIONS}", f"# rostopic: {topic_note}"]
         lines += [
             "",
             "imu0:",
@@ -701,14 +806,19 @@ def export_text(
                 lines += _kalibr_lines(sensors, s, "  ")
         lines += _missing_lines(sensors, _KALIBR_KEYS, "  ")
         lines += [
-            '  model: "calibrated"  # no IMU intrinsics estimated here',
-            f"  rostopic: {topic}",
+            f"  rostopic: {topic}",  # no comment on this line: OpenCV keeps it in an unquoted string
             "  time_offset: 0.0  # [s]",
             f"  update_rate: {freq!r}  # [Hz] sample rate the continuous densities are discretised with",
+            '  model: "kalibr"  # OpenVINS >= v2.7: kalibr (= calibrated), rpng',
         ]
+        for key, rows in OPENVINS_INTRINSICS.items():
+            lines += [f"  {key}:", *(f"    {r}" for r in rows)]
         return "\n".join(lines) + "\n"
+    f_text, f_note = _frequency_text(freq, legacy)
     lines = ["%YAML:1.0"]
-    lines += _header(model, sensors, "ORB-SLAM3 IMU noise block (paste into the settings file)", source)
+    lines += _header(model, sensors, "ORB-SLAM3 IMU noise block (merge with imunoise export --into SETTINGS.yaml)",
+                     source) + block
+    lines += [f"# {ORBSLAM3_VERSIONS}"] + ([f"# note: {f_note}"] if f_note else [])
     lines.append("")
     for s in ("gyro", "accel"):
         if s in sensors:
@@ -722,17 +832,106 @@ def export_text(
             lines.append(f"{kk}: {format_float(sensors[s].random_walk)}  # {kc}")
             lines.append(f"# {nk}, {kk}: {sensors[s].match_text()}")
     lines += _missing_lines(sensors, _ORB_KEYS)
-    lines.append(f"IMU.Frequency: {freq!r}  # [Hz] ORB-SLAM3 multiplies N by sqrt(f) and divides K by sqrt(f)")
+    lines.append(f"IMU.Frequency: {f_text}  # [Hz] ORB-SLAM3 multiplies N by sqrt(f) and divides K by sqrt(f)")
     return "\n".join(lines) + "\n"
+
+
+def _into_comment(sn: SensorNoise, which: str) -> str:
+    n_unit, k_unit = density_units(sn.sensor)
+    if which == "N":
+        return (f"[{n_unit}] continuous-time, imunoise {__version__}; discrete sigma at {sn.freq_hz:g} Hz = "
+                f"{sn.discrete_sigma:.4e} {_BASE_UNIT[sn.sensor]}")
+    return (f"[{k_unit}] continuous-time, imunoise {__version__}; discrete bias step = {sn.discrete_bias_step:.4e} "
+            f"{_BASE_UNIT[sn.sensor]}")
+
+
+def update_into(
+    model: ImuModel | GMWMFit | str | Path,
+    fmt: str,
+    into: str | Path,
+    *,
+    sensor: str | None = None,
+    topic: str | None = None,
+    combine: str = "max",
+    inflate: Mapping[str, float] | str | None = None,
+    horizon_s: float | None = None,
+    legacy: bool | None = None,
+) -> Any:
+    """Set the IMU keys of the existing file ``into`` (``--into``) in place (:mod:`imunoise.export_into`).
+
+    Parameters
+    ----------
+    model, fmt, sensor, combine, inflate, horizon_s
+        As for :func:`export_text` (``fmt`` one of kalibr, openvins, orbslam3).
+    into : str or Path
+        The tool's file to update (ORB-SLAM3 settings, OpenVINS ``kalibr_imu_chain.yaml``, Kalibr ``imu.yaml``).
+    topic : str, optional
+        rostopic to write (Kalibr/OpenVINS); default the model's bag topic; when neither is known the file's
+        own rostopic stays.
+    legacy : bool, optional
+        ORB-SLAM3: integer ``IMU.Frequency``; default: detected (no ``File.version: "1.0"`` = legacy).
+
+    Returns
+    -------
+    imunoise.export_into.IntoResult
+        What was updated, appended or removed, and the backup written.
+
+    Raises
+    ------
+    DataError
+        A file not of the tool's kind, or one that would still miss a key the tool requires.
+    """
+    from imunoise.export_into import inspect_settings, update_file
+
+    if isinstance(model, (str, Path)):
+        if Path(model).resolve() == Path(into).resolve():
+            raise ModelError(f"--into {into} is the input model file; give the tool's settings file")
+        model = load_model(model)
+    if isinstance(inflate, str) or inflate is None:
+        inflate = parse_inflate(inflate)
+    sf = inspect_settings(into, fmt)
+    sensors = model_sensors(model, sensor, combine, inflate, horizon_s)
+    freq = next(iter(sensors.values())).freq_hz
+    keys = _ORB_KEYS if fmt == "orbslam3" else _KALIBR_KEYS
+    scalars: dict[str, tuple[str, str | None]] = {}
+    for s in ("gyro", "accel"):
+        if s in sensors:
+            nk, kk = keys[s]
+            scalars[nk] = (format_float(sensors[s].noise_density), _into_comment(sensors[s], "N"))
+            scalars[kk] = (format_float(sensors[s].random_walk), _into_comment(sensors[s], "K"))
+    notes = []
+    topic = topic or model_topic(model)
+    if fmt == "orbslam3":
+        is_legacy = bool(legacy) or bool(sf.legacy)
+        f_text, f_note = _frequency_text(freq, is_legacy)
+        scalars["IMU.Frequency"] = (f_text, "[Hz] " + ("integer: legacy settings" if is_legacy else "ORB-SLAM3 v1.0"))
+        notes += [f_note] if f_note else []
+        return update_file(sf, scalars, required=required_keys(fmt, legacy=is_legacy), anchor="IMU.", notes=notes)
+    if topic:
+        # OpenCV keeps a comment after an unquoted string in the string: none on OpenVINS' rostopic line
+        scalars["rostopic"] = (topic, None if fmt == "openvins" else "the IMU ROS topic of the data")
+    elif not any(ln.split("#")[0].strip().startswith("rostopic:") for ln in sf.lines):
+        scalars["rostopic"] = ("/imu0", None if fmt == "openvins" else "default: the topic was not recorded")
+        notes.append("rostopic: the model does not record its bag topic; /imu0 written (set it with --topic)")
+    scalars["update_rate"] = (repr(float(freq)), "[Hz] sample rate the continuous densities are discretised with")
+    blocks = None
+    if fmt == "openvins":
+        blocks = dict(OPENVINS_INTRINSICS)
+        if not any(ln.split("#")[0].strip().startswith("model:") for ln in sf.lines):
+            scalars["model"] = ('"kalibr"', "OpenVINS >= v2.7: kalibr (= calibrated), rpng")
+    return update_file(sf, scalars, blocks=blocks, required=required_keys(fmt), notes=notes)
 
 
 def write_export(
     model: ImuModel | GMWMFit | str | Path,
     fmt: str,
     path: str | Path | None = None,
+    *,
+    into: str | Path | None = None,
     **kwargs: Any,
 ) -> Path:
-    """Write :func:`export_text` to ``path`` (default: :data:`DEFAULT_FILENAMES` beside a model file).
+    """Write :func:`export_text` to ``path`` (default: :data:`DEFAULT_FILENAMES` beside a model file),
+    atomically; or, with ``into``, update that existing file in place (:func:`update_into`).
 
     Parameters
     ----------
@@ -740,14 +939,20 @@ def write_export(
         As for :func:`export_text`.
     path : str or Path, optional
         Output file; must not be the input model file.
+    into : str or Path, optional
+        An existing tool file to update instead (``path`` is then ignored).
     **kwargs
-        Passed to :func:`export_text`.
+        Passed to :func:`export_text` (or :func:`update_into`).
 
     Returns
     -------
     Path
         The file written.
     """
+    if into is not None:
+        kwargs.pop("source", None)
+        kwargs.pop("partial", None)
+        return update_into(model, fmt, into, **kwargs).path
     if path is None:
         folder = Path(model).parent if isinstance(model, (str, Path)) else Path(".")
         path = folder / DEFAULT_FILENAMES[fmt]
@@ -755,7 +960,7 @@ def write_export(
     if isinstance(model, (str, Path)) and path.resolve() == Path(model).resolve():
         raise ModelError(f"the output {path} is the input model file; choose another --out (it would be overwritten)")
     text = export_text(model, fmt, **kwargs)
-    path.write_text(text)
+    atomic_write_text(path, text)
     return path
 
 

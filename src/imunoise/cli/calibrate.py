@@ -167,8 +167,9 @@ def run(args: argparse.Namespace) -> int:
         from imunoise.export import DEFAULT_FILENAMES, model_sensors, write_export
 
         report(model_sensors(res.model, None, "max", None, None).values())
+        topic = next((ls.log.meta["topic"] for ls in res.logs if ls.log.meta.get("topic")), None)  # the bag's
         for fmt in args.export:
-            written.append(write_export(res.model, fmt, out / DEFAULT_FILENAMES[fmt], source=str(path)))
+            written.append(write_export(res.model, fmt, out / DEFAULT_FILENAMES[fmt], source=str(path), topic=topic))
     written.append(write_report(res, out))
     print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
     return 0

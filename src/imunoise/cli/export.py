@@ -9,7 +9,11 @@ from pathlib import Path
 EXAMPLES = """examples:
   imunoise export fit/imu_model.json --to kalibr                     # -> fit/imu.yaml
   imunoise export fit/imu_model.json --to openvins --inflate white=2,rw=10
+  imunoise export fit/imu_model.json --to orbslam3 --into ORB_SLAM3/Examples/Monocular-Inertial/EuRoC.yaml
+  imunoise export fit/imu_model.json --to openvins --into config/my_rig/kalibr_imu_chain.yaml
+  imunoise export fit/imu_model.json --to kalibr --into kalibr/imu.yaml
   imunoise export fit/imu_model.json --to orbslam3 --out - | less
+  imunoise export fit_gz/model.json --to kalibr --sensor gyro         # the gyro block alone (one-sensor fit)
   imunoise export fit_gz/model.json --to kalibr                       # a single-axis fit (sensor from its unit)
   imunoise export fit/imu_model.json --horizon 60                     # match up to 60 s only
 
@@ -29,7 +33,19 @@ written pair and each axis's model; a warning on stderr when it exceeds 2. Per a
 process went where. A zero density is never written: unidentified white noise takes the largest white
 line under the model's AV (exit 2 when the model has nothing white-like); an unidentified random walk
 takes half the largest one under it (noted). Three axes are combined by their maximum (--combine rms for
-the root mean square). Every value has its unit and discrete per-sample equivalent in a comment."""
+the root mean square). Every value has its unit and discrete per-sample equivalent in a comment.
+
+--into FILE updates the IMU keys of an existing ORB-SLAM3 settings file, OpenVINS kalibr_imu_chain.yaml or
+Kalibr imu.yaml in place: every other line stays byte for byte, a key found is rewritten on its line (a
+duplicate left by an earlier `>> settings.yaml` is removed), a key absent is added after the file's IMU keys,
+the original is kept as FILE.bak (FILE.bak.1, ... when taken), and the file is replaced atomically. A file of
+another kind, or one that would still miss a key the tool requires, is refused (exit 2). ORB-SLAM3 settings
+without File.version: "1.0" are read by its legacy reader, which needs IMU.Frequency as an integer: detected,
+or forced with --legacy. OpenVINS: the intrinsics >= v2.7 requires (Tw, R_IMUtoGYRO, Ta, R_IMUtoACC, Tg,
+model) are added as identity/zero when absent and never overwritten.
+A model with one sensor (gyro-only or accel-only) has no values for the other sensor's keys, which Kalibr,
+OpenVINS and ORB-SLAM3 all require: such an export is refused unless --sensor asks for that block alone,
+--into merges it into a file that has the other keys, or --to json."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -42,11 +58,19 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("model", help="imu_model.json (six axes) or model.json (one axis)")
-    p.add_argument("--to", choices=["kalibr", "openvins", "orbslam3", "json"], default="kalibr", dest="fmt")
+    p.add_argument(
+        "--to",
+        choices=["kalibr", "openvins", "orbslam3", "json"],
+        default="kalibr",
+        dest="fmt",
+        help="target tool: kalibr (imu.yaml), openvins (kalibr_imu_chain.yaml, OpenVINS v2.6 and >= v2.7), "
+        "orbslam3 (IMU.* settings keys), json (everything, per axis); default kalibr",
+    )
     p.add_argument(
         "--sensor",
         choices=["gyro", "accel"],
-        help="export only this sensor; for a single-axis fit, which sensor it is when its unit/column do not say",
+        help="export this sensor's block only (a file the tool reads only after merging, e.g. with --into); for a "
+        "single-axis fit, which sensor it is when its unit/column do not say",
     )
     p.add_argument("--combine", choices=["max", "rms"], default="max", help="how to combine x/y/z (default max)")
     p.add_argument("--inflate", help="inflation factors applied visibly, e.g. white=2,rw=10")
@@ -56,8 +80,24 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="S",
         help="longest averaging time [s] the pair is matched on (default: the longest scale of the fitted data)",
     )
-    p.add_argument("--topic", help="rostopic written in the file (default: the bag topic of the model, else /imu0)")
+    p.add_argument(
+        "--topic",
+        help="the rostopic to WRITE into the Kalibr/OpenVINS file (not an input bag topic as in fit/calibrate "
+        "--topic); default: the topic of the bag the model was fitted on, else the file's own (--into), else /imu0",
+    )
     p.add_argument("--out", help="output file ('-' for stdout; default: the format's file name beside MODEL)")
+    p.add_argument(
+        "--into",
+        metavar="FILE",
+        help="update the IMU keys of this existing ORB-SLAM3 settings / OpenVINS chain / Kalibr imu.yaml in place "
+        "(other lines kept byte for byte, backup FILE.bak, atomic write); instead of --out",
+    )
+    p.add_argument(
+        "--legacy",
+        action="store_true",
+        help="ORB-SLAM3: write IMU.Frequency as an integer, as legacy settings (no File.version, ORB-SLAM3 <= 0.4) "
+        "need; --into detects such files by itself",
+    )
     p.set_defaults(func=run)
 
 
@@ -98,10 +138,20 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.errors import ModelError
     from imunoise.export import DEFAULT_FILENAMES, export_text, model_sensors, parse_inflate
     from imunoise.imu_model import ImuModel
+    from imunoise.io.atomic import atomic_write_text
 
     if args.horizon is not None and not args.horizon > 0:
         raise ModelError(f"--horizon must be a positive time in seconds, got {args.horizon}")
+    if args.into is not None and args.out is not None:
+        raise ModelError(f"--into {args.into} updates that file in place and --out {args.out} writes a new one: "
+                         "give one of them")
+    if args.into is not None and args.fmt == "json":
+        raise ModelError("--into works with --to orbslam3, openvins or kalibr; json has no settings file to update")
+    if args.legacy and args.fmt != "orbslam3":
+        raise ModelError(f"--legacy is for --to orbslam3 (legacy ORB-SLAM3 settings), not --to {args.fmt}")
     model = load_for_export(args.model)
+    if args.into is not None:
+        return _run_into(args, model)
     out = None
     if args.out != "-":
         out = Path(args.out) if args.out else Path(args.model).parent / DEFAULT_FILENAMES[args.fmt]
@@ -117,6 +167,8 @@ def run(args: argparse.Namespace) -> int:
         inflate=inflate,
         source=str(args.model),
         horizon_s=args.horizon,
+        partial=args.sensor is not None,
+        legacy=args.legacy,
     )
     sensors = model_sensors(model, args.sensor, args.combine, inflate, args.horizon)
     if isinstance(model, ImuModel):
@@ -127,6 +179,26 @@ def run(args: argparse.Namespace) -> int:
     if out is None:
         sys.stdout.write(text)
         return 0
-    out.write_text(text)
+    atomic_write_text(out, text)
     print(f"wrote {out}", file=sys.stderr)
+    return 0
+
+
+def _run_into(args: argparse.Namespace, model) -> int:
+    """``--into``: the IMU keys of an existing tool file updated in place (imunoise.export_into)."""
+    from imunoise.export import model_sensors, parse_inflate, update_into
+
+    inflate = parse_inflate(args.inflate)
+    res = update_into(model, args.fmt, args.into, sensor=args.sensor, topic=args.topic, combine=args.combine,
+                      inflate=inflate, horizon_s=args.horizon, legacy=True if args.legacy else None)
+    report(model_sensors(model, args.sensor, args.combine, inflate, args.horizon).values())
+    for n in res.notes:
+        print(f"note: {n}", file=sys.stderr)
+    if res.duplicates_removed:
+        print(f"note: removed duplicate keys {', '.join(res.duplicates_removed)} (OpenCV reads the first of "
+              "duplicates, OpenCV 3.4 refuses them)", file=sys.stderr)
+    what = [f"updated {', '.join(res.updated)}" if res.updated else "",
+            f"added {', '.join(res.appended + res.blocks_added)}" if res.appended or res.blocks_added else ""]
+    legacy = " (legacy ORB-SLAM3 settings: integer IMU.Frequency)" if res.legacy else ""
+    print(f"wrote {res.path}: {'; '.join(w for w in what if w)}{legacy}; backup {res.backup}", file=sys.stderr)
     return 0

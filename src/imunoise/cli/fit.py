@@ -288,7 +288,8 @@ def _run_single(args: argparse.Namespace, series, out: Path) -> int:
         _export_report(fit, args, sensor)
         for fmt in args.export:
             written.append(
-                _export(fit, fmt, out, sensor=sensor, source=str(out / "model.json"), horizon_s=args.horizon)
+                _export(fit, fmt, out, sensor=sensor, source=str(out / "model.json"), horizon_s=args.horizon,
+                        partial=args.sensor is not None)
             )
     print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
     return 0
