@@ -857,7 +857,7 @@ def update_into(
     horizon_s: float | None = None,
     legacy: bool | None = None,
 ) -> Any:
-    """Set the IMU keys of the existing file ``into`` (``--into``) in place (:mod:`imunoise.export_into`).
+    """Set the IMU keys of the existing file ``into`` (``--into``) in place (:mod:`imunoise.io.tool_settings`).
 
     Parameters
     ----------
@@ -873,7 +873,7 @@ def update_into(
 
     Returns
     -------
-    imunoise.export_into.IntoResult
+    imunoise.io.tool_settings.IntoResult
         What was updated, appended or removed, and the backup written.
 
     Raises
@@ -881,7 +881,7 @@ def update_into(
     DataError
         A file not of the tool's kind, or one that would still miss a key the tool requires.
     """
-    from imunoise.export_into import inspect_settings, update_file
+    from imunoise.io.tool_settings import inspect_settings, update_file
 
     if isinstance(model, (str, Path)):
         if Path(model).resolve() == Path(into).resolve():
@@ -906,7 +906,9 @@ def update_into(
         f_text, f_note = _frequency_text(freq, is_legacy)
         scalars["IMU.Frequency"] = (f_text, "[Hz] " + ("integer: legacy settings" if is_legacy else "ORB-SLAM3 v1.0"))
         notes += [f_note] if f_note else []
-        return update_file(sf, scalars, required=required_keys(fmt, legacy=is_legacy), anchor="IMU.", notes=notes)
+        # the transform the file must hold follows its reader (sf.legacy), not the --legacy frequency format
+        return update_file(sf, scalars, required=required_keys(fmt, legacy=bool(sf.legacy)), anchor="IMU.",
+                           model_keys=[*keys["gyro"], *keys["accel"]], notes=notes)
     if topic:
         # OpenCV keeps a comment after an unquoted string in the string: none on OpenVINS' rostopic line
         scalars["rostopic"] = (topic, None if fmt == "openvins" else "the IMU ROS topic of the data")
@@ -919,7 +921,8 @@ def update_into(
         blocks = dict(OPENVINS_INTRINSICS)
         if not any(ln.split("#")[0].strip().startswith("model:") for ln in sf.lines):
             scalars["model"] = ('"kalibr"', "OpenVINS >= v2.7: kalibr (= calibrated), rpng")
-    return update_file(sf, scalars, blocks=blocks, required=required_keys(fmt), notes=notes)
+    return update_file(sf, scalars, blocks=blocks, required=required_keys(fmt),
+                       model_keys=[*keys["gyro"], *keys["accel"]], notes=notes)
 
 
 def write_export(

@@ -185,7 +185,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_into(args: argparse.Namespace, model) -> int:
-    """``--into``: the IMU keys of an existing tool file updated in place (imunoise.export_into)."""
+    """``--into``: the IMU keys of an existing tool file updated in place (imunoise.io.tool_settings)."""
     from imunoise.export import model_sensors, parse_inflate, update_into
 
     inflate = parse_inflate(args.inflate)

@@ -216,6 +216,7 @@ def update_text(
     blocks: Mapping[str, Sequence[str]] | None = None,
     required: Sequence[str] = (),
     anchor: str = "",
+    model_keys: Sequence[str] = (),
 ) -> tuple[str, IntoResult]:
     """The new text of ``sf`` with ``scalars`` (key -> (value text, comment)) set and ``blocks`` (key -> lines
     below it, without indentation) added where absent (module docstring).
@@ -232,6 +233,8 @@ def update_text(
         Keys the tool needs; one absent after the update is refused.
     anchor : str
         ORB-SLAM3: prefix of the keys that form the IMU block (``"IMU."``).
+    model_keys : sequence of str
+        Keys a model can give (the noise keys of both sensors), to say why a required key is missing.
 
     Returns
     -------
@@ -299,8 +302,12 @@ def update_text(
     check = inspect_settings_text(sf, text)
     missing = [k for k in required if k not in check]
     if missing:
+        theirs = [k for k in missing if k not in model_keys]
+        why = ("the model has no value for " + ", ".join(k for k in missing if k in model_keys) + "; " if
+               len(theirs) < len(missing) else "")
+        why += "the file must hold " + ", ".join(theirs) + " itself (e.g. the camera-IMU transform); " if theirs else ""
         raise DataError(f"--into {sf.path}: the result would miss {', '.join(missing)}, which the tool requires "
-                        "(the model has no value for it); nothing written")
+                        f"({why}nothing written)")
     dup = sorted(k for k, n in check.items() if n > 1 and (k in scalars or (blocks and k in blocks)))
     if dup:  # pragma: no cover - the removal above guarantees it; kept as the last guard before writing
         raise DataError(f"--into {sf.path}: duplicate keys {', '.join(dup)} after the update; nothing written")
@@ -340,13 +347,14 @@ def update_file(
     blocks: Mapping[str, Sequence[str]] | None = None,
     required: Sequence[str] = (),
     anchor: str = "",
+    model_keys: Sequence[str] = (),
     notes: Sequence[str] = (),
 ) -> IntoResult:
     """:func:`update_text`, then the backup and the atomic write (module docstring).
 
     Parameters
     ----------
-    sf, scalars, blocks, required, anchor
+    sf, scalars, blocks, required, anchor, model_keys
         As for :func:`update_text`.
     notes : sequence of str
         Kept in the result (said on stderr by the CLI).
@@ -356,7 +364,7 @@ def update_file(
     IntoResult
         With the backup path.
     """
-    text, res = update_text(sf, scalars, blocks=blocks, required=required, anchor=anchor)
+    text, res = update_text(sf, scalars, blocks=blocks, required=required, anchor=anchor, model_keys=model_keys)
     original = "".join(sf.lines).encode("utf-8")
     if sf.path.read_bytes() != original:
         raise DataError(f"--into {sf.path}: the file changed while it was being updated; run again")
