@@ -126,6 +126,10 @@ def test_yaml_round_trip_and_comments(tmp_path, imu_model, fmt):
     assert all(isinstance(back[k], float) for k in keys)
     if fmt != "orbslam3":
         assert back["rostopic"] == "/imu/data"
+    if fmt == "openvins":  # what OpenVINS >= v2.7 also requires (test_export_clients.py reads it as OpenVINS does)
+        eye = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        assert back["model"] == "kalibr" and back["Tw"] == back["Ta"] == back["R_IMUtoGYRO"] == eye
+        assert back["Tg"] == [[0.0] * 3] * 3
     text = path.read_text()
     for line in text.splitlines():
         if re.match(r"\s*(gyro|accel|IMU\.Noise|IMU\.\w+Walk)", line):

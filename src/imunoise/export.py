@@ -679,11 +679,11 @@ def _one_sensor_error(sensors: Mapping[str, SensorNoise], fmt: str, what: str) -
     have = next(iter(sensors))
     other = "accel" if have == "gyro" else "gyro"
     keys = (_ORB_KEYS if fmt == "orbslam3" else _KALIBR_KEYS)[other]
-    name = {"kalibr": "Kalibr imu.yaml", "openvins": "OpenVINS imu0 block", "orbslam3": "ORB-SLAM3 settings file"}[fmt]
+    name = {"kalibr": "a Kalibr imu.yaml", "openvins": "an OpenVINS imu0 block", "orbslam3": "ORB-SLAM3 settings"}[fmt]
     return ModelError(
-        f"{what} has no {other} axes, and a {name} needs {', '.join(keys)} (the tool stops without them): "
-        f"write the {have} block alone with --sensor {have}, merge it into an existing file with --into FILE, "
-        "or use --to json"
+        f"{what} has no {other} axes, and {name} needs {', '.join(keys)} (the tool stops without them): "
+        f"write the {have} block alone with --sensor {have}, merge it into the tool's existing file with "
+        f"`imunoise export MODEL --to {fmt} --into FILE`, or export json"
     )
 
 

@@ -14,7 +14,7 @@ EXAMPLES = """examples:
   imunoise export fit/imu_model.json --to kalibr --into kalibr/imu.yaml
   imunoise export fit/imu_model.json --to orbslam3 --out - | less
   imunoise export fit_gz/model.json --to kalibr --sensor gyro         # the gyro block alone (one-sensor fit)
-  imunoise export fit_gz/model.json --to kalibr                       # a single-axis fit (sensor from its unit)
+  imunoise export fit_gz/model.json --to json                         # a single-axis fit (sensor from its unit)
   imunoise export fit/imu_model.json --horizon 60                     # match up to 60 s only
 
 Values written are continuous-time densities (the format's convention) [rad/s/sqrt(Hz), rad/s^2/sqrt(Hz);
