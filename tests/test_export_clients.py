@@ -379,3 +379,13 @@ def test_fit_export_of_one_axis(tmp_path, capsys):
     assert not (tmp_path / "a" / "imu.yaml").exists()
     assert main([*base, "--sensor", "gyro", "--export", "kalibr", "--out", str(tmp_path / "b")]) == 0
     assert yaml.safe_load((tmp_path / "b" / "imu.yaml").read_text())["gyroscope_noise_density"] > 0
+
+
+def test_into_follows_a_symlink_and_keeps_the_mode(tmp_path, model):
+    real = _copy(tmp_path, "kalibr_imu.yaml")
+    real.chmod(0o640)
+    link = tmp_path / "imu_link.yaml"
+    link.symlink_to(real)
+    update_into(model, "kalibr", link)
+    assert link.is_symlink() and kalibr_reads(link)["rostopic"] == "/sensors/imu"
+    assert real.stat().st_mode & 0o777 == 0o640 and (tmp_path / "kalibr_imu.yaml.bak").exists()

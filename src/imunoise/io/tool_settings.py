@@ -23,13 +23,15 @@ top-level keys with PyYAML.
 
 from __future__ import annotations
 
+import os
 import re
+import stat
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from imunoise.errors import DataError, ModelError
-from imunoise.io.atomic import atomic_write_bytes
+from imunoise.io.atomic import atomic_path, atomic_write_bytes
 
 __all__ = ["SettingsFile", "IntoResult", "inspect_settings", "update_text", "update_file", "backup_path"]
 
@@ -366,10 +368,14 @@ def update_file(
     """
     text, res = update_text(sf, scalars, blocks=blocks, required=required, anchor=anchor, model_keys=model_keys)
     original = "".join(sf.lines).encode("utf-8")
-    if sf.path.read_bytes() != original:
+    target = sf.path.resolve()  # a symlinked settings file stays a link; the file it points to is updated
+    if target.read_bytes() != original:
         raise DataError(f"--into {sf.path}: the file changed while it was being updated; run again")
-    bak = backup_path(sf.path)
+    mode = stat.S_IMODE(target.stat().st_mode)
+    bak = backup_path(target)
     atomic_write_bytes(bak, original)
-    atomic_write_bytes(sf.path, text.encode("utf-8"))
+    with atomic_path(target) as tmp:
+        tmp.write_bytes(text.encode("utf-8"))
+        os.chmod(tmp, mode)  # the tool's file keeps its permissions
     return IntoResult(res.path, bak, res.updated, res.appended, res.duplicates_removed, res.blocks_added,
                       res.legacy, tuple(notes))
