@@ -323,6 +323,22 @@ def test_into_refuses_a_file_of_another_tool(tmp_path, model, capsys, fmt, fixtu
     assert path.read_bytes() == before and not list(tmp_path.glob("*.bak*"))
 
 
+def test_into_refuses_what_it_cannot_edit_in_place(tmp_path, model):
+    from imunoise.errors import DataError
+
+    flow = tmp_path / "flow.yaml"
+    flow.write_text("%YAML:1.0\nimu0: {rostopic: /imu0, update_rate: 200.0}\n")
+    with pytest.raises(DataError, match="flow style"):
+        update_into(model, "openvins", flow)
+    tabs = tmp_path / "tabs.yaml"
+    tabs.write_text("imu0:\n\trostopic: /imu0\n")
+    with pytest.raises(DataError, match="tabs"):
+        update_into(model, "openvins", tabs)
+    with pytest.raises(DataError, match="no such file; to write a new file use --out"):
+        update_into(model, "kalibr", tmp_path / "missing.yaml")
+    assert not list(tmp_path.glob("*.bak*"))
+
+
 def test_one_sensor_model_never_writes_a_rejected_file(tmp_path, base_fit, capsys):
     fit = _with(base_fit, {"WN.sigma2": 1e-6, "RW.gamma2": 1e-12}, "rad/s", column="gyro_z")
     mp = tmp_path / "model.json"
@@ -389,3 +405,32 @@ def test_into_follows_a_symlink_and_keeps_the_mode(tmp_path, model):
     update_into(model, "kalibr", link)
     assert link.is_symlink() and kalibr_reads(link)["rostopic"] == "/sensors/imu"
     assert real.stat().st_mode & 0o777 == 0o640 and (tmp_path / "kalibr_imu.yaml.bak").exists()
+
+
+# The README's export block (the README quotes it; the docs keep both the same), run as written: the three
+# settings files stand for the user's own (the fixtures, copied to the paths the block names).
+README_EXPORT_BLOCK = """\
+imunoise export out/calib/imu_model.json --to orbslam3 --into EuRoC.yaml                 # ORB-SLAM3 settings
+imunoise export out/calib/imu_model.json --to openvins --into kalibr_imu_chain.yaml      # OpenVINS v2.6 / >= v2.7
+imunoise export out/calib/imu_model.json --to kalibr --into imu.yaml                     # Kalibr
+"""
+
+
+def test_readme_export_block_runs_as_written(tmp_path, model, ours, monkeypatch):
+    import shlex
+
+    (tmp_path / "out" / "calib").mkdir(parents=True)
+    model.save(tmp_path / "out" / "calib" / "imu_model.json")
+    for src, dst in (("orbslam3_euroc_v1.yaml", "EuRoC.yaml"), ("openvins_kalibr_imu_chain.yaml",
+                     "kalibr_imu_chain.yaml"), ("kalibr_imu.yaml", "imu.yaml")):  # fmt: skip
+        shutil.copyfile(FIX / src, tmp_path / dst)
+    monkeypatch.chdir(tmp_path)
+    for line in README_EXPORT_BLOCK.splitlines():  # each command as the shell would split it (comments dropped)
+        argv = shlex.split(line, comments=True)
+        assert argv[0] == "imunoise" and main(argv[1:]) == 0, line
+    assert {k: orbslam3_reads(tmp_path / "EuRoC.yaml")[k] for k in ORB_KEYS} == {k: ours[k] for k in ORB_KEYS}
+    chain = openvins_reads(tmp_path / "kalibr_imu_chain.yaml")
+    assert chain["gyroscope_noise_density"] == ours["gyroscope_noise_density"]
+    assert kalibr_reads(tmp_path / "imu.yaml")["accelerometer_random_walk"] == ours["accelerometer_random_walk"]
+    assert sorted(p.name for p in tmp_path.glob("*.bak")) == ["EuRoC.yaml.bak", "imu.yaml.bak",
+                                                                "kalibr_imu_chain.yaml.bak"]
