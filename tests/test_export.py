@@ -227,3 +227,17 @@ def test_cli_warns_when_the_pair_cannot_follow_the_model(tmp_path, base_fit, cap
     assert "warning: gyro: the exported pair's Allan variance is" in err
     text = (tmp_path / "imu.yaml").read_text()
     assert "(> 2: WARNING)" in text and axis_noise(fit).worst_ratio > 2
+
+
+def test_write_export_into_updates_in_place(tmp_path, imu_model):
+    """``write_export(..., into=FILE)``: the additive keyword of the one writer the fit/calibrate plumbing calls."""
+    from pathlib import Path
+
+    src = Path(__file__).parent / "fixtures" / "kalibr_imu.yaml"
+    path = tmp_path / "imu.yaml"
+    path.write_bytes(src.read_bytes())
+    assert write_export(imu_model, "kalibr", tmp_path / "ignored.yaml", into=path, source="x") == path
+    back = read_export(path)
+    assert back["gyroscope_noise_density"] == sensor_noise(imu_model, "gyro").noise_density
+    assert back["rostopic"] == "/imu/data" and not (tmp_path / "ignored.yaml").exists()
+    assert (tmp_path / "imu.yaml.bak").read_bytes() == src.read_bytes()

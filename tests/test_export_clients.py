@@ -391,8 +391,9 @@ def test_fit_export_of_one_axis(tmp_path, capsys):
     base = ["fit", str(csv), "--column", "gyro_z", "--freq", "200", "--units", "rad/s", "--model", "WN+RW"]
     capsys.readouterr()
     assert main([*base, "--export", "kalibr", "--out", str(tmp_path / "a")]) == 2
-    assert "needs accelerometer_noise_density" in capsys.readouterr().err
-    assert not (tmp_path / "a" / "imu.yaml").exists()
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "need both sensors' keys; add --sensor gyro|accel" in err
+    assert not (tmp_path / "a" / "imu.yaml").exists() and not (tmp_path / "a" / "model.json").exists()
     assert main([*base, "--sensor", "gyro", "--export", "kalibr", "--out", str(tmp_path / "b")]) == 0
     assert yaml.safe_load((tmp_path / "b" / "imu.yaml").read_text())["gyroscope_noise_density"] > 0
 

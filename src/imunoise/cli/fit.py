@@ -273,6 +273,9 @@ def _run_single(args: argparse.Namespace, series, out: Path) -> int:
     from imunoise.plots import plot_wv_fit
 
     axis = series.axes[0]
+    if args.sensor is None and set(args.export or ()) - {"json"}:  # before fitting: nothing written on refusal
+        raise ModelError(f"--export {','.join(args.export)} of one axis ({axis}): Kalibr, OpenVINS and ORB-SLAM3 "
+                         "need both sensors' keys; add --sensor gyro|accel to write that block alone, or --export json")
     fit = _fit_one(args, series, axis)
     print(fit.summary())
     atomic_write_text(out / "model.json", json.dumps(fit.to_dict(), indent=1))
