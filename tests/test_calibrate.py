@@ -3,6 +3,7 @@ simulator's known truth."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -165,3 +166,21 @@ def test_the_same_log_twice_is_refused(drive, tmp_path, capsys):
     # a copy under another name holds the same samples: refused too, naming it
     with pytest.raises(DataError, match="copy holds the same samples as sim"):
         calibrate([as_log(drive), as_log(drive, "copy")])
+
+
+def test_drive_export_forced_with_the_warnings_kept(tmp_path, capsys):
+    """drive_0708's stops (engine vibration) leave the WV band of every structure: without --force the export is
+    refused (the one-line message: tests/test_fit_check.py); with it the warnings go into the file, on top, and
+    into both JSON outputs."""
+    from imunoise.imu_model import ImuModel
+
+    out = tmp_path / "forced"
+    assert main(["calibrate", str(DRIVE), "--complete", "WN", "--export", "kalibr", "--force", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "warning: exported with --force: accel_z: the WN fit is outside the 95 % WV band at τ = " in err
+    head = (out / "imu.yaml").read_text().splitlines()[:6]
+    assert [ln.split(":")[1].strip() for ln in head] == ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
+    assert all(ln.startswith("# WARNING (exported with --force): ") for ln in head)
+    model = ImuModel.load(out / "imu_model.json")
+    assert model.source["export_warnings"] == json.loads((out / "calibration.json").read_text())["export_warnings"]
+    assert len(model.source["export_warnings"]) == 6 and model.source["fit_check"]["accel_z"]["refused"]

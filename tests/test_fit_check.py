@@ -13,7 +13,7 @@ import pytest
 from imunoise.cli import main
 from imunoise.cli.export_gate import with_warnings
 from imunoise.export import read_export
-from imunoise.fitting.quality import BAND_RUN, band_check, pair_check, within_band
+from imunoise.fitting.quality import BAND_RUN, BAND_TOLERANCE, band_check, pair_check, within_band
 from imunoise.model import as_model
 from imunoise.selection import select_model
 from imunoise.wv import WaveletVariance, wavelet_variance
@@ -49,6 +49,15 @@ def test_band_rule_runs_and_fraction(J, outside, refused):
         assert b.ranges_s == [(tau[3], tau[5])] and b.longest_run == BAND_RUN
         assert b.text() == f"outside the 95 % WV band at τ = {tau[3]:.3g}–{tau[5]:.3g} s (3 of {J} scales)"
     assert band_check(unit_band(J), np.ones(J)).text() == f"inside the 95 % WV band at all {J} scales"
+
+
+def test_a_narrow_band_is_widened_to_the_tolerance():
+    J = 12
+    narrow = unit_band(J)
+    narrow = WaveletVariance(narrow.scales, narrow.variance, 0.99 * narrow.variance, 1.01 * narrow.variance,
+                             narrow.n_coefficients, narrow.cov, F)
+    assert band_check(narrow, np.full(J, 1.0 + 0.9 * BAND_TOLERANCE)).n_outside == 0
+    assert band_check(narrow, np.full(J, 1.0 + 1.1 * BAND_TOLERANCE)).n_outside == J
 
 
 def test_pair_check_compares_with_the_data():

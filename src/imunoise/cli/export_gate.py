@@ -17,7 +17,7 @@ from typing import Any
 
 from imunoise.errors import FitError
 
-__all__ = ["add_force", "band_checks", "refusal", "with_warnings", "write_exports"]
+__all__ = ["add_force", "band_checks", "data_lines", "refusal", "with_warnings", "write_exports"]
 
 
 def add_force(p: argparse.ArgumentParser) -> None:
@@ -67,6 +67,23 @@ def refusal(checks: Mapping[str, Any], force: bool, *, where: str = "") -> list[
     return lines
 
 
+def data_lines(fits: Mapping[str, Any], horizon_s: float | None = None) -> list[str]:
+    """Per axis: the axis's exported (N, K) pair against the **data's** Allan variance and band
+    (:func:`imunoise.fitting.quality.pair_check`), beside the worst ratio against the fitted model that the
+    export notes print (a file writes the largest pair of a sensor's axes)."""
+    from imunoise.export import axis_noise
+    from imunoise.fitting.quality import pair_check
+    from imunoise.fitting.result import GMWMFit
+
+    lines = []
+    for axis, fit in fits.items():
+        f = fit if isinstance(fit, GMWMFit) else GMWMFit.from_dict(dict(fit))
+        a = axis_noise(f, axis, horizon_s=horizon_s)
+        lines.append(f"{axis}: {pair_check(f.wv, a.N, a.K, a.tau_range_s).text()}; pair/model AV: worst "
+                     f"{a.worst_ratio:.3g}×")
+    return lines
+
+
 def with_warnings(text: str, fmt: str, warnings: Sequence[str]) -> str:
     """The export text with the warnings put in: comment lines at the top of a YAML format (after a
     ``%YAML`` directive, which must stay first), a ``warnings`` key in JSON."""
@@ -82,7 +99,8 @@ def with_warnings(text: str, fmt: str, warnings: Sequence[str]) -> str:
     return "".join(lines[:head] + block + lines[head:])
 
 
-def write_exports(model: Any, fmts: Sequence[str], out: Path, warnings: Sequence[str], **kwargs: Any) -> list[Path]:
+def write_exports(model: Any, fmts: Sequence[str], out: Path, warnings: Sequence[str], *,
+                  fits: Mapping[str, Any] | None = None, **kwargs: Any) -> list[Path]:
     """Each format's file in ``out`` (:data:`imunoise.export.DEFAULT_FILENAMES`), with the warnings in it,
     written atomically; the warnings also go to stderr.
 
@@ -96,6 +114,8 @@ def write_exports(model: Any, fmts: Sequence[str], out: Path, warnings: Sequence
         Output folder.
     warnings : sequence of str
         From :func:`refusal` (empty: the files as :func:`imunoise.export.export_text` writes them).
+    fits : mapping, optional
+        Per axis the fit: its pair against the data is printed (:func:`data_lines`).
     **kwargs
         Passed to :func:`imunoise.export.export_text` (``sensor``, ``source``, ``horizon_s``, ``topic``).
 
@@ -107,6 +127,9 @@ def write_exports(model: Any, fmts: Sequence[str], out: Path, warnings: Sequence
     from imunoise.export import DEFAULT_FILENAMES, export_text
     from imunoise.io.atomic import atomic_write_text
 
+    if fits:
+        for line in data_lines(fits, kwargs.get("horizon_s")):
+            print(f"data check: {line}", file=sys.stderr)
     for w in warnings:
         print(f"warning: exported with --force: {w}", file=sys.stderr)
     written = []

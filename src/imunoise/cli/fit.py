@@ -293,8 +293,8 @@ def _run_single(args: argparse.Namespace, series, out: Path) -> int:
             raise ModelError("--export of a single axis needs --sensor gyro|accel (its unit and name do not say)")
         forced = refusal(band_checks({axis: fit}), args.force, where=str(out / "wv.png"))
         _export_report(fit, args, sensor)
-        written += write_exports(fit, args.export, out, forced, sensor=sensor, source=str(out / "model.json"),
-                                 horizon_s=args.horizon)
+        written += write_exports(fit, args.export, out, forced, fits={axis: fit}, sensor=sensor,
+                                 source=str(out / "model.json"), horizon_s=args.horizon)
     print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
     return 0
 
@@ -328,7 +328,7 @@ def _run_multi(args: argparse.Namespace, series, out: Path) -> int:
     if args.export:
         forced = refusal(band_checks(fits), args.force, where=str(out / "wv_<axis>.png"))
         _export_report(model, args, None)
-        written += write_exports(model, args.export, out, forced, source=str(path), horizon_s=args.horizon)
+        written += write_exports(model, args.export, out, forced, fits=fits, source=str(path), horizon_s=args.horizon)
     print(f"\nwrote {', '.join(str(w) for w in written)} and wv_<axis>.png", file=sys.stderr)
     return 0
 

@@ -6,12 +6,15 @@ Three pure checks, all against the **data**, never against another model:
 * :func:`band_check`: the fitted model's WV ν_j(θ̂) against the empirical WV's (1 − α) band
   [``ci_low``, ``ci_high``] (the η3 chi-square interval of :mod:`imunoise.wv`). A fit is *outside over a
   range of scales* (:attr:`BandCheck.refused`) when at least :data:`BAND_RUN` consecutive levels lie outside,
-  or at least :data:`BAND_FRACTION` of the levels (and :data:`BAND_RUN` at the least). Why these numbers:
+  or at least :data:`BAND_FRACTION` of the levels (and :data:`BAND_RUN` at the least); a level counts only
+  where the model is also more than :data:`BAND_TOLERANCE` (10 %) away from ν̂. Why these numbers:
   each level's interval misses a right model with probability α = 0.05, adjacent Haar levels correlate by
   ≈ 0.5 (:func:`imunoise.fitting.wvic.wv_correlation`), so one or two levels outside happen to right models
-  (``band_departures`` reports runs of 2); measured on right models (the selection's fit of WN+RW stops,
-  ``tests/test_fit_check.py``), the rule refuses none, while a misfit structure (WN on WN+RW, or the drive's
-  vibration) leaves 3 or more consecutive levels.
+  (``band_departures`` reports runs of 2). Measured on right models, the selection's fit settled here: 0 of
+  40 simulated WN+RW stop sets (6 stops of 20–60 s at 100 Hz) and 0 of 40 AR1+WN+RW records (2^15 samples)
+  refused (no level outside in any of the 80; the selection's one-step estimate alone: 1 refused), while a
+  misfit structure (WN on AR1+WN; every structure on drive_0708's vibrating stops) leaves 3 or more
+  consecutive levels.
 * :func:`pair_check`: the (N, K) pair an export writes, as the exact discrete WV of WN(σ² = N²f) + RW(γ² = K²/f)
   (Allan variance 2ν²_j at averaging time T_j = τ_j/2f), against the data's band over the matched averaging
   times: the worst factor between the pair's AV and the **data's** AV, and where the pair leaves the band.
@@ -46,6 +49,7 @@ from imunoise.wv import WaveletVariance, scale_runs
 __all__ = [
     "BAND_RUN",
     "BAND_FRACTION",
+    "BAND_TOLERANCE",
     "BandCheck",
     "PairCheck",
     "Settled",
@@ -59,6 +63,10 @@ BAND_RUN = 3
 """Consecutive WV levels outside the band that make a fit *outside over a range of scales* (module docstring)."""
 BAND_FRACTION = 0.25
 """Fraction of the WV levels outside the band (at least :data:`BAND_RUN` levels) that does the same."""
+BAND_TOLERANCE = 0.10
+"""A level counts as outside only where the model's WV is also more than this fraction away from ν̂ (5 % in a
+noise density): on long records the band is narrower than any consumer of the export can act on (ADIS16405,
+10⁶ samples: ±0.4 % at τ = 0.02 s, where a 2*AR1 fit within 3 % of ν̂ at every level was outside at 5)."""
 
 
 def _ranges_text(ranges: Sequence[tuple[float, float]]) -> str:
@@ -126,12 +134,14 @@ class BandCheck:
     def to_dict(self) -> dict[str, Any]:
         return {"refused": self.refused, "n_levels": self.n_levels, "n_outside": self.n_outside,
                 "longest_run": self.longest_run, "outside_tau_s": [list(r) for r in self.ranges_s],
-                "rule": f">= {BAND_RUN} consecutive scales or >= {BAND_FRACTION:.0%} of the scales outside",
+                "rule": f">= {BAND_RUN} consecutive scales or >= {BAND_FRACTION:.0%} of the scales outside the band "
+                        f"(and more than {BAND_TOLERANCE:.0%} from the data's WV)",
                 "text": self.text()}
 
 
 def band_check(wv: WaveletVariance, theoretical: np.ndarray) -> BandCheck:
-    """A model's WV against the empirical WV's (1 − α) band (module docstring).
+    """A model's WV against the empirical WV's (1 − α) band, widened to ν̂·(1 ± :data:`BAND_TOLERANCE`) where
+    it is narrower (module docstring).
 
     Parameters
     ----------
@@ -147,7 +157,9 @@ def band_check(wv: WaveletVariance, theoretical: np.ndarray) -> BandCheck:
     nu = np.asarray(theoretical, dtype=float).reshape(-1)
     if nu.shape != wv.variance.shape:
         raise DataError(f"the model's WV has {nu.size} levels, the empirical WV {wv.variance.size}")
-    outside = ~((nu >= wv.ci_low) & (nu <= wv.ci_high))
+    lo = np.minimum(wv.ci_low, wv.variance / (1.0 + BAND_TOLERANCE))
+    hi = np.maximum(wv.ci_high, wv.variance * (1.0 + BAND_TOLERANCE))
+    outside = ~((nu >= lo) & (nu <= hi))  # NaN counts as outside
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = nu / wv.variance
     return BandCheck(tuple(float(t) for t in wv.scales / wv.freq), tuple(bool(o) for o in outside),
