@@ -37,6 +37,11 @@ stop), the model selected (WVIC by default), and the horizon stated: the longest
 stops support. N is a value; K is a value only where the random walk rises above the white noise inside
 the horizon, else a bound that holds for any model. Writes DIR/imu_model.json, DIR/calibration.json,
 DIR/report.html (detection over time, WV fits with the horizon, stops, values) and the --export files.
+A bag's topic (the one read) goes into the model and every export. Each fit is checked against the data:
+where it leaves the pooled WV's 95 % band over a range of scales (>= 3 consecutive scales or >= 25 % of
+them, each more than 10 % off) the next richer candidate of the selection is tried; if none stays inside,
+--export is refused (exit 2, after the model and the report are written) unless --force, which writes the
+warning into each file and into imu_model.json / calibration.json. The same log given twice is refused.
 
 Large logs: a bag or table of more than --stream-above samples (or any with --stream) is read block by
 block, twice, with a progress bar (imunoise.calibrate.stream_stops): a first pass keeps the stamps and

@@ -267,6 +267,8 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
 
         settled = within_band(ranking, fit)
         fit, extra["fit_check"] = settled.fit, settled.to_dict()
+        if settled.note:
+            print(f"{axis}: {settled.note}", file=sys.stderr)
         if not quiet:
             print(ranking.table(limit=10))
             print()

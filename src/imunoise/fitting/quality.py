@@ -50,6 +50,7 @@ __all__ = [
     "BAND_RUN",
     "BAND_FRACTION",
     "BAND_TOLERANCE",
+    "MIN_DOF",
     "BandCheck",
     "PairCheck",
     "Settled",
@@ -63,6 +64,9 @@ BAND_RUN = 3
 """Consecutive WV levels outside the band that make a fit *outside over a range of scales* (module docstring)."""
 BAND_FRACTION = 0.25
 """Fraction of the WV levels outside the band (at least :data:`BAND_RUN` levels) that does the same."""
+MIN_DOF = 3.0
+"""Equivalent degrees of freedom η3 = M_j/τ_j of a level the pair's worst factor is read on (the Allan
+reading's rule, :data:`imunoise.allan.MIN_DOF`)."""
 BAND_TOLERANCE = 0.10
 """A level counts as outside only where the model's WV is also more than this fraction away from ν̂ (5 % in a
 noise density): on long records the band is narrower than any consumer of the export can act on (ADIS16405,
@@ -175,7 +179,8 @@ class PairCheck:
     tau_range_s : tuple of float
         Averaging times T [s] compared (the pair's matched range ∩ the data's levels).
     worst_ratio : float
-        Largest factor between the pair's AV and the data's AV there (≥ 1).
+        Largest factor between the pair's AV and the data's AV there (≥ 1), on the levels with η3 ≥
+        :data:`MIN_DOF` (all when none has).
     worst_at_s : float
         Averaging time of that factor [s].
     above : bool
@@ -244,7 +249,10 @@ def pair_check(wv: WaveletVariance, N: float, K: float, tau_range_s: tuple[float
     data = wv.variance[sel]
     r = nu / data
     factor = np.maximum(r, 1.0 / r)
-    j = int(np.argmax(factor))
+    # the worst factor on the levels an Allan reading may use (η3 ≥ MIN_DOF): a top level of one stop
+    # (η3 = 1) can sit a factor 100 from any smooth curve and still hold it inside its band
+    eta = np.maximum(wv.n_coefficients / wv.scales, 1.0)[sel]
+    j = int(np.argmax(np.where(eta >= MIN_DOF, factor, -np.inf))) if (eta >= MIN_DOF).any() else int(np.argmax(factor))
     out = ~((nu >= wv.ci_low[sel]) & (nu <= wv.ci_high[sel]))
     Ts = T[sel]
     ranges = tuple((float(Ts[a]), float(Ts[b])) for a, b in scale_runs(out))
