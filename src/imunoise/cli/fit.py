@@ -355,7 +355,7 @@ def _continuous_table(model, horizon_s: float | None = None) -> str:
     lines = [
         f"continuous-time noise per axis (what Kalibr / OpenVINS / ORB-SLAM3 take; discrete = per sample at {f:g} Hz)",
         f"  {'axis':<9}{'model':<22}{'N white (continuous)':>22}  {'K bias RW (continuous)':>27}  "
-        f"{'σ per sample (discrete)':>24}  worst AV ratio",
+        f"{'σ per sample (discrete)':>24}  worst AV ratio pair/model",
     ]
     for axis, d in model.axes.items():
         u = d.get("unit", "u")
