@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from imunoise.errors import DataError
+from imunoise.errors import DataError, FitError
 from imunoise.fitting.result import GMWMFit
 from imunoise.model import Model
 from imunoise.processes import RW, WN
@@ -280,7 +280,11 @@ def reestimate(fit: GMWMFit, problem: Any) -> GMWMFit:
 
     if problem.weights not in ("efficient", "diagonal"):
         return fit
-    new = gmwm(fit.model.unknown(), problem, freq=fit.freq, start=fit.model, n_random=0, unit=fit.unit)
+    try:
+        new = gmwm(fit.model.unknown(), problem, freq=fit.freq, start=fit.model, n_random=0, unit=fit.unit)
+    except (FitError, DataError) as exc:  # the selection's estimate stands, with why
+        fit.extra["estimate"] = f"the selection's (one Ω from ν̂): the iterated estimate failed: {exc}"
+        return fit
     new.extra = {**new.extra, **fit.extra, "estimate": "iterated GMM (Ω re-centred on the fitted WV twice, as gmwm)",
                  "selection_estimate": dict(fit.model.params)}
     return new
