@@ -104,8 +104,13 @@ def test_bag_single_axis_topic_and_errors(tmp_path, capsys):
     x = _imu(4096, seed=30)
     path = write_imu_bag(tmp_path / "b.mcap", np.arange(4096) * 5_000_000, x[:, :3], x[:, 3:], topic="/imu/raw")
     out = tmp_path / "gz"
+    # a gyro-only ORB-SLAM3 file is one the tool rejects: refused before anything is written...
     assert main(["fit", str(path), "--column", "gyro_z", "--model", "WN", "--export", "orbslam3",
-                 "--out", str(out)]) == 0  # fmt: skip
+                 "--out", str(out)]) == 2  # fmt: skip
+    assert not (out / "orbslam3_imu.yaml").exists()
+    # ...unless the sensor block alone is asked for
+    assert main(["fit", str(path), "--column", "gyro_z", "--model", "WN", "--export", "orbslam3",
+                 "--sensor", "gyro", "--out", str(out)]) == 0  # fmt: skip
     d = json.loads((out / "model.json").read_text())
     assert d["extra"]["topic"] == "/imu/raw" and d["unit"] == "rad/s" and d["freq_hz"] == F
     assert "IMU.NoiseGyro" in read_export(out / "orbslam3_imu.yaml")

@@ -8,6 +8,7 @@ import sys
 import warnings
 from pathlib import Path
 
+from imunoise.cli.export_gate import add_force, refusal, write_exports
 from imunoise.cli.fit import STREAM_ABOVE
 from imunoise.cli.options import (
     add_criterion,
@@ -19,7 +20,7 @@ from imunoise.cli.options import (
     prepare_out_dir,
     print_warnings,
 )
-from imunoise.errors import DataError, ModelError
+from imunoise.errors import DataError, ImunoiseError, ModelError
 from imunoise.io.atomic import atomic_path, atomic_savefig, atomic_write_text
 
 EXAMPLES = """examples:
@@ -36,6 +37,11 @@ stop), the model selected (WVIC by default), and the horizon stated: the longest
 stops support. N is a value; K is a value only where the random walk rises above the white noise inside
 the horizon, else a bound that holds for any model. Writes DIR/imu_model.json, DIR/calibration.json,
 DIR/report.html (detection over time, WV fits with the horizon, stops, values) and the --export files.
+A bag's topic (the one read) goes into the model and every export. Each fit is checked against the data:
+where it leaves the pooled WV's 95 % band over a range of scales (>= 3 consecutive scales or >= 25 % of
+them, each more than 10 % off) the next richer candidate of the selection is tried; if none stays inside,
+--export is refused (exit 2, after the model and the report are written) unless --force, which writes the
+warning into each file and into imu_model.json / calibration.json. The same log given twice is refused.
 
 Large logs: a bag or table of more than --stream-above samples (or any with --stream) is read block by
 block, twice, with a progress bar (imunoise.calibrate.stream_stops): a first pass keeps the stamps and
@@ -78,7 +84,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--complete", help="largest structure searched (default 4*AR1+DR+WN+QN+RW)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random starting points")
     p.add_argument("--export", action="append", choices=["kalibr", "openvins", "orbslam3", "json"],
-                   help="also write this export beside the model (repeatable)")
+                   help="also write this export beside the model (repeatable); refused where a fit leaves its WV "
+                   "band (see --force)")
+    add_force(p)
     p.add_argument("--out", help="output folder (default <first log name>_calib)")
     p.set_defaults(func=run)
 
@@ -132,6 +140,7 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError("--ref/--gnss belong to one log; give one log, or use dataset folders with a reference")
     if args.learn_s is not None and not args.learn_s > 0:
         raise ModelError(f"--learn-s must be a positive number of seconds, got {args.learn_s:g}")
+    _refuse_repeated_paths(args.logs)
     out = prepare_out_dir(args.out or f"{Path(args.logs[0]).name.split('.')[0]}_calib")
     cfg = DetectorConfig(window=args.window, min_duration_s=args.min_duration, margin_s=args.margin)
     columns = parse_column_map(args.columns) if args.columns else None
@@ -158,21 +167,47 @@ def run(args: argparse.Namespace) -> int:
                     criterion=args.criterion, complete=args.complete, seed=args.seed, progress=_tqdm_wrap)
     print(res.summary())
     path = out / "imu_model.json"
-    with atomic_path(path) as tmp:
-        res.model.save(tmp)
-    atomic_write_text(out / "calibration.json", json.dumps(_json_safe(res.to_dict()), indent=1))
-    written = [path, out / "calibration.json"]
+    checks = {ax: (a.model, a.band) for ax, a in res.axes.items()}
+    res.model.source["fit_check"] = {ax: a.band.to_dict() for ax, a in res.axes.items()}
+    try:
+        forced = refusal(checks, args.force, where=str(out / "report.html")) if args.export else []
+    except ImunoiseError:
+        _write_outputs(res, out, path, [])  # the model and the report say why; no export is written
+        raise
+    written = _write_outputs(res, out, path, forced)
     if args.export:
         from imunoise.cli.export import report
-        from imunoise.export import DEFAULT_FILENAMES, model_sensors, write_export
+        from imunoise.export import model_sensors
 
         report(model_sensors(res.model, None, "max", None, None).values())
-        topic = next((ls.log.meta["topic"] for ls in res.logs if ls.log.meta.get("topic")), None)  # the bag's
-        for fmt in args.export:
-            written.append(write_export(res.model, fmt, out / DEFAULT_FILENAMES[fmt], source=str(path), topic=topic))
-    written.append(write_report(res, out))
+        written[2:2] = write_exports(res.model, args.export, out, forced, source=str(path))
     print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
     return 0
+
+
+def _refuse_repeated_paths(logs: list[str]) -> None:
+    """The same file given twice would be pooled twice: one line naming it (copies under another name are
+    caught by their samples, :func:`imunoise.calibrate.calibrate`)."""
+    seen: dict[Path, str] = {}
+    for name in logs:
+        key = Path(name).resolve()
+        if key in seen:
+            raise DataError(f"{name} is given twice (also as {seen[key]}): a log is pooled once; drop the repeat")
+        seen[key] = name
+
+
+def _write_outputs(res, out: Path, path: Path, forced: list[str]) -> list[Path]:
+    """imu_model.json, calibration.json and report.html; ``forced``: the warnings of an export forced past the
+    fit check, kept in both JSON files."""
+    if forced:
+        res.model.source["export_warnings"] = list(forced)
+    with atomic_path(path) as tmp:
+        res.model.save(tmp)
+    summary = res.to_dict()
+    if forced:
+        summary["export_warnings"] = list(forced)
+    atomic_write_text(out / "calibration.json", json.dumps(_json_safe(summary), indent=1))
+    return [path, out / "calibration.json", write_report(res, out)]
 
 
 def _json_safe(obj):
@@ -248,14 +283,23 @@ def write_report(res, out: Path) -> Path:
         else:
             k = f"≤ {a.K_bound:.3e}"
         tr = f"{a.tau_range_s[0]:.3g} – {a.tau_range_s[1]:.3g}" if a.tau_range_s else "—"
+        pd = f"{a.pair_data.worst_ratio:.3g}" if a.pair_data is not None else "—"
         rows.append([ax, a.model, f"{a.N:.4e}", nci, k, f"{a.K:.3e}", f"{a.unit}/√Hz, {a.unit}/s/√Hz",
-                     f"{a.horizon_s:.3g}", tr, f"{a.worst_ratio:.3g}"])
+                     f"{a.horizon_s:.3g}", tr, pd, f"{a.worst_ratio:.3g}"])
     rep.table(["axis", "model", "N", "N 95% CI", "K (value with 95% CI, or bound)", "K exported", "units",
-               "horizon [s]", "τ range [s]", "worst AV ratio"], rows,
-              caption="N white-noise density, K bias random-walk density (continuous time)")
+               "horizon [s]", "τ range [s]", "worst AV ratio pair/data", "worst AV ratio pair/model"], rows,
+              caption="N white-noise density, K bias random-walk density (continuous time); AV ratios of the "
+              "exported pair against the pooled stops' Allan variance (data) and against the fitted model")
     for ax, a in res.axes.items():
         for u in a.undetermined:
             rep.paragraph(f"{ax}: not determined: {u}")
+    rep.heading("Fit against the data")
+    rep.paragraph("Each fit's WV against the pooled WV's 95 % band: outside at ≥ 3 consecutive scales or ≥ 25 % of "
+                  "them, the export is refused unless --force (then the warning is written into the file).")
+    rep.table(["axis", "model", "export", "WV band", "exported pair vs the data's AV", "retry"],
+              [[ax, a.model, "refused" if a.refused else "ok", a.band.text() if a.band is not None else "—",
+                a.pair_data.text() if a.pair_data is not None else "—", a.retry or "—"]
+               for ax, a in res.axes.items()])
     rep.heading("Wavelet variance fits")
     for ax, fit in res.fits.items():
         fig = out / f"wv_{ax}.png"

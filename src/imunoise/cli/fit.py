@@ -9,6 +9,7 @@ import sys
 import warnings
 from pathlib import Path
 
+from imunoise.cli.export_gate import add_force, band_checks, refusal, write_exports
 from imunoise.cli.options import (
     add_columns,
     add_criterion,
@@ -106,8 +107,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--export",
         action="append",
         choices=["kalibr", "openvins", "orbslam3", "json"],
-        help="also write this export beside the model (repeatable)",
+        help="also write this export beside the model (repeatable); refused where a fit leaves its WV band (--force)",
     )
+    add_force(p)
     p.add_argument("--sensor", choices=["gyro", "accel"], help="sensor of a single-axis fit (for --export)")
     p.add_argument(
         "--horizon",
@@ -260,7 +262,13 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
     else:
         fit, ranking = fit_axis(series.data[axis], freq=series.freq, robust=args.robust, **common)
     extra = _base_extra(args, series, axis)
-    if ranking is not None:
+    if ranking is not None:  # re-estimated as gmwm does, a richer candidate where it leaves its WV band
+        from imunoise.fitting.quality import within_band
+
+        settled = within_band(ranking, fit)
+        fit, extra["fit_check"] = settled.fit, settled.to_dict()
+        if settled.note:
+            print(f"{axis}: {settled.note}", file=sys.stderr)
         if not quiet:
             print(ranking.table(limit=10))
             print()
@@ -288,12 +296,11 @@ def _run_single(args: argparse.Namespace, series, out: Path) -> int:
         sensor = args.sensor or infer_sensor(fit)
         if sensor is None:
             raise ModelError("--export of a single axis needs --sensor gyro|accel (its unit and name do not say)")
+        forced = refusal(band_checks({axis: fit}), args.force, where=str(out / "wv.png"))
         _export_report(fit, args, sensor)
-        for fmt in args.export:
-            written.append(
-                _export(fit, fmt, out, sensor=sensor, source=str(out / "model.json"), horizon_s=args.horizon,
-                        partial=args.sensor is not None)
-            )
+        written += write_exports(fit, args.export, out, forced, fits={axis: fit}, sensor=sensor,
+                                 source=str(out / "model.json"), horizon_s=args.horizon,
+                                 partial=args.sensor is not None)
     print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
     return 0
 
@@ -325,17 +332,11 @@ def _run_multi(args: argparse.Namespace, series, out: Path) -> int:
     print(_continuous_table(model, args.horizon))
     written = [path]
     if args.export:
+        forced = refusal(band_checks(fits), args.force, where=str(out / "wv_<axis>.png"))
         _export_report(model, args, None)
-    for fmt in args.export or []:
-        written.append(_export(model, fmt, out, source=str(path), horizon_s=args.horizon))
+        written += write_exports(model, args.export, out, forced, fits=fits, source=str(path), horizon_s=args.horizon)
     print(f"\nwrote {', '.join(str(w) for w in written)} and wv_<axis>.png", file=sys.stderr)
     return 0
-
-
-def _export(model, fmt: str, out: Path, **kwargs) -> Path:
-    from imunoise.export import DEFAULT_FILENAMES, write_export
-
-    return write_export(model, fmt, out / DEFAULT_FILENAMES[fmt], **kwargs)
 
 
 def _export_report(model, args: argparse.Namespace, sensor: str | None) -> None:
@@ -358,7 +359,7 @@ def _continuous_table(model, horizon_s: float | None = None) -> str:
     lines = [
         f"continuous-time noise per axis (what Kalibr / OpenVINS / ORB-SLAM3 take; discrete = per sample at {f:g} Hz)",
         f"  {'axis':<9}{'model':<22}{'N white (continuous)':>22}  {'K bias RW (continuous)':>27}  "
-        f"{'σ per sample (discrete)':>24}  worst AV ratio",
+        f"{'σ per sample (discrete)':>24}  worst AV ratio pair/model",
     ]
     for axis, d in model.axes.items():
         u = d.get("unit", "u")
