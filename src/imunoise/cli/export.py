@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from imunoise.cli.options import add_topic
+
 EXAMPLES = """examples:
   imunoise export fit/imu_model.json --to kalibr                     # -> fit/imu.yaml
   imunoise export fit/imu_model.json --to openvins --inflate white=2,rw=10
@@ -46,7 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--sensor",
         choices=["gyro", "accel"],
-        help="export only this sensor; for a single-axis fit, which sensor it is when its unit/column do not say",
+        help="sensor: export only this one; for a single-axis fit, which sensor it is when its unit/column do not say",
     )
     p.add_argument("--combine", choices=["max", "rms"], default="max", help="how to combine x/y/z (default max)")
     p.add_argument("--inflate", help="inflation factors applied visibly, e.g. white=2,rw=10")
@@ -56,7 +58,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="S",
         help="longest averaging time [s] the pair is matched on (default: the longest scale of the fitted data)",
     )
-    p.add_argument("--topic", help="rostopic written in the file (default: the bag topic of the model, else /imu0)")
+    add_topic(p, "the sensor_msgs/Imu topic (written in the file; default: the model's bag topic, else /imu0)")
     p.add_argument("--out", help="output file ('-' for stdout; default: the format's file name beside MODEL)")
     p.set_defaults(func=run)
 

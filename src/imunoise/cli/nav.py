@@ -33,9 +33,11 @@ if TYPE_CHECKING:
 EXAMPLES = """examples:
   imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --out out/nav_full
   imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --outage-runs --out out/nav_out
-  imunoise nav --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --model model.json --out out/
+  imunoise nav --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --imu-model model.json \
+      --out out/
   imunoise nav --data sim/ --outages sim/outages.txt --default --out out/sim
-  imunoise nav --imu drive.mcap --imu-topic /imu --gnss drive.mcap --gnss-topic /fix --lever-arm 0 -0.05 0 --out out/b
+  imunoise nav --imu drive.mcap --imu-topic /imu --gnss drive.mcap --gnss-topic /fix --lever-arm 0 -0.05 0 \
+      --out out/b
   imunoise nav --imu imu.txt --gnss rtk.pos --min-quality 2 --out out/pos      # RTKLIB solution, fix + float
 
 Inputs: KF-GINS text (body FRD, GPS seconds of week), ROS bags (.bag, .db3, .mcap: sensor_msgs/Imu rates in
@@ -65,7 +67,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     add_nav_input_options(p)
     m = p.add_mutually_exclusive_group()
-    m.add_argument("--model", help="model JSON: {'gyro': fit, 'accel': fit} or per axis (from `imunoise fit`)")
+    m.add_argument("--imu-model", help="IMU error models: model JSON ({'gyro': fit, 'accel': fit} or per axis, from "
+                   "`imunoise fit` or `calibrate`)")
     m.add_argument("--default", action="store_true", help="plain default model WN+RW+GM (the default)")
     m.add_argument("--kfgins", action="store_true", help="KF-GINS' loose settings of the shared drive (WN+GM)")
     p.add_argument("--end", type=float, help="end time [s]; default: end of the IMU data")
@@ -73,12 +76,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--zupt",
         action="store_true",
-        help="zero-velocity updates at stops found by the SPEC §7 static detector (λ0 learned from the static window)",
+        help="zero-velocity updates at detected stops (the SPEC §7 static detector, λ0 learned from the static "
+        "window)",
     )
     p.add_argument("--no-chi2-gate", action="store_true", help="disable the χ² innovation gate of the GNSS updates")
     add_deprecated_alias(p, "--no-gate", "--no-chi2-gate")
+    add_deprecated_alias(p, "--model", "--imu-model")
     p.add_argument("--scale-factors", action="store_true",
-                   help="add gyro and accel scale-factor states (KF-GINS' 21-state filter; 1000 ppm, GM 1 h)")
+                   help="add gyro and accel scale-factor states (to the EKF: KF-GINS' 21-state filter; 1000 ppm, "
+                   "GM 1 h)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=run)
@@ -94,9 +100,9 @@ def run(args: argparse.Namespace) -> int:
     inp = read_nav_inputs(args, log)
     imu, gnss, ref, notes, windows, lever = inp.imu, inp.gnss, inp.ref, inp.notes, inp.windows, inp.lever
     rate = imu.rate_hz
-    if args.model:
-        models = load_axis_models(args.model, rate)
-        model_name = args.model
+    if args.imu_model:
+        models = load_axis_models(args.imu_model, rate)
+        model_name = args.imu_model
     elif args.kfgins:
         models, model_name = default_axis_models(rate, kfgins_loose()), "kfgins_loose"
     else:

@@ -53,15 +53,15 @@ class NavInputs:
 
 def read_nav_inputs(args: argparse.Namespace, log: logging.Logger) -> NavInputs:
     """Resolve the files of :func:`~imunoise.cli.options.add_nav_input_options`, refuse an unusable ``--out``,
-    a malformed ``--model`` file and ``--outage-runs`` without windows before the work, then read the files
+    a malformed ``--imu-model`` file and ``--outage-runs`` without windows before the work, then read the files
     and the outage windows."""
     from imunoise.io.kfgins import read_outages
     from imunoise.io.navchecks import check_imu_gaps
 
     ds, imu_p, gnss_p, ref_p, out_p, lever, offset = resolve_nav_inputs(args)
     prepare_out_dir(args.out)  # an unusable --out fails before the work
-    if args.model:
-        read_json_option(args.model, "--model")  # a binary / malformed model file: one error naming it
+    if args.imu_model:
+        read_json_option(args.imu_model, "--imu-model")  # a binary / malformed model file: one error naming it
     if args.outage_runs and not out_p:
         raise ModelError("--outage-runs needs --outages F (or a dataset.json with 'outages')")
     imu, gnss, ref, notes = read_nav_files(
@@ -148,5 +148,7 @@ def gyro_unit_notes(imu: Any, gnss: Any, init: Any, static_duration: float, imu_
     still = imu.t <= imu.t[0] + static_duration
     ned = llh_to_ned(gnss.llh, gnss.llh[0])
     roll, pitch = float(init.euler[0]), float(init.euler[1])
-    note = gyro_unit_evidence(imu.t, gyro, roll, pitch, np.mean(gyro[still], axis=0), gnss.t, ned, imu_path)
+    step = max(10.0, 30.0 * float(np.median(np.hypot(gnss.sigma_ned[:, 0], gnss.sigma_ned[:, 1]))))
+    bias = np.mean(gyro[still], axis=0)
+    note = gyro_unit_evidence(imu.t, gyro, roll, pitch, bias, gnss.t, ned, imu_path, min_step_m=step)
     return [note] if note else []

@@ -58,20 +58,23 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_nav_input_options(p)
-    p.add_argument("--model", help="initial model JSON (default: the plain default WN+RW+GM)")
+    p.add_argument("--imu-model", help="IMU error models: model JSON the run starts with (default: the plain "
+                   "default WN+RW+GM)")
     add_criterion(p)
     p.add_argument("--min-static", type=positive_float, default=20.0,
                    help="static data [s] before the structure identification (default 20)")
-    p.add_argument("--latency", type=nonnegative_float, help="fixed delay [s] stop end → model in the filter "
-                   "(default: the measured compute time)")
+    p.add_argument("--latency", type=nonnegative_float,
+                   help="fixed delay [s] from a stop's end to its model in the filter (default: the measured compute "
+                   "time)")
     p.add_argument("--worker", choices=("inline", "thread"), default="inline",
                    help="inline = deterministic replay (default); thread = background thread, never blocks")
-    p.add_argument("--zupt", action="store_true", help="ZUPT/ZARU updates during detected stops")
+    p.add_argument("--zupt", action="store_true", help="zero-velocity updates at detected stops (ZUPT/ZARU)")
     p.add_argument("--no-rate-gate", action="store_true",
                    help="do not use the 30 °/s angular-rate gate of the static detector's noise model")
     add_deprecated_alias(p, "--no-gate", "--no-rate-gate")
+    add_deprecated_alias(p, "--model", "--imu-model")
     p.add_argument("--scale-factors", action="store_true",
-                   help="add gyro and accel scale-factor states to the EKF (KF-GINS' 21-state filter)")
+                   help="add gyro and accel scale-factor states (to the EKF: KF-GINS' 21-state filter)")
     p.add_argument("--no-floor", action="store_true", help="no plain-default floor on the filter noise")
     p.add_argument("--learn-motion-noise", action="store_true",
                    help="learn in-motion gyro noise while driving: shadow filters rehearse GNSS outages on the data "
@@ -84,9 +87,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="pool the stops of earlier drives of the same IMU with this drive's: the static.npz those "
                         "runs wrote (the last of a chain holds all before it); the model of the earlier stops runs "
                         "from the first sample")
-    p.add_argument("--learn-from", type=positive_float, default=10.0,
-                   help="seconds of the first stop to learn λ0 (default 10)")
-    p.add_argument("--lambda0", type=positive_float, help="fixed detector λ0 [m/s²] instead of learning it")
+    p.add_argument("--learn-from", type=positive_float, default=10.0, metavar="S",
+                   help="learn λ0 from the first S seconds (of the IMU file: a known stop; default 10)")
+    p.add_argument("--lambda0", type=positive_float, help="detector threshold λ0 [m/s²] (fixed, instead of learning "
+                   "it)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=run)
 
@@ -128,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
     for n in notes[n_read:]:
         log.warning("%s", n)
     rate = imu.rate_hz
-    models = load_axis_models(args.model, rate) if args.model else None
+    models = load_axis_models(args.imu_model, rate) if args.imu_model else None
     detector = DetectorConfig(lambda0=args.lambda0) if args.lambda0 is not None else None
     config = OnlineConfig(
         ekf=EkfConfig(lever_arm=tuple(lever), scale_factors=args.scale_factors),

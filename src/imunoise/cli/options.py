@@ -235,7 +235,7 @@ def add_units(p: argparse.ArgumentParser, *, several: bool = False) -> None:
             "group/column: gyro=deg/s,accel=g (converted to SI)"
         )
     else:
-        text = "unit of the data column: rad/s, deg/s, deg/h, m/s2, g, mg, rad, deg, m/s (converted to SI)"
+        text = "unit of the data: rad/s, deg/s, deg/h, m/s2, g, mg, rad, deg, m/s (of the column; converted to SI)"
     p.add_argument(
         "--units", help=text + "; default: the unit a .npz states, else as is (warned when the values cannot be SI)"
     )
@@ -290,13 +290,14 @@ def add_model(p: argparse.ArgumentParser, *, auto: bool = False, processes: str 
     )
 
 
-def add_criterion(p: argparse.ArgumentParser, what: str = "model ranking") -> None:
+def add_criterion(p: argparse.ArgumentParser, what: str = "") -> None:
     """``--criterion wvic|gof`` with the shared default (wvic)."""
     p.add_argument(
         "--criterion",
         choices=CRITERIA,
         default=DEFAULT_CRITERION,
-        help=f"{what}: wvic (default) or gof (the paper's Eq. 8, which always favours the largest nested model)",
+        help="model ranking: wvic (default) or gof (the paper's Eq. 8, which always favours the largest nested "
+        f"model){'; ' + what if what else ''}",
     )
 
 
@@ -321,7 +322,7 @@ def add_out(p: argparse.ArgumentParser, default_suffix: str | None = None) -> No
 def add_nav_input_options(p: argparse.ArgumentParser) -> None:
     """The input options every navigation command shares (SPEC §12); resolve them with
     :func:`resolve_nav_inputs`."""
-    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12)")
+    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12; the options override it)")
     p.add_argument(
         "--imu", help="IMU: KF-GINS increments or rate CSV (SI), or a ROS bag (.bag, .db3, .mcap, ROS 2 folder)"
     )
@@ -334,7 +335,7 @@ def add_nav_input_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--gnss",
-        help="GNSS: KF-GINS text (SOW lat lon h σN σE σD), an RTKLIB .pos solution, or a ROS bag with NavSatFix",
+        help="GNSS file: KF-GINS text (SOW lat lon h σN σE σD), an RTKLIB .pos solution, or a ROS bag with NavSatFix",
     )
     p.add_argument("--gnss-topic", help="ROS bag: the sensor_msgs/NavSatFix topic (default: the only one)")
     p.add_argument(
@@ -357,7 +358,7 @@ def add_nav_input_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--imu-time-offset", type=float, help="seconds added to IMU time stamps (default: dataset.json's value or 0)"
     )
-    p.add_argument("--outages", help="outage file: 'start duration' per line [s]")
+    p.add_argument("--outages", help="outage windows: a file of 'start duration' per line [s]")
     p.add_argument("--outage-runs", action="store_true", help="run each outage window separately")
     p.add_argument(
         "--start",

@@ -38,7 +38,10 @@ GYRO_TURN_RATIO_WARN = 5.0
 read as rad/s gives ≈ 57.3."""
 
 MIN_TURN_EVIDENCE_RAD = math.radians(90.0)
-"""GNSS course change needed before the gyro/GNSS turn ratio is judged."""
+"""GNSS course change (in pieces turning more than :data:`TURN_PIECE_RAD`) needed before the ratio is judged."""
+
+TURN_PIECE_RAD = math.radians(5.0)
+"""A track piece whose course changes more than this is part of a turn."""
 
 
 def check_gnss_llh(lat_deg: np.ndarray, lon_deg: np.ndarray, source: str, lines: np.ndarray | None = None) -> None:
@@ -114,13 +117,14 @@ def gyro_unit_evidence(
     gnss_ned: np.ndarray,
     source: str,
     min_speed: float = 3.0,
+    min_step_m: float = 5.0,
 ) -> str | None:
     """A warning when the gyros turn ≫ or ≪ the GNSS track (deg/s read as rad/s: ≈ 57×), else None.
 
-    The heading change of the bias-corrected gyros between consecutive GNSS epochs where the vehicle moves
-    faster than ``min_speed`` is summed in absolute value and compared with the sum of the absolute course
-    changes of the GNSS track over the same epochs; judged once the track has turned by
-    :data:`MIN_TURN_EVIDENCE_RAD`.
+    The GNSS track is cut into pieces of ≥ ``min_step_m`` travelled distance (so that the course of a piece is
+    not position noise); between the middles of consecutive pieces both faster than ``min_speed``, the heading
+    change of the bias-corrected gyros is regressed on the course change of the track (least-squares slope
+    through 0, 1 for right units); judged once the track has turned by :data:`MIN_TURN_EVIDENCE_RAD`.
 
     Parameters
     ----------
@@ -134,6 +138,8 @@ def gyro_unit_evidence(
         GNSS epochs [s] and antenna positions north/east/down [m] relative to any origin.
     source : str
         The IMU file, for the message.
+    min_speed, min_step_m : float
+        Pieces slower than this [m/s] are left out; the length of a piece [m] (≥ 30 σ_h of the fixes).
 
     Returns
     -------
@@ -147,27 +153,36 @@ def gyro_unit_evidence(
     psi = np.cumsum(psi_dot * dt)
     gt = np.asarray(gnss_t, dtype=float)
     m = (gt >= t[0]) & (gt <= t[-1])
-    gt, ned = gt[m], np.asarray(gnss_ned, dtype=float)[m]
+    gt, ned = gt[m], np.asarray(gnss_ned, dtype=float)[m, :2]
     if gt.size < 3:
         return None
-    v = np.gradient(ned[:, :2], gt, axis=0)
-    speed = np.hypot(v[:, 0], v[:, 1])
-    course = np.arctan2(v[:, 1], v[:, 0])
+    # track points every ≥ min_step_m of travelled distance: the course of each piece is then not GNSS noise
+    path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ned, axis=0).T))])
+    sel = np.flatnonzero(np.diff(np.floor(path / min_step_m), prepend=-1.0) > 0)
+    if sel.size < 3:
+        return None
+    d = np.diff(ned[sel], axis=0)
+    dt = np.diff(gt[sel])
+    course = np.arctan2(d[:, 1], d[:, 0])
+    speed = np.hypot(d[:, 0], d[:, 1]) / dt
+    tmid = 0.5 * (gt[sel][1:] + gt[sel][:-1])
     moving = (speed[1:] > min_speed) & (speed[:-1] > min_speed)
     if not moving.any():
         return None
     d_course = np.angle(np.exp(1j * np.diff(course)))[moving]
-    d_psi = np.diff(np.interp(gt, t, psi))[moving]
-    turn_gnss = float(np.abs(d_course).sum())
-    turn_gyro = float(np.abs(d_psi).sum())
+    d_psi = np.diff(np.interp(tmid, t, psi))[moving]
+    turning = np.abs(d_course) > TURN_PIECE_RAD  # the turns, not the course noise of straight driving
+    turn_gnss = float(np.abs(d_course[turning]).sum())
     if turn_gnss < MIN_TURN_EVIDENCE_RAD:
         return None
-    ratio = turn_gyro / turn_gnss
-    if 1.0 / GYRO_TURN_RATIO_WARN <= ratio <= GYRO_TURN_RATIO_WARN:
+    # least-squares slope of the gyro heading change on the GNSS course change (signed: noise averages out)
+    ratio = float(np.dot(d_psi, d_course) / np.dot(d_course, d_course))
+    turn_gyro = abs(ratio) * turn_gnss
+    if 1.0 / GYRO_TURN_RATIO_WARN <= abs(ratio) <= GYRO_TURN_RATIO_WARN:
         return None
-    guess = " (≈ 180/π: the gyros look like deg/s read as rad/s)" if 30.0 < ratio < 100.0 else ""
+    guess = " (≈ 180/π: the gyros look like deg/s read as rad/s)" if 30.0 < abs(ratio) < 100.0 else ""
     return (
-        f"IMU file {source}: the gyros turn {ratio:.3g}× the GNSS track ({math.degrees(turn_gyro):.0f}° against "
-        f"{math.degrees(turn_gnss):.0f}° of course change while moving){guess}; the navigation IMU takes rad "
+        f"IMU file {source}: the gyros turn {ratio:.3g}× the GNSS track (≈ {math.degrees(turn_gyro):.0f}° against "
+        f"{math.degrees(turn_gnss):.0f}° of turns while moving){guess}; the navigation IMU takes rad "
         "(increments) or rad/s (rate CSV): convert the gyro columns"
     )

@@ -65,6 +65,9 @@ def gnss_course(gnss, t_from: float, min_speed: float = 3.0) -> tuple[float, flo
 STILL_SHARE_MOVING_MAX = 0.10
 """Share of a levelling window the static detector may call moving (doors, a passenger) before it is refused."""
 
+LAMBDA0_FLOOR = 1e-3
+"""Smallest λ0 [m/s²] of the levelling-window check (noise-free data would give 0)."""
+
 GNSS_STILL_RADIUS_M = 10.0
 """GNSS antenna displacement inside a levelling window above which the window is refused as driving."""
 
@@ -76,17 +79,17 @@ def check_static_window(
 
     The static detector's statistic T (paper Eq. 9: moving std of accel x and y over N = 100 samples) is
     computed over the window; λ0 is learned on its first third by the detector's rule (2 × median T,
-    :func:`imunoise.detect.learn_lambda0`), and epochs with T above the adaptive threshold's ceiling 2λ0
-    count as moving. More than :data:`STILL_SHARE_MOVING_MAX` of the window moving, or GNSS fixes inside it
-    spread over more than max(:data:`GNSS_STILL_RADIUS_M`, 10 σ_h), is refused: levelling over driving
-    turns accelerations into tilt (and a wrong gyro bias and yaw).
+    :func:`imunoise.detect.learn_lambda0`, at least :data:`LAMBDA0_FLOOR`), and epochs with T above the
+    adaptive threshold's ceiling 2λ0 count as moving. More than :data:`STILL_SHARE_MOVING_MAX` of the window
+    moving, or GNSS fixes inside it spread over more than max(:data:`GNSS_STILL_RADIUS_M`, 10 σ_h), is
+    refused: levelling over driving turns accelerations into tilt (and a wrong gyro bias and yaw).
 
     Raises
     ------
     DataError
         Naming ``option``, the window, the motion measured and the still span at its start.
     """
-    from imunoise.detect import learn_lambda0, moving_std
+    from imunoise.detect import moving_std
 
     m = (t >= ta) & (t <= tb)
     n_win = 100
@@ -94,19 +97,18 @@ def check_static_window(
     tw = t[m]
     dur = tb - ta
     if acc.shape[0] >= 3 * n_win:
-        first = acc[: max(acc.shape[0] // 3, 2 * n_win)]
-        lam0 = learn_lambda0(first, window=n_win)
         T = moving_std(acc[:, :2], n_win)[n_win - 1 :]
+        # λ0 by the detector's rule on the first third, with a floor: noise-free (simulated) data have T = 0
+        lam0 = max(2.0 * float(np.median(T[: max(T.shape[0] // 3, n_win)])), LAMBDA0_FLOOR)
         tt = tw[n_win - 1 :]
         moving = (T > 2.0 * lam0).any(axis=1)
         share = float(moving.mean())
         if share > STILL_SHARE_MOVING_MAX:
-            # where the motion the window ends in starts (driving off), else the first moving epoch
-            k = int(np.flatnonzero(~moving)[-1]) + 1 if moving[-1] and not moving.all() else int(np.argmax(moving))
+            k = int(np.argmax(moving))  # the window is still up to here
             raise DataError(
                 f"{option} {dur:g}: the IMU is not still over the levelling window [{ta:.3f}, {tb:.3f}] s: the "
                 f"static detector's statistic (Eq. 9, moving std of accel x/y) exceeds 2λ0 = {2 * lam0:.3g} m/s² "
-                f"on {100 * share:.0f} % of it (peak {float(np.nanmax(T)):.3g} m/s², moving from {tt[k] - ta:.1f} s); "
+                f"on {100 * share:.0f} % of it (peak {float(np.nanmax(T)):.3g} m/s², first at {tt[k] - ta:.1f} s); "
                 f"give the length of the stop at the start (≤ {max(tt[k] - ta, 0.0):.1f} s)"
             )
     gt = np.asarray(gnss.t, dtype=float)
