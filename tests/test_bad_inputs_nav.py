@@ -104,9 +104,9 @@ def test_latitude_beyond_90_is_refused_naming_the_line(sim, tmp_path, capsys):
 
 def test_imu_gap_is_refused_with_the_flag_that_allows_it(sim, tmp_path, capsys):
     code, err = run_cli(nav_argv(sim, tmp_path / "o", imu=sim["imu_gap"]), capsys)
-    one_error(code, err, "imu_gap.txt", "10 s time gap", "--max-imu-gap 10.1", "split the file")
+    one_error(code, err, "imu_gap.txt", "10 s time gap", "--max-imu-gap 11", "split the file")
     t = read_imu(sim["imu_gap"]).t
-    check_imu_gaps(t, 10.1, "imu_gap.txt")  # the flag's value lets it through
+    check_imu_gaps(t, 11.0, "imu_gap.txt")  # the value the message suggests lets it through
     with pytest.raises(DataError, match="--max-imu-gap"):
         check_imu_gaps(t, 9.9, "imu_gap.txt")
 

@@ -52,7 +52,13 @@ the GNSS antenna, in m and m/s), DIR/trajectory.png, DIR/errors.png and DIR/bias
 metrics.json lists the drift at the end of each window; without it all windows are removed in one run.
 Initialisation: position from GNSS, roll/pitch from static levelling over --static-duration s of the
 IMU file's beginning, yaw from the first GNSS course faster than 3 m/s propagated back (or --yaw),
-gyro bias = static mean."""
+gyro bias = static mean. Start: --start, else the manifest's start_sow, else the first GNSS epoch (as online).
+
+Refused with the fix: GNSS latitude/longitude in radians or beyond ±90°, IMU gaps longer than --max-imu-gap,
+a levelling window the static detector or the GNSS shows moving, IMU and GNSS stamps in different time bases.
+Gyros turning ≈ 57× the GNSS track (deg/s read as rad/s) are warned and the warning kept in metrics.json.
+The outputs of a run appear in DIR together when it completes (Ctrl-C leaves DIR as it was); files an
+earlier nav run left there (outage_<k>/ of more windows, plots) are removed, nothing else is touched."""
 
 log = logging.getLogger("imunoise.nav")
 

@@ -44,7 +44,9 @@ the GNSS antenna at the reference epochs, m and m/s; plus the modelling timing),
 identification per axis with structure/GOF/time, refits, model swaps, gate open/close, rejected fits) and
 DIR/model.json (the last GMWM fit of every axis, per-sample SI parameters and continuous equivalents) and
 DIR/static.npz (the static pieces the model was fitted on: --earlier-static of the next drive of this IMU).
-The static detector learns λ0 from the first --learn-from s of the IMU file, which must be a stop."""
+The static detector learns λ0 from the first --learn-from s of the IMU file, which must be a stop.
+The inputs are checked as in `imunoise nav`; the outputs appear in DIR together when the run completes
+(Ctrl-C leaves DIR as it was) and files an earlier online run left there (model.json, static.npz) are removed."""
 
 log = logging.getLogger("imunoise.online")
 

@@ -134,7 +134,7 @@ def _merge_into(src: Path, dest: Path, moved: set[Path], root: Path) -> None:
 
 @contextmanager
 def staged_run(out: str | Path, owned: Sequence[str]) -> Iterator[Path]:
-    """The outputs of one run of a command: written into a hidden staging folder beside ``out``, published
+    """The outputs of one run of a command: written into a hidden staging folder in ``out``, published
     into ``out`` only when the run completes, and the files an earlier run of the same command left there
     removed (issue 22 "Interrupted or repeated runs").
 
@@ -158,7 +158,8 @@ def staged_run(out: str | Path, owned: Sequence[str]) -> Iterator[Path]:
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(dir=out.resolve().parent, prefix=f".{out.name}.", suffix=".partial"))
+    # staged inside ``out`` (writable, same file system; a hidden name no output pattern matches)
+    stage = Path(tempfile.mkdtemp(dir=out, prefix=".run.", suffix=".partial"))
     try:
         yield stage
         moved: set[Path] = set()

@@ -103,7 +103,7 @@ def check_imu_gaps(t: np.ndarray, max_gap: float, source: str, option: str = "--
         raise DataError(
             f"IMU file {source}: a {d[k]:.3g} s time gap at t = {t[k]:.3f} s ({n} gap(s) longer than {max_gap:g} s); "
             f"the mechanization would integrate one increment across it: split the file at the gap, or pass "
-            f"{option} {math.ceil(d[k] * 1.01 * 1000) / 1000:g} to integrate it as given"
+            f"{option} {math.ceil(d[k] + 0.5):d} to integrate it as given"
         )
 
 
