@@ -333,3 +333,22 @@ def test_staged_run_publishes_all_or_nothing(tmp_path):
         (stage / "a.txt").write_text("a")
     assert files_in(out) == [Path("a.txt")]
     assert not (out / "sub").exists()
+
+
+def test_ctrl_c_inside_the_em_kernel_is_one_line(tmp_path, capsys, monkeypatch):
+    """A Ctrl-C inside a numba kernel reaches Python as a SystemError chained to the KeyboardInterrupt."""
+    import imunoise.em as em
+
+    def kernel_interrupted(*a, **kw):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise SystemError("<numba kernel> returned a result with an exception set") from None
+
+    monkeypatch.setattr(em, "em_fit", kernel_interrupted)
+    data = tmp_path / "x.csv"
+    np.savetxt(data, 1e-3 * np.random.default_rng(0).standard_normal(2000), header="gyro_x", comments="")
+    out = tmp_path / "o"
+    code, err = run_cli(["em", data, "--freq", 100, "--model", "WN", "--out", out], capsys)
+    assert code == 130 and err.strip().splitlines() == ["imunoise em: interrupted (Ctrl-C)"]
+    assert not (out / "model.json").exists()
