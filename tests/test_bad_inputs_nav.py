@@ -352,3 +352,19 @@ def test_ctrl_c_inside_the_em_kernel_is_one_line(tmp_path, capsys, monkeypatch):
     code, err = run_cli(["em", data, "--freq", 100, "--model", "WN", "--out", out], capsys)
     assert code == 130 and err.strip().splitlines() == ["imunoise em: interrupted (Ctrl-C)"]
     assert not (out / "model.json").exists()
+
+
+def test_levelling_window_with_moving_gnss_is_refused():
+    """Still accelerometers (a smooth start) but a GNSS antenna 40 m away by the end of the window: refused."""
+    from imunoise.io.kfgins import GnssData
+    from imunoise.nav.align import check_static_window
+
+    t = np.arange(0.0, 30.0, 0.01)
+    accel = np.tile([0.0, 0.0, -9.81], (t.size, 1)) + 1e-3 * np.random.default_rng(1).standard_normal((t.size, 3))
+    tg = np.arange(0.0, 31.0, 1.0)
+    north = np.where(tg > 20.0, 4.0 * (tg - 20.0), 0.0)  # starts rolling at 20 s, 4 m/s
+    llh = np.column_stack([np.radians(40.0) + north / 6.37e6, np.full(tg.size, np.radians(-105.0)), np.zeros(tg.size)])
+    gnss = GnssData(tg, llh, np.full((tg.size, 3), 0.05))
+    with pytest.raises(DataError, match=r"--static-duration 30: the GNSS antenna moves 40 m inside .*beyond 10 m at 23\.0 s"):
+        check_static_window(t, accel, gnss, 0.0, 30.0)
+    check_static_window(t, accel, gnss, 0.0, 20.0)  # the still part passes
