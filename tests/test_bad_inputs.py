@@ -70,7 +70,11 @@ def static(tmp_path_factory) -> dict[str, Path]:
 
 
 def run_cli(argv: list[str], capsys) -> tuple[int, str]:
-    code = main([str(a) for a in argv])
+    """Exit code and stderr of one in-process run; a value refused at parse time exits through argparse."""
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:
+        code = int(exc.code or 0)
     err = capsys.readouterr().err
     return code, err
 

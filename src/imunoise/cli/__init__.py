@@ -3,7 +3,10 @@
 Each subcommand lives in its own module in this package and exposes
 ``register(subparsers) -> None``, which adds one or more sub-parsers whose ``func`` default is the
 handler ``func(args) -> int``. Modules are discovered automatically, so adding a command is adding a file.
-Errors of type :class:`imunoise.errors.ImunoiseError` become a one-line message and exit code 2.
+Errors of type :class:`imunoise.errors.ImunoiseError` become a one-line message and exit code 2 (Python
+field names in it replaced by the flags that set them); every ``type=float`` option is checked finite at
+parse time; Ctrl-C anywhere — also inside a numba kernel, where it surfaces as a ``SystemError`` whose
+cause/context chain holds the ``KeyboardInterrupt`` — ends with one line and exit code 130.
 
 Top of the stack: a command may import any module of the data path (IMU → detection → modelling →
 filter) and :mod:`imunoise.experiments`; nothing but ``imunoise.__main__`` imports the CLI.
@@ -17,6 +20,7 @@ import pkgutil
 import sys
 
 from imunoise._version import __version__
+from imunoise.cli.options import finite_floats_everywhere, flag_names
 from imunoise.errors import ImunoiseError
 
 EPILOG = """examples:
@@ -41,7 +45,21 @@ def build_parser() -> argparse.ArgumentParser:
         register = getattr(module, "register", None)
         if register is not None:
             register(sub)
+    finite_floats_everywhere(parser)
     return parser
+
+
+def interrupted(exc: BaseException) -> bool:
+    """True when ``exc`` is, or was caused by (``__cause__``/``__context__`` chain), a KeyboardInterrupt: a
+    Ctrl-C inside a numba kernel reaches Python as a ``SystemError`` chained to it."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -52,22 +70,35 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        return _interrupted(args.command)
     except ImunoiseError as exc:
+        if interrupted(exc):
+            return _interrupted(args.command)
         msg = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())  # one line
+        msg = flag_names(msg)
         print(f"imunoise {args.command}: error: {msg}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:
         print(f"imunoise {args.command}: error: file not found: {exc.filename}", file=sys.stderr)
         return 2
     except OSError as exc:
+        if interrupted(exc):
+            return _interrupted(args.command)
         # last resort: the readers and prepare_out_dir name the file themselves; this keeps any other
         # OS error (disk full, permission on a nested output) to one line without a traceback
         where = f": {exc.filename}" if exc.filename else ""
         print(f"imunoise {args.command}: error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
+    except Exception as exc:
+        if interrupted(exc):
+            return _interrupted(args.command)
+        raise
+
+
+def _interrupted(command: str) -> int:
+    print(f"imunoise {command}: interrupted (Ctrl-C)", file=sys.stderr)
+    return 130
 
 
 if __name__ == "__main__":

@@ -61,28 +61,28 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("logs", nargs="+", metavar="LOG",
                    help="ROS bag, dataset folder, KF-GINS IMU file, or CSV/TXT/.npz with --columns")
-    p.add_argument("--columns", help="table: the six axes, gyro_x=COL,...,accel_z=COL (names or 0-based indices)")
+    p.add_argument("--columns", help="table: several columns: gyro_x=COL,...,accel_z=COL (names or 0-based indices)")
     add_units(p, several=True)
     add_time_options(p)
-    p.add_argument("--freq", type=float, help="sample rate [Hz] of a table without a time column")
+    p.add_argument("--freq", type=float, help="sample rate in Hz (of a table without a time column)")
     add_topic(p)
     p.add_argument("--ref", help="reference trajectory (KF-GINS) of a single log: speed for the stop check and plot")
-    p.add_argument("--gnss", help="GNSS of a single log (KF-GINS, RTKLIB .pos, bag): speed from positions")
+    p.add_argument("--gnss", help="GNSS file (KF-GINS, RTKLIB .pos, bag) of a single log: speed from positions")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--lambda0", type=float, help="fixed detector threshold λ0 [m/s²] (default: learned per log)")
-    g.add_argument("--learn-from", type=float, metavar="S", help="learn λ0 from the first S seconds of each log")
+    g.add_argument("--lambda0", type=float, help="detector threshold λ0 [m/s²] (fixed; default: learned per log)")
+    g.add_argument("--learn-from", type=float, metavar="S", help="learn λ0 from the first S seconds (of each log)")
     p.add_argument("--learn-s", type=float, default=10.0, metavar="S",
                    help="learn λ0 on the quietest S seconds of each log (default 10)")
     p.add_argument("--stream", action="store_true",
-                   help="read bags and tables block by block (two passes, bounded by the stops; see below)")
+                   help="read block by block (bags and tables; two passes, bounded by the stops; see below)")
     p.add_argument("--stream-above", type=float, default=STREAM_ABOVE, metavar="N",
-                   help=f"stream bags and tables of more than N samples (default {STREAM_ABOVE:.0e})")
+                   help=f"stream inputs of more than N samples (bags and tables; default {STREAM_ABOVE:.0e})")
     p.add_argument("--window", type=int, default=100, help="window N [samples] of the detector (default 100)")
     p.add_argument("--min-duration", type=float, default=2.0, help="shortest stop kept [s] (default 2)")
     p.add_argument("--margin", type=float, default=0.5, help="trimmed at each stop end [s] (default 0.5)")
     add_criterion(p, "model selection")
-    p.add_argument("--complete", help="largest structure searched (default 4*AR1+DR+WN+QN+RW)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random starting points")
+    p.add_argument("--complete", help="complete model (the largest structure searched; default 4*AR1+DR+WN+QN+RW)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (of the random starting points)")
     p.add_argument("--export", action="append", choices=["kalibr", "openvins", "orbslam3", "json"],
                    help="also write this export beside the model (repeatable); refused where a fit leaves its WV "
                    "band (see --force)")

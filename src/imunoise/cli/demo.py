@@ -7,6 +7,8 @@ import sys
 import time
 from pathlib import Path
 
+from imunoise.cli.options import positive_float, positive_int
+
 EXAMPLES = """examples:
   imunoise demo                       # online GMWM on the shipped real drive: out/demo/report.html
   imunoise demo --data ../shared/data/rtklibexplorer_drive0708 --out /tmp/d
@@ -46,11 +48,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--out", default="out/demo", help="output folder (default out/demo)")
-    p.add_argument("--static", action="store_true", help="the static-recording GMWM demo")
-    p.add_argument("--data", help="dataset folder for the online demo (default: the repository's data/drive_0708)")
-    p.add_argument("--workers", type=int, default=2, help="online demo: parallel processes (default 2)")
-    p.add_argument("--duration", type=float, default=3600.0, help="static demo: recording length in s")
-    p.add_argument("--seed", type=int, default=7)
+    p.add_argument("--static", action="store_true", help="a static recording instead of a drive (the GMWM demo)")
+    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12; for the online demo, "
+                   "default: the repository's data/drive_0708)")
+    p.add_argument("--workers", type=positive_int, default=2,
+                   help="online demo: local worker processes (parallel; default 2)")
+    p.add_argument("--duration", type=positive_float, default=3600.0,
+                   help="static demo: length of the simulated recording [s] (default 3600)")
+    p.add_argument("--seed", type=int, default=7, help="demo data: random seed (of the simulated data; default 7)")
     p.set_defaults(func=run)
 
 

@@ -10,7 +10,14 @@ import math
 import sys
 from pathlib import Path
 
-from imunoise.cli.options import check_learn_from, check_learn_window_is_stop, prepare_out_dir
+from imunoise.cli.options import (
+    check_learn_from,
+    check_learn_window_is_stop,
+    int_at_least,
+    nonnegative_float,
+    positive_float,
+    prepare_out_dir,
+)
 from imunoise.errors import DataError, ModelError
 from imunoise.io.atomic import atomic_savefig, atomic_write_text
 
@@ -34,19 +41,25 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--imu", help="IMU file: KF-GINS increments or rate CSV (sow,gx,gy,gz,ax,ay,az)")
-    p.add_argument("--ref", help="reference file (KF-GINS: week t lat lon h vN vE vD roll pitch yaw)")
-    p.add_argument("--data", help="dataset folder with dataset.json (SPEC §12); --imu/--ref override it")
+    p.add_argument("--imu", help="IMU: KF-GINS increments or rate CSV (sow,gx,gy,gz,ax,ay,az)")
+    p.add_argument("--ref", help="reference trajectory (KF-GINS result format: week t lat lon h vN vE vD roll pitch "
+                   "yaw) for the scores")
+    p.add_argument("--data",
+                   help="dataset folder with a dataset.json manifest (SPEC §12; --imu/--ref override it)")
     p.add_argument("--out", required=True, help="output folder (segments.csv, detection.png, summary.json)")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--lambda0", type=float, default=None, help="initial threshold λ0 [m/s²] (default 0.02)")
-    g.add_argument("--learn-from", type=float, default=None, metavar="S",
-                   help="learn λ0 from the first S seconds of the record (a known stop)")
-    p.add_argument("--window", type=int, default=100, help="window N [samples] of Eq. 9 (default 100)")
-    p.add_argument("--min-duration", type=float, default=2.0, help="minimum segment duration [s] (default 2)")
-    p.add_argument("--margin", type=float, default=0.5, help="trimmed at each segment end [s] (default 0.5)")
+    g.add_argument("--lambda0", type=positive_float, default=None,
+                   help="detector threshold λ0 [m/s²] (initial; default 0.02)")
+    g.add_argument("--learn-from", type=positive_float, default=None, metavar="S",
+                   help="learn λ0 from the first S seconds (of the record: a known stop)")
+    p.add_argument("--window", type=int_at_least(2), default=100,
+                   help="window N [samples] of the detector (Eq. 9; default 100)")
+    p.add_argument("--min-duration", type=nonnegative_float, default=2.0,
+                   help="shortest stop kept [s] (default 2)")
+    p.add_argument("--margin", type=nonnegative_float, default=0.5,
+                   help="trimmed at each stop end [s] (default 0.5)")
     p.add_argument("--fixed-threshold", action="store_true", help="use λ0 as a fixed threshold (no Eq. 10)")
-    p.add_argument("--speed-threshold", type=float, default=0.2,
+    p.add_argument("--speed-threshold", type=positive_float, default=0.2,
                    help="reference speed [m/s] below which an epoch counts as static (default 0.2)")
     p.add_argument("--imu-time-offset", type=float, default=None,
                    help="seconds added to IMU time stamps (default: dataset.json's value or 0)")

@@ -7,6 +7,13 @@ import logging
 import sys
 import time
 
+from imunoise.cli.options import (
+    add_deprecated_alias,
+    int_at_least,
+    nonnegative_float,
+    positive_float,
+    positive_int,
+)
 from imunoise.errors import ModelError
 
 EXAMPLES = """examples:
@@ -14,7 +21,8 @@ EXAMPLES = """examples:
   imunoise experiment online --sim --seeds 20 --out out/mc_online          # Monte Carlo, both cores
   imunoise experiment denial --sim --seeds 20 --out out/mc_denial
   imunoise experiment denial --data ../shared/data/rtklibexplorer_drive0708 --out out/denial_real
-  imunoise experiment online --data data/drive_0708 --outages dense:60:20 --gnss rtk --gnss noise:1.5,3,1 \
+  imunoise experiment online --data data/drive_0708 --outages dense:60:20 --gnss-regime rtk \
+      --gnss-regime noise:1.5,3,1 \
       --noise-seeds 5 --pairs gmwm/av,gmwm/em --out out/evidence      # paired ratios with CIs (evidence)
 
 Writes DIR/report.html (one self-contained page), DIR/report.md, DIR/results.json (SPEC §11 keys:
@@ -22,7 +30,7 @@ methods → horizontal_rms_m, vertical_rms_m, ecef_rms_m, outage_end_horizontal_
 timing; seeds and per_seed for Monte Carlo), CSV tables (headline.csv, outages.csv, differences.csv or
 sections.csv) and PNG figures. Lengths in m, times in s.
 
-With --outages dense:L:S[:LEAD], --gnss or --pairs (online only) the run is the dense-window evidence
+With --outages dense:L:S[:LEAD], --gnss-regime or --pairs (online only) the run is the dense-window evidence
 (imunoise.experiments.dense): results.json has "paired" (per GNSS regime, metric drift/rms/aided_rms, each
 method vs plain and vs static_var and every --pairs pair: geometric-mean ratio, 95 % CI, n_windows,
 n_independent, n_drives, significant) and report.md/html lead with that table."""
@@ -39,23 +47,27 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("which", choices=("denial", "online"), help="which experiment")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--sim", action="store_true", help="Monte Carlo on simulated drives (SPEC §10)")
-    src.add_argument("--data", help="dataset folder with dataset.json and a reference (default: data/drive_0708)")
-    p.add_argument("--seeds", type=int, default=20, help="simulator: number of seeds (default 20)")
+    src.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12; with a reference; "
+                     "default: data/drive_0708)")
+    p.add_argument("--seeds", type=positive_int, default=20, help="simulator: number of seeds (default 20)")
     p.add_argument("--seed0", type=int, default=0, help="simulator: first seed (default 0)")
-    p.add_argument("--duration", type=float, default=600.0, help="simulator: drive length [s] (default 600)")
-    p.add_argument("--stops", type=int, default=4, help="simulator: traffic-light stops (default 4)")
+    p.add_argument("--duration", type=positive_float, default=600.0,
+                   help="simulator: length of the simulated recording [s] (default 600)")
+    p.add_argument("--stops", type=int_at_least(0), default=4,
+                   help="simulator: traffic-light stops of the simulated drive (default 4)")
     p.add_argument("--outages", default=None,
                    help="outage windows: dense:L:S[:LEAD] (windows of L s every S s after LEAD s of aiding; "
                    "default 60:20:60), a number (simulator: 60 s outages per drive, default 4) or an outage file")
-    p.add_argument("--gnss", action="append", default=None,
+    p.add_argument("--gnss-regime", action="append", default=None, metavar="REGIME",
                    help="GNSS regime, repeatable: rtk (as recorded, default) or noise:H,V[,RATE[,TAU]] "
                    "(σ north/east and down [m], thinned to RATE Hz, white or Gauss-Markov with TAU s)")
-    p.add_argument("--noise-seeds", type=int, default=5, help="noise regimes: GNSS noise seeds (default 5)")
+    p.add_argument("--noise-seeds", type=positive_int, default=5, help="noise regimes: GNSS noise seeds (default 5)")
     p.add_argument("--noise-seed0", type=int, default=1, help="first GNSS noise seed (default 1)")
     p.add_argument("--pairs", help="extra paired comparisons method/baseline,... (e.g. gmwm/av,gmwm/em)")
-    p.add_argument("--bootstrap", type=int, default=2000, help="bootstrap replicates of the CIs (default 2000)")
+    p.add_argument("--bootstrap", type=positive_int, default=2000,
+                   help="bootstrap replicates of the CIs (default 2000)")
     p.add_argument("--boot-seed", type=int, default=0, help="bootstrap seed (default 0)")
-    p.add_argument("--imu", default=None,
+    p.add_argument("--imu-model", default=None,
                    help="simulator: IMU error models: preset (paper, mems, tactical), structure, or model JSON "
                    "(imunoise.sim.resolve_imu_models; default: paper = gyros of paper Table 4 and mems "
                    "accelerometers, 3*AR1+WN+RW per axis)")
@@ -63,15 +75,18 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="simulator: motion law of the IMU errors (imunoise.sim.motion): drive0708 (default: white "
                    "noise and gyro y/z bias wander grow while moving, calibrated on the real drive) or none "
                    "(moving = static, the paper's premise)")
-    p.add_argument("--static-hours", type=float, default=2.0, help="denial --sim: static recording [h] (default 2)")
+    p.add_argument("--static-hours", type=positive_float, default=2.0,
+                   help="denial --sim: static recording [h] (default 2)")
     p.add_argument("--methods", help="comma-separated subset of the methods")
-    p.add_argument("--start", type=float, help="real data: navigation start [s, data time base]")
-    p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
-    p.add_argument("--latency", type=float, default=None,
-                   help="online methods: fixed delay [s] from a stop's end to its model in the filter, so a run "
-                        "repeats to the bit (default: the measured compute time, as the paper; the hot-swap "
+    p.add_argument("--start", type=float, help="real data: start time [s, data time base]")
+    p.add_argument("--workers", type=positive_int, default=2, help="local worker processes (parallel; default 2)")
+    p.add_argument("--latency", type=nonnegative_float, default=None,
+                   help="online methods: fixed delay [s] from a stop's end to its model in the filter (a run "
+                        "repeats to the bit; default: the measured compute time, as the paper; the hot-swap "
                         "moment then follows the machine's load)")
     p.add_argument("--out", required=True, help="output folder")
+    add_deprecated_alias(p, "--imu", "--imu-model")
+    add_deprecated_alias(p, "--gnss", "--gnss-regime")
     p.set_defaults(func=run)
 
 
@@ -128,10 +143,10 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.experiments.dense import parse_outages
 
     kind, outages = parse_outages(args.outages)
-    evidence = kind == "dense" or bool(args.gnss) or bool(args.pairs)
+    evidence = kind == "dense" or bool(args.gnss_regime) or bool(args.pairs)
     if evidence:
         if args.which != "online":
-            raise ModelError("--outages dense:..., --gnss and --pairs belong to the online experiment")
+            raise ModelError("--outages dense:..., --gnss-regime and --pairs belong to the online experiment")
         return _run_evidence(args, out, outages, t0)
     methods = select_methods(args.which, args.sim, args.methods)
     if kind == "file" and args.sim:
@@ -144,8 +159,8 @@ def run(args: argparse.Namespace) -> int:
         seeds = list(range(args.seed0, args.seed0 + args.seeds))
         bar, step = _progress(len(seeds), f"{args.which} Monte Carlo")
         kw = {"duration_s": args.duration, "n_stops": args.stops, "n_outages": 4 if outages is None else outages}
-        if args.imu:
-            kw["imu_models"] = args.imu
+        if args.imu_model:
+            kw["imu_models"] = args.imu_model
         kw["motion_noise"] = args.motion_noise
         if args.which == "denial":
             res = denial.run_sim(seeds, methods=methods, workers=args.workers,
@@ -232,7 +247,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
 
     spec = spec if isinstance(spec, dense.DenseSpec) else dense.DenseSpec()
     methods = select_methods("online", args.sim, args.methods, evidence=True)
-    regimes = [parse_gnss(g) for g in (args.gnss or ["rtk"])]
+    regimes = [parse_gnss(g) for g in (args.gnss_regime or ["rtk"])]
     if args.noise_seeds < 1:
         raise ModelError(f"--noise-seeds must be ≥ 1, got {args.noise_seeds}")
     noise_seeds = list(range(args.noise_seed0, args.noise_seed0 + args.noise_seeds))
@@ -249,8 +264,8 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
         seeds = list(range(args.seed0, args.seed0 + args.seeds))
         bar, step = _progress(len(seeds), "evidence Monte Carlo")
         scen = {"duration_s": args.duration, "n_stops": args.stops}
-        if args.imu:
-            scen["imu_models"] = args.imu
+        if args.imu_model:
+            scen["imu_models"] = args.imu_model
         scen["motion_noise"] = args.motion_noise
         res = dense.run_sim(seeds, progress=step, **kw, **scen)
         title = f"imunoise: dense-window evidence, {len(seeds)} simulated drives"

@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from imunoise.cli.options import add_topic
+
 EXAMPLES = """examples:
   imunoise export fit/imu_model.json --to kalibr                     # -> fit/imu.yaml
   imunoise export fit/imu_model.json --to openvins --inflate white=2,rw=10
@@ -69,7 +71,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--sensor",
         choices=["gyro", "accel"],
-        help="export this sensor's block only (a file the tool reads only after merging, e.g. with --into); for a "
+        help="sensor: export only this one's block (a file the tool reads after merging, e.g. with --into); for a "
         "single-axis fit, which sensor it is when its unit/column do not say",
     )
     p.add_argument("--combine", choices=["max", "rms"], default="max", help="how to combine x/y/z (default max)")
@@ -80,11 +82,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="S",
         help="longest averaging time [s] the pair is matched on (default: the longest scale of the fitted data)",
     )
-    p.add_argument(
-        "--topic",
-        help="the rostopic to WRITE into the Kalibr/OpenVINS file (not an input bag topic as in fit/calibrate "
-        "--topic); default: the topic of the bag the model was fitted on, else the file's own (--into), else /imu0",
-    )
+    add_topic(p, "the sensor_msgs/Imu topic (written in the file; default: the model's bag topic, else the file's "
+              "own with --into, else /imu0)")
     p.add_argument("--out", help="output file ('-' for stdout; default: the format's file name beside MODEL)")
     p.add_argument(
         "--into",

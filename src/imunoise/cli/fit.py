@@ -75,7 +75,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_time_options(p)
     add_topic(p)
     p.add_argument("--stamps", choices=["header", "bag"], default="header", help="bag time source (default header)")
-    p.add_argument("--decimate", type=int, default=1, help="block-average K samples before fitting")
+    p.add_argument("--decimate", type=int, default=1, help="block-average K samples first (before fitting)")
     p.add_argument(
         "--decimate-method",
         choices=["average", "drop"],
@@ -84,11 +84,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     add_weights(p)
     p.add_argument("--robust", action="store_true", help="robust (Huber) wavelet variance for contaminated data")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random starting points")
+    p.add_argument("--seed", type=int, default=0, help="random seed (of the random starting points)")
     p.add_argument(
         "--stream",
         action="store_true",
-        help="read the file block by block and compute the wavelet variance in one pass (bounded memory)",
+        help="read block by block (the wavelet variance in one pass, bounded memory)",
     )
     p.add_argument(
         "--stream-above",
@@ -110,12 +110,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="also write this export beside the model (repeatable); refused where a fit leaves its WV band (--force)",
     )
     add_force(p)
-    p.add_argument("--sensor", choices=["gyro", "accel"], help="sensor of a single-axis fit (for --export)")
+    p.add_argument("--sensor", choices=["gyro", "accel"], help="sensor: which one a single-axis fit is (for --export)")
     p.add_argument(
         "--horizon",
         type=float,
         metavar="S",
-        help="--export: longest averaging time [s] the (N, K) pair is matched on (default: the data's longest "
+        help="--export: longest averaging time [s] the pair is matched on (default: the data's longest "
         "scale); see `imunoise export --help` for the rule",
     )
     add_out(p, "fit")

@@ -10,9 +10,22 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from imunoise.cli.navrun import outage_summary, read_nav_inputs, run_metrics, write_trajectory
-from imunoise.cli.options import add_nav_input_options, check_nav_span, check_outage_windows
-from imunoise.io.atomic import atomic_savefig, atomic_write_text
+from imunoise.cli.navrun import (
+    gyro_unit_notes,
+    nav_start,
+    outage_summary,
+    read_nav_inputs,
+    run_metrics,
+    write_trajectory,
+)
+from imunoise.cli.options import (
+    add_deprecated_alias,
+    add_nav_input_options,
+    check_nav_span,
+    check_outage_windows,
+    positive_int,
+)
+from imunoise.io.atomic import atomic_savefig, atomic_write_text, staged_run
 
 if TYPE_CHECKING:
     import numpy as np
@@ -20,9 +33,11 @@ if TYPE_CHECKING:
 EXAMPLES = """examples:
   imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --out out/nav_full
   imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --outage-runs --out out/nav_out
-  imunoise nav --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --model model.json --out out/
+  imunoise nav --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --imu-model model.json \
+      --out out/
   imunoise nav --data sim/ --outages sim/outages.txt --default --out out/sim
-  imunoise nav --imu drive.mcap --imu-topic /imu --gnss drive.mcap --gnss-topic /fix --lever-arm 0 -0.05 0 --out out/b
+  imunoise nav --imu drive.mcap --imu-topic /imu --gnss drive.mcap --gnss-topic /fix --lever-arm 0 -0.05 0 \
+      --out out/b
   imunoise nav --imu imu.txt --gnss rtk.pos --min-quality 2 --out out/pos      # RTKLIB solution, fix + float
 
 Inputs: KF-GINS text (body FRD, GPS seconds of week), ROS bags (.bag, .db3, .mcap: sensor_msgs/Imu rates in
@@ -37,7 +52,13 @@ the GNSS antenna, in m and m/s), DIR/trajectory.png, DIR/errors.png and DIR/bias
 metrics.json lists the drift at the end of each window; without it all windows are removed in one run.
 Initialisation: position from GNSS, roll/pitch from static levelling over --static-duration s of the
 IMU file's beginning, yaw from the first GNSS course faster than 3 m/s propagated back (or --yaw),
-gyro bias = static mean."""
+gyro bias = static mean. Start: --start, else the manifest's start_sow, else the first GNSS epoch (as online).
+
+Refused with the fix: GNSS latitude/longitude in radians or beyond ±90°, IMU gaps longer than --max-imu-gap,
+a levelling window the static detector or the GNSS shows moving, IMU and GNSS stamps in different time bases.
+Gyros turning ≈ 57× the GNSS track (deg/s read as rad/s) are warned and the warning kept in metrics.json.
+The outputs of a run appear in DIR together when it completes (Ctrl-C leaves DIR as it was); files an
+earlier nav run left there (outage_<k>/ of more windows, plots) are removed, nothing else is touched."""
 
 log = logging.getLogger("imunoise.nav")
 
@@ -52,27 +73,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     add_nav_input_options(p)
     m = p.add_mutually_exclusive_group()
-    m.add_argument("--model", help="model JSON: {'gyro': fit, 'accel': fit} or per axis (from `imunoise fit`)")
+    m.add_argument("--imu-model", help="IMU error models: model JSON ({'gyro': fit, 'accel': fit} or per axis, from "
+                   "`imunoise fit` or `calibrate`)")
     m.add_argument("--default", action="store_true", help="plain default model WN+RW+GM (the default)")
     m.add_argument("--kfgins", action="store_true", help="KF-GINS' loose settings of the shared drive (WN+GM)")
-    p.add_argument("--start", type=float, help="start time [s, data time base]; default: first GNSS epoch")
     p.add_argument("--end", type=float, help="end time [s]; default: end of the IMU data")
-    p.add_argument(
-        "--static-duration",
-        type=float,
-        default=30.0,
-        help="seconds of still data at the IMU file start for levelling and gyro bias (default 30)",
-    )
-    p.add_argument("--yaw", type=float, help="initial yaw [deg] instead of the GNSS course")
-    p.add_argument("--cov-every", type=int, help="covariance propagation every N IMU samples (default 5)")
+    p.add_argument("--cov-every", type=positive_int, help="covariance propagation every N IMU samples (default 5)")
     p.add_argument(
         "--zupt",
         action="store_true",
-        help="zero-velocity updates at stops found by the SPEC §7 static detector (λ0 learned from the static window)",
+        help="zero-velocity updates at detected stops (the SPEC §7 static detector, λ0 learned from the static "
+        "window)",
     )
-    p.add_argument("--no-gate", action="store_true", help="disable the χ² innovation gate")
+    p.add_argument("--no-chi2-gate", action="store_true", help="disable the χ² innovation gate of the GNSS updates")
+    add_deprecated_alias(p, "--no-gate", "--no-chi2-gate")
+    add_deprecated_alias(p, "--model", "--imu-model")
     p.add_argument("--scale-factors", action="store_true",
-                   help="add gyro and accel scale-factor states (KF-GINS' 21-state filter; 1000 ppm, GM 1 h)")
+                   help="add gyro and accel scale-factor states (to the EKF: KF-GINS' 21-state filter; 1000 ppm, "
+                   "GM 1 h)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=run)
@@ -83,15 +101,14 @@ def run(args: argparse.Namespace) -> int:
 
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig, default_axis_models, kfgins_loose, load_axis_models
-    from imunoise.nav.ekf import run_ekf
 
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     inp = read_nav_inputs(args, log)
     imu, gnss, ref, notes, windows, lever = inp.imu, inp.gnss, inp.ref, inp.notes, inp.windows, inp.lever
     rate = imu.rate_hz
-    if args.model:
-        models = load_axis_models(args.model, rate)
-        model_name = args.model
+    if args.imu_model:
+        models = load_axis_models(args.imu_model, rate)
+        model_name = args.imu_model
     elif args.kfgins:
         models, model_name = default_axis_models(rate, kfgins_loose()), "kfgins_loose"
     else:
@@ -99,20 +116,23 @@ def run(args: argparse.Namespace) -> int:
     kw = {"lever_arm": tuple(lever)}
     if args.cov_every:
         kw["cov_every"] = int(args.cov_every)
-    if args.no_gate:
+    if args.no_chi2_gate:
         kw["chi2_gate"] = 0.0
     if args.scale_factors:
         kw["scale_factors"] = True
     config = EkfConfig(**kw)
 
-    t0 = args.start if args.start is not None else max(float(imu.t[0]), float(gnss.t[0]))
-    check_nav_span(imu, gnss, ref, t0, args.end, args.static_duration, inp.imu_path)
+    t0, start_from = nav_start(args, inp)
+    check_nav_span(imu, gnss, ref, t0, args.end, args.static_duration, inp.imu_path, start_from, inp.gnss_path)
     new = check_outage_windows(windows, t0, float(imu.t[-1]) if args.end is None else args.end, inp.outages_path)
+    yaw = None if args.yaw is None else math.radians(args.yaw)
+    init = coarse_align(
+        imu, gnss, t0, static_duration=args.static_duration, yaw=yaw, lever_arm=lever, check_still=True
+    )
+    new += gyro_unit_notes(imu, gnss, init, args.static_duration, inp.imu_path)
     for n in new:
         log.warning("%s", n)
     notes += new
-    yaw = None if args.yaw is None else math.radians(args.yaw)
-    init = coarse_align(imu, gnss, t0, static_duration=args.static_duration, yaw=yaw, lever_arm=lever)
     log.info(
         "start %.3f: roll %.2f° pitch %.2f° yaw %.2f°; gyro bias %s °/h",
         t0,
@@ -122,7 +142,34 @@ def run(args: argparse.Namespace) -> int:
 
     zupt = zupt_mask(imu, args.static_duration) if args.zupt else None
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    # every output of this run appears at once when it completes (Ctrl-C leaves --out as it was); the files
+    # an earlier nav run left (outage_<k>/ of more windows, plots of a run with plots) are removed then
+    with staged_run(out, OUTPUTS) as stage:
+        _run_and_write(stage, args, imu, gnss, ref, init, config, models, model_name, zupt, notes, windows, lever)
+    print(
+        f"wrote {out / 'trajectory.nav'}, {out / 'metrics.json'}" + ("" if args.no_plots else " and plots"),
+        file=sys.stderr,
+    )
+    return 0
+
+
+OUTPUTS = (
+    "trajectory.nav",
+    "metrics.json",
+    "trajectory.png",
+    "errors.png",
+    "biases.png",
+    "outage_*/trajectory.nav",
+    "outage_*/metrics.json",
+)
+"""Every file `imunoise nav` writes into --out (a rerun removes the ones it did not write again)."""
+
+
+def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, zupt, notes, windows, lever) -> None:
+    import numpy as np
+
+    from imunoise.nav.ekf import run_ekf
+
     base_gnss = gnss if args.outage_runs else gnss.without(windows)
     res = run_ekf(imu, base_gnss, init, config, models, t_end=args.end, zupt=zupt)
     duration = float(res.t[-1] - res.t[0])
@@ -148,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
             write_trajectory(sub / "trajectory.nav", r, ref)
             mk, e = run_metrics(r, ref, lever, [w], duration)
             if e is not None:
-                (sub / "metrics.json").write_text(json.dumps(mk, indent=1))
+                atomic_write_text(sub / "metrics.json", json.dumps(mk, indent=1))
                 outs.append(mk["outages"][0])
                 runs.append((w, e))
         metrics.update(outage_summary(outs))
@@ -156,11 +203,6 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_plots:
         _plots(out, res, ref, err, windows, runs, lever)
     _print_summary(metrics)
-    print(
-        f"wrote {out / 'trajectory.nav'}, {out / 'metrics.json'}" + ("" if args.no_plots else " and plots"),
-        file=sys.stderr,
-    )
-    return 0
 
 
 def zupt_mask(imu, static_duration: float) -> np.ndarray:

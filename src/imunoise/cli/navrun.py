@@ -14,10 +14,24 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from imunoise.cli.options import prepare_out_dir, read_json_option, read_nav_files, resolve_nav_inputs
+from imunoise.cli.options import (
+    MAX_IMU_GAP_S,
+    prepare_out_dir,
+    read_json_option,
+    read_nav_files,
+    resolve_nav_inputs,
+)
 from imunoise.errors import ModelError
 
-__all__ = ["NavInputs", "read_nav_inputs", "write_trajectory", "run_metrics", "outage_summary"]
+__all__ = [
+    "NavInputs",
+    "read_nav_inputs",
+    "nav_start",
+    "gyro_unit_notes",
+    "write_trajectory",
+    "run_metrics",
+    "outage_summary",
+]
 
 
 @dataclass
@@ -39,14 +53,15 @@ class NavInputs:
 
 def read_nav_inputs(args: argparse.Namespace, log: logging.Logger) -> NavInputs:
     """Resolve the files of :func:`~imunoise.cli.options.add_nav_input_options`, refuse an unusable ``--out``,
-    a malformed ``--model`` file and ``--outage-runs`` without windows before the work, then read the files
+    a malformed ``--imu-model`` file and ``--outage-runs`` without windows before the work, then read the files
     and the outage windows."""
     from imunoise.io.kfgins import read_outages
+    from imunoise.io.navchecks import check_imu_gaps
 
     ds, imu_p, gnss_p, ref_p, out_p, lever, offset = resolve_nav_inputs(args)
     prepare_out_dir(args.out)  # an unusable --out fails before the work
-    if args.model:
-        read_json_option(args.model, "--model")  # a binary / malformed model file: one error naming it
+    if args.imu_model:
+        read_json_option(args.imu_model, "--imu-model")  # a binary / malformed model file: one error naming it
     if args.outage_runs and not out_p:
         raise ModelError("--outage-runs needs --outages F (or a dataset.json with 'outages')")
     imu, gnss, ref, notes = read_nav_files(
@@ -55,13 +70,29 @@ def read_nav_inputs(args: argparse.Namespace, log: logging.Logger) -> NavInputs:
         ref_p,
         offset,
         log,
-        imu_topic=getattr(args, "imu_topic", None),
+        imu_topic=getattr(args, "topic", None),
         gnss_topic=getattr(args, "gnss_topic", None),
         imu_frame=getattr(args, "imu_frame", None),
         min_quality=getattr(args, "min_quality", 6),
     )
+    check_imu_gaps(imu.t, getattr(args, "max_imu_gap", MAX_IMU_GAP_S), imu_p)
     windows = read_outages(out_p) if out_p else []
     return NavInputs(ds, imu_p, gnss_p, ref_p, out_p, lever, imu, gnss, ref, notes, windows)
+
+
+def nav_start(args: argparse.Namespace, inp: NavInputs) -> tuple[float, str]:
+    """The start of a navigation run, the same rule for ``nav`` and ``online``: ``--start``, else the
+    manifest's ``start_sow``, else the first GNSS epoch inside the IMU data; with where it came from (for
+    :func:`~imunoise.cli.options.check_nav_span`'s messages)."""
+    if args.start is not None:
+        return float(args.start), "--start"
+    sow = inp.dataset.extra.get("start_sow") if inp.dataset is not None else None
+    if sow is not None:
+        try:
+            return float(sow), f"start_sow of {inp.dataset.root / 'dataset.json'}"
+        except (TypeError, ValueError) as exc:
+            raise ModelError(f"{inp.dataset.root / 'dataset.json'}: start_sow must be a number, got {sow!r}") from exc
+    return max(float(inp.imu.t[0]), float(inp.gnss.t[0])), ""
 
 
 def write_trajectory(path: Path, res: Any, ref: Any) -> None:
@@ -103,3 +134,21 @@ def outage_summary(outs: list[dict]) -> dict:
     from imunoise.nav.metrics import mean_end_drift
 
     return {"outages": outs, "mean_outage_end_horizontal_m": mean_end_drift(outs)}
+
+
+def gyro_unit_notes(imu: Any, gnss: Any, init: Any, static_duration: float, imu_path: str) -> list[str]:
+    """The warning of :func:`imunoise.io.navchecks.gyro_unit_evidence` (gyros turning ≈ 57× the GNSS track:
+    deg/s read as rad/s) for ``metrics.json``, or nothing."""
+    import numpy as np
+
+    from imunoise.io.navchecks import gyro_unit_evidence
+    from imunoise.nav.earth import llh_to_ned
+
+    gyro, _ = imu.rates()
+    still = imu.t <= imu.t[0] + static_duration
+    ned = llh_to_ned(gnss.llh, gnss.llh[0])
+    roll, pitch = float(init.euler[0]), float(init.euler[1])
+    step = max(10.0, 30.0 * float(np.median(np.hypot(gnss.sigma_ned[:, 0], gnss.sigma_ned[:, 1]))))
+    bias = np.mean(gyro[still], axis=0)
+    note = gyro_unit_evidence(imu.t, gyro, roll, pitch, bias, gnss.t, ned, imu_path, min_step_m=step)
+    return [note] if note else []

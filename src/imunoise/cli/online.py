@@ -9,17 +9,27 @@ import math
 import sys
 from pathlib import Path
 
-from imunoise.cli.navrun import outage_summary, read_nav_inputs, run_metrics, write_trajectory
+from imunoise.cli.navrun import (
+    gyro_unit_notes,
+    nav_start,
+    outage_summary,
+    read_nav_inputs,
+    run_metrics,
+    write_trajectory,
+)
 from imunoise.cli.options import (
     add_criterion,
+    add_deprecated_alias,
     add_nav_input_options,
     check_learn_from,
     check_learn_window_is_stop,
     check_nav_span,
     check_outage_windows,
+    nonnegative_float,
+    positive_float,
 )
 from imunoise.errors import ModelError
-from imunoise.io.atomic import atomic_path, atomic_write_text
+from imunoise.io.atomic import atomic_path, atomic_write_text, staged_run
 
 EXAMPLES = """examples:
   imunoise online --data data/drive_0708 --out out/online
@@ -34,7 +44,9 @@ the GNSS antenna at the reference epochs, m and m/s; plus the modelling timing),
 identification per axis with structure/GOF/time, refits, model swaps, gate open/close, rejected fits) and
 DIR/model.json (the last GMWM fit of every axis, per-sample SI parameters and continuous equivalents) and
 DIR/static.npz (the static pieces the model was fitted on: --earlier-static of the next drive of this IMU).
-The static detector learns λ0 from the first --learn-from s of the IMU file, which must be a stop."""
+The static detector learns λ0 from the first --learn-from s of the IMU file, which must be a stop.
+The inputs are checked as in `imunoise nav`; the outputs appear in DIR together when the run completes
+(Ctrl-C leaves DIR as it was) and files an earlier online run left there (model.json, static.npz) are removed."""
 
 log = logging.getLogger("imunoise.online")
 
@@ -48,21 +60,23 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_nav_input_options(p)
-    p.add_argument("--model", help="initial model JSON (default: the plain default WN+RW+GM)")
-    p.add_argument("--start", type=float, help="start time [s]; default: manifest start_sow or first GNSS epoch")
-    p.add_argument("--static-duration", type=float, default=30.0,
-                   help="seconds of still data at the start for levelling and gyro bias (default 30)")
+    p.add_argument("--imu-model", help="IMU error models: model JSON the run starts with (default: the plain "
+                   "default WN+RW+GM)")
     add_criterion(p)
-    p.add_argument("--min-static", type=float, default=20.0,
+    p.add_argument("--min-static", type=positive_float, default=20.0,
                    help="static data [s] before the structure identification (default 20)")
-    p.add_argument("--latency", type=float, help="fixed delay [s] stop end → model in the filter "
-                   "(default: the measured compute time)")
+    p.add_argument("--latency", type=nonnegative_float,
+                   help="fixed delay [s] from a stop's end to its model in the filter (default: the measured compute "
+                   "time)")
     p.add_argument("--worker", choices=("inline", "thread"), default="inline",
                    help="inline = deterministic replay (default); thread = background thread, never blocks")
-    p.add_argument("--zupt", action="store_true", help="ZUPT/ZARU updates during detected stops")
-    p.add_argument("--no-gate", action="store_true", help="do not use the 30 °/s angular-rate gate")
+    p.add_argument("--zupt", action="store_true", help="zero-velocity updates at detected stops (ZUPT/ZARU)")
+    p.add_argument("--no-rate-gate", action="store_true",
+                   help="do not use the 30 °/s angular-rate gate of the static detector's noise model")
+    add_deprecated_alias(p, "--no-gate", "--no-rate-gate")
+    add_deprecated_alias(p, "--model", "--imu-model")
     p.add_argument("--scale-factors", action="store_true",
-                   help="add gyro and accel scale-factor states to the EKF (KF-GINS' 21-state filter)")
+                   help="add gyro and accel scale-factor states (to the EKF: KF-GINS' 21-state filter)")
     p.add_argument("--no-floor", action="store_true", help="no plain-default floor on the filter noise")
     p.add_argument("--learn-motion-noise", action="store_true",
                    help="learn in-motion gyro noise while driving: shadow filters rehearse GNSS outages on the data "
@@ -75,8 +89,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="pool the stops of earlier drives of the same IMU with this drive's: the static.npz those "
                         "runs wrote (the last of a chain holds all before it); the model of the earlier stops runs "
                         "from the first sample")
-    p.add_argument("--learn-from", type=float, default=10.0, help="seconds of the first stop to learn λ0 (default 10)")
-    p.add_argument("--lambda0", type=float, help="fixed detector λ0 [m/s²] instead of learning it")
+    p.add_argument("--learn-from", type=positive_float, default=10.0, metavar="S",
+                   help="learn λ0 from the first S seconds (of the IMU file: a known stop; default 10)")
+    p.add_argument("--lambda0", type=positive_float, help="detector threshold λ0 [m/s²] (fixed, instead of learning "
+                   "it)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=run)
 
@@ -103,32 +119,31 @@ def run(args: argparse.Namespace) -> int:
     inp = read_nav_inputs(args, log)
     imu, gnss, ref, notes, windows, lever = inp.imu, inp.gnss, inp.ref, inp.notes, inp.windows, inp.lever
     earlier = load_static_pieces(args.earlier_static, imu.rate_hz) if args.earlier_static else None
-    t0 = args.start if args.start is not None else (inp.dataset.extra.get("start_sow") if inp.dataset else None)
-    if t0 is None:
-        t0 = max(float(imu.t[0]), float(gnss.t[0]))
-    t0 = float(t0)
-    check_nav_span(imu, gnss, ref, t0, None, args.static_duration, inp.imu_path)
+    t0, start_from = nav_start(args, inp)
+    check_nav_span(imu, gnss, ref, t0, None, args.static_duration, inp.imu_path, start_from, inp.gnss_path)
     n_read = len(notes)
     notes += check_outage_windows(windows, t0, float(imu.t[-1]), inp.outages_path)
     if args.lambda0 is None:  # λ0 is learned from the first --learn-from s of the IMU file: a known stop
         check_learn_from(args.learn_from, imu.t, DetectorConfig().window, imu.rate_hz, inp.imu_path)
         if ref is not None:
             notes += check_learn_window_is_stop(ref, float(imu.t[0]), args.learn_from, 0.2, inp.ref_path)
+    yaw = None if args.yaw is None else math.radians(args.yaw)
+    init = coarse_align(imu, gnss, t0, static_duration=args.static_duration, yaw=yaw, lever_arm=lever,
+                        check_still=True)
+    notes += gyro_unit_notes(imu, gnss, init, args.static_duration, inp.imu_path)
     for n in notes[n_read:]:
         log.warning("%s", n)
-    init = coarse_align(imu, gnss, t0, static_duration=args.static_duration, lever_arm=lever)
     rate = imu.rate_hz
-    models = load_axis_models(args.model, rate) if args.model else None
+    models = load_axis_models(args.imu_model, rate) if args.imu_model else None
     detector = DetectorConfig(lambda0=args.lambda0) if args.lambda0 is not None else None
     config = OnlineConfig(
         ekf=EkfConfig(lever_arm=tuple(lever), scale_factors=args.scale_factors),
         detector=detector, learn_lambda0_s=args.learn_from,
         min_static_s=args.min_static, criterion=args.criterion, latency=args.latency, worker=args.worker,
-        gate=not args.no_gate, zupt=args.zupt, floor="none" if args.no_floor else "default",
+        gate=not args.no_rate_gate, zupt=args.zupt, floor="none" if args.no_floor else "default",
         motion_noise=motion,
     )
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     duration = float(imu.t[-1] - t0)
 
     def one(g, desc):
@@ -144,43 +159,51 @@ def run(args: argparse.Namespace) -> int:
         bar.close()
         return r
 
-    base = gnss if args.outage_runs else gnss.without(windows)
-    res = one(base, "online")
-    write_trajectory(out / "trajectory.nav", res, ref)
-    with atomic_path(out / "events.jsonl") as tmp:
-        res.write_events(tmp)
-    metrics: dict = {"start": float(res.t[0]) if res.t.size else t0, "duration_s": duration,
-                     "lambda0_m_s2": res.lambda0, "static_s": float(sum(s.duration for s in res.segments)),
-                     "earlier_static_s": float(sum(p.shape[0] for p in earlier or ()) / rate),
-                     "timing": res.timing, "config": {"criterion": config.criterion, "zupt": config.zupt,
-                                                       "floor": config.floor, "latency": config.latency,
-                                                       "learn_motion_noise": motion is not None,
-                                                       "motion_noise_prior": args.motion_noise_prior}}
-    metrics.update(run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)[0])
-    if args.outage_runs and windows:
-        outs = []
-        for k, w in enumerate(windows):
-            r = one(gnss.without([w]), f"outage {k + 1}/{len(windows)}")
-            mk, e = run_metrics(r, ref, lever, [w], duration)
-            if e is not None:
-                outs.append(mk["outages"][0])
-        metrics.update(outage_summary(outs))
-    end = [e for e in res.events if e["event"] == "motion_noise_end"]
-    if end:
-        metrics["motion_noise"] = {"sigma_dph": end[-1]["sigma_dph"], "tc_s": end[-1]["tc_s"], "axes": ["x", "y", "z"],
-                                   "rehearsal_rounds": end[-1]["n_rehearsals"],
-                                   "carried_rounds": end[-1]["n_prior"], "evidence": end[-1]["evidence"]}
-    metrics["warnings"] = notes
-    atomic_write_text(out / "metrics.json", json.dumps(metrics, indent=1, default=json_default))
-    fits = {ax: f.to_dict() for ax, f in zip(AXES, res.fits, strict=True) if f is not None}
-    if fits:
-        ImuModel(float(rate), fits).save(out / "model.json")
-    if res.static_pieces:
-        save_static_pieces(out / "static.npz", res.static_pieces, rate)
+    # every output of this run appears at once when it completes (Ctrl-C leaves --out as it was); the files an
+    # earlier online run left (model.json, static.npz of a run that had them) are removed then
+    with staged_run(out, OUTPUTS) as stage:
+        base = gnss if args.outage_runs else gnss.without(windows)
+        res = one(base, "online")
+        write_trajectory(stage / "trajectory.nav", res, ref)
+        with atomic_path(stage / "events.jsonl") as tmp:
+            res.write_events(tmp)
+        metrics: dict = {"start": float(res.t[0]) if res.t.size else t0, "duration_s": duration,
+                         "lambda0_m_s2": res.lambda0, "static_s": float(sum(s.duration for s in res.segments)),
+                         "earlier_static_s": float(sum(p.shape[0] for p in earlier or ()) / rate),
+                         "timing": res.timing, "config": {"criterion": config.criterion, "zupt": config.zupt,
+                                                           "floor": config.floor, "latency": config.latency,
+                                                           "learn_motion_noise": motion is not None,
+                                                           "motion_noise_prior": args.motion_noise_prior}}
+        metrics.update(run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)[0])
+        if args.outage_runs and windows:
+            outs = []
+            for k, w in enumerate(windows):
+                r = one(gnss.without([w]), f"outage {k + 1}/{len(windows)}")
+                mk, e = run_metrics(r, ref, lever, [w], duration)
+                if e is not None:
+                    outs.append(mk["outages"][0])
+            metrics.update(outage_summary(outs))
+        end = [e for e in res.events if e["event"] == "motion_noise_end"]
+        if end:
+            metrics["motion_noise"] = {"sigma_dph": end[-1]["sigma_dph"], "tc_s": end[-1]["tc_s"],
+                                       "axes": ["x", "y", "z"],
+                                       "rehearsal_rounds": end[-1]["n_rehearsals"],
+                                       "carried_rounds": end[-1]["n_prior"], "evidence": end[-1]["evidence"]}
+        metrics["warnings"] = notes
+        atomic_write_text(stage / "metrics.json", json.dumps(metrics, indent=1, default=json_default))
+        fits = {ax: f.to_dict() for ax, f in zip(AXES, res.fits, strict=True) if f is not None}
+        if fits:
+            ImuModel(float(rate), fits).save(stage / "model.json")
+        if res.static_pieces:
+            save_static_pieces(stage / "static.npz", res.static_pieces, rate)
     _print(metrics, res)
     print(f"wrote {out / 'trajectory.nav'}, {out / 'metrics.json'}, {out / 'events.jsonl'}"
           + (f", {out / 'static.npz'}" if res.static_pieces else ""), file=sys.stderr)
     return 0
+
+
+OUTPUTS = ("trajectory.nav", "metrics.json", "events.jsonl", "model.json", "static.npz")
+"""Every file `imunoise online` writes into --out (a rerun removes the ones it did not write again)."""
 
 
 def _learned(e: dict, nothing: str) -> str:

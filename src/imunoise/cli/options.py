@@ -54,6 +54,15 @@ __all__ = [
     "check_nav_span",
     "check_learn_from",
     "check_learn_window_is_stop",
+    "finite_float",
+    "positive_float",
+    "nonnegative_float",
+    "positive_int",
+    "int_at_least",
+    "finite_floats_everywhere",
+    "DeprecatedAlias",
+    "add_deprecated_alias",
+    "flag_names",
 ]
 
 TIME_UNIT_CHOICES = ("s", "ms", "us", "µs", "ns")
@@ -64,6 +73,128 @@ DEFAULT_CRITERION = "wvic"
 """One default ranking everywhere: WVIC (GOF, the paper's Eq. 8, always prefers the largest nested model)."""
 
 WEIGHTS = ("efficient", "diagonal", "fast", "identity")
+
+
+# ---------------------------------------------------------------------------------------------------
+# parse-time value checks: a bad number is refused by argparse (one "error: argument --x: ..." line, exit 2)
+# before any file is read, instead of running and failing deep inside
+# ---------------------------------------------------------------------------------------------------
+def finite_float(text: str) -> float:
+    """``type=`` of every float option: a finite number (``nan``, ``inf`` refused)."""
+    import math
+
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid number {text!r}") from None
+    if not math.isfinite(x):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return x
+
+
+finite_float.__name__ = "float"  # argparse names the type in "invalid float value" messages
+
+
+def positive_float(text: str) -> float:
+    """``type=``: a finite number > 0."""
+    x = finite_float(text)
+    if not x > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+    return x
+
+
+def nonnegative_float(text: str) -> float:
+    """``type=``: a finite number ≥ 0."""
+    x = finite_float(text)
+    if x < 0:
+        raise argparse.ArgumentTypeError(f"must be ≥ 0, got {text!r}")
+    return x
+
+
+def int_at_least(low: int) -> Any:
+    """``type=``: a whole number ≥ ``low``."""
+
+    def parse(text: str) -> int:
+        try:
+            x = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"invalid whole number {text!r}") from None
+        if x < low:
+            raise argparse.ArgumentTypeError(f"must be a whole number ≥ {low}, got {text!r}")
+        return x
+
+    parse.__name__ = "int"
+    return parse
+
+
+positive_int = int_at_least(1)
+"""``type=``: a whole number ≥ 1 (``--workers``, ``--cov-every``)."""
+
+
+def _walk(parser: argparse.ArgumentParser) -> Iterable[argparse.ArgumentParser]:
+    yield parser
+    for a in parser._actions:
+        if isinstance(a, argparse._SubParsersAction):
+            for sp in dict.fromkeys(a.choices.values()):
+                yield from _walk(sp)
+
+
+def finite_floats_everywhere(parser: argparse.ArgumentParser) -> None:
+    """Give every ``type=float`` option of ``parser`` and its sub-parsers the :func:`finite_float` check:
+    one validator for all float flags, whoever declared them (``--lever-arm nan``, ``--yaw nan``, ...)."""
+    for sp in _walk(parser):
+        for a in sp._actions:
+            if a.type is float:
+                a.type = finite_float
+
+
+class DeprecatedAlias(argparse.Action):
+    """A former option name: does what the new option ``new`` does (same ``dest``, value kind, append or flag)
+    and prints one warning naming the new name; hidden from ``--help``."""
+
+    def __init__(self, option_strings, dest, new: str = "", kind: str = "store", **kw):
+        self.new, self.kind = new, kind
+        super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kw)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"warning: {option_string} is deprecated; use {self.new} (same meaning)", file=sys.stderr)
+        if self.kind == "append":
+            values = [*(getattr(namespace, self.dest, None) or []), values]
+        elif self.kind == "flag":
+            values = self.const
+        setattr(namespace, self.dest, values)
+
+
+def add_deprecated_alias(p: argparse.ArgumentParser, old: str, new: str) -> None:
+    """Keep ``old`` working as a hidden alias of the option ``new`` of ``p`` (same ``dest`` and value kind),
+    warning when used."""
+    target = next(a for a in p._actions if new in a.option_strings)
+    if isinstance(target, (argparse._StoreTrueAction, argparse._StoreFalseAction, argparse._StoreConstAction)):
+        kw: dict[str, Any] = {"nargs": 0, "const": target.const, "kind": "flag"}
+    else:
+        kind = "append" if isinstance(target, argparse._AppendAction) else "store"
+        kw = {"nargs": target.nargs, "type": target.type, "metavar": target.metavar, "kind": kind}
+    p.add_argument(old, dest=target.dest, action=DeprecatedAlias, new=new, **kw)
+
+
+FLAG_NAMES = {
+    "min_static_s": "--min-static",
+    "DetectorConfig.window": "--window",
+    "learn_lambda0_s": "--learn-from",
+    "min_duration_s": "--min-duration",
+    "margin_s": "--margin",
+    "cov_every": "--cov-every",
+}
+"""Python field names that reach a message → the flag that sets them (the CLI speaks in flags)."""
+
+
+def flag_names(message: str) -> str:
+    """``message`` with the Python field names of :data:`FLAG_NAMES` replaced by their flags."""
+    import re
+
+    for field_name, flag in FLAG_NAMES.items():
+        message = re.sub(rf"(?<![\w.-]){re.escape(field_name)}(?![\w])", flag, message)
+    return message
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -104,7 +235,7 @@ def add_units(p: argparse.ArgumentParser, *, several: bool = False) -> None:
             "group/column: gyro=deg/s,accel=g (converted to SI)"
         )
     else:
-        text = "unit of the data column: rad/s, deg/s, deg/h, m/s2, g, mg, rad, deg, m/s (converted to SI)"
+        text = "unit of the data: rad/s, deg/s, deg/h, m/s2, g, mg, rad, deg, m/s (of the column; converted to SI)"
     p.add_argument(
         "--units", help=text + "; default: the unit a .npz states, else as is (warned when the values cannot be SI)"
     )
@@ -123,9 +254,14 @@ def add_time_options(p: argparse.ArgumentParser) -> None:
     add_time_unit(p)
 
 
-def add_topic(p: argparse.ArgumentParser) -> None:
-    """``--topic`` of a ROS bag."""
-    p.add_argument("--topic", help="ROS bag: the sensor_msgs/Imu topic (listed when missing or wrong)")
+IMU_TOPIC_HELP = "ROS bag: the sensor_msgs/Imu topic (default: the only one; listed when missing or wrong)"
+
+
+def add_topic(p: argparse.ArgumentParser, help: str = IMU_TOPIC_HELP) -> None:
+    """``--imu-topic`` (dest ``topic``): the IMU topic of a ROS bag, the same name in every command (the
+    former ``--topic`` of the fitting commands stays as a deprecated alias)."""
+    p.add_argument("--imu-topic", dest="topic", help=help)
+    add_deprecated_alias(p, "--topic", "--imu-topic")
 
 
 def add_series_options(p: argparse.ArgumentParser) -> None:
@@ -154,13 +290,14 @@ def add_model(p: argparse.ArgumentParser, *, auto: bool = False, processes: str 
     )
 
 
-def add_criterion(p: argparse.ArgumentParser, what: str = "model ranking") -> None:
+def add_criterion(p: argparse.ArgumentParser, what: str = "") -> None:
     """``--criterion wvic|gof`` with the shared default (wvic)."""
     p.add_argument(
         "--criterion",
         choices=CRITERIA,
         default=DEFAULT_CRITERION,
-        help=f"{what}: wvic (default) or gof (the paper's Eq. 8, which always favours the largest nested model)",
+        help="model ranking: wvic (default) or gof (the paper's Eq. 8, which always favours the largest nested "
+        f"model){'; ' + what if what else ''}",
     )
 
 
@@ -185,11 +322,11 @@ def add_out(p: argparse.ArgumentParser, default_suffix: str | None = None) -> No
 def add_nav_input_options(p: argparse.ArgumentParser) -> None:
     """The input options every navigation command shares (SPEC §12); resolve them with
     :func:`resolve_nav_inputs`."""
-    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12)")
+    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12; the options override it)")
     p.add_argument(
         "--imu", help="IMU: KF-GINS increments or rate CSV (SI), or a ROS bag (.bag, .db3, .mcap, ROS 2 folder)"
     )
-    p.add_argument("--imu-topic", help="bag: the sensor_msgs/Imu topic (default: the only one; listed when wrong)")
+    add_topic(p)
     p.add_argument(
         "--imu-frame",
         choices=("flu", "frd"),
@@ -198,9 +335,9 @@ def add_nav_input_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--gnss",
-        help="GNSS: KF-GINS text (SOW lat lon h σN σE σD), an RTKLIB .pos solution, or a ROS bag with NavSatFix",
+        help="GNSS file: KF-GINS text (SOW lat lon h σN σE σD), an RTKLIB .pos solution, or a ROS bag with NavSatFix",
     )
-    p.add_argument("--gnss-topic", help="bag: the sensor_msgs/NavSatFix topic (default: the only one)")
+    p.add_argument("--gnss-topic", help="ROS bag: the sensor_msgs/NavSatFix topic (default: the only one)")
     p.add_argument(
         "--min-quality",
         type=int,
@@ -216,11 +353,39 @@ def add_nav_input_options(p: argparse.ArgumentParser) -> None:
         nargs=3,
         type=float,
         metavar=("X", "Y", "Z"),
-        help="GNSS antenna position in the body frame FRD from the IMU [m]",
+        help="GNSS antenna position in body FRD from the IMU [m] (default: the manifest's, else 0 0 0)",
     )
-    p.add_argument("--imu-time-offset", type=float, help="seconds added to every IMU time stamp")
-    p.add_argument("--outages", help="outage file: 'start duration' per line [s]")
+    p.add_argument(
+        "--imu-time-offset", type=float, help="seconds added to IMU time stamps (default: dataset.json's value or 0)"
+    )
+    p.add_argument("--outages", help="outage windows: a file of 'start duration' per line [s]")
     p.add_argument("--outage-runs", action="store_true", help="run each outage window separately")
+    p.add_argument(
+        "--start",
+        type=float,
+        help="start time [s, data time base] (default: the manifest's start_sow, else the first GNSS epoch "
+        "inside the IMU data)",
+    )
+    p.add_argument(
+        "--static-duration",
+        type=positive_float,
+        default=30.0,
+        help="seconds of still data at the IMU file start for levelling and gyro bias (default 30); checked "
+        "still with the static detector's test",
+    )
+    p.add_argument("--yaw", type=float, help="initial yaw [deg] instead of the GNSS course")
+    p.add_argument(
+        "--max-imu-gap",
+        type=positive_float,
+        default=MAX_IMU_GAP_S,
+        metavar="S",
+        help=f"refuse IMU time gaps longer than S seconds (default {MAX_IMU_GAP_S:g}): the mechanization would "
+        "integrate one increment across the gap; raise it to integrate longer gaps as given",
+    )
+
+
+MAX_IMU_GAP_S = 1.0
+"""Longest IMU time gap a navigation run integrates without ``--max-imu-gap`` (s)."""
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -448,17 +613,36 @@ MIN_NAV_GNSS_EPOCHS = 2
 
 
 def check_nav_span(
-    imu: Any, gnss: Any, ref: Any, t0: float, t_end: float | None, static_duration: float, imu_path: str
+    imu: Any,
+    gnss: Any,
+    ref: Any,
+    t0: float,
+    t_end: float | None,
+    static_duration: float,
+    imu_path: str,
+    start_from: str = "--start",
+    gnss_path: str = "",
 ) -> list[str]:
-    """Refuse a navigation run whose result could not mean anything: a start ``t0`` outside the IMU data or
-    an end ``t_end`` not after it, an IMU file shorter than the levelling window, fewer than 2 GNSS epochs
-    or (with a reference) fewer than 2 reference epochs inside the navigated span. Returns warnings (none
-    for now; the list keeps the signature stable).
+    """Refuse a navigation run whose result could not mean anything: IMU and GNSS stamps that do not overlap
+    (different time bases: both ranges named), a start ``t0`` outside the IMU data or an end ``t_end`` not after
+    it, an IMU file shorter than the levelling window, fewer than 2 GNSS epochs or (with a reference) fewer
+    than 2 reference epochs inside the navigated span. ``start_from`` says where ``t0`` came from ("--start",
+    the manifest's start_sow, or "" for the default). Returns warnings (none for now; the list keeps the
+    signature stable).
     """
     import numpy as np
 
+    gnss_name = f" {gnss_path}" if gnss_path else ""
+    if gnss.t[-1] < imu.t[0] or gnss.t[0] > imu.t[-1]:
+        raise DataError(
+            f"the IMU{' ' + imu_path} stamps [{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s and the GNSS{gnss_name} stamps "
+            f"[{gnss.t[0]:.3f}, {gnss.t[-1]:.3f}] s do not overlap: the files are in different time bases (e.g. "
+            "GPS seconds of week vs Unix time or time since power-on); convert one, or shift the IMU with "
+            "--imu-time-offset"
+        )
     if not (imu.t[0] <= t0 < imu.t[-1]):
-        raise DataError(f"--start {t0:.3f} is outside the IMU data [{imu.t[0]:.3f}, {imu.t[-1]:.3f}]")
+        what = f"{start_from} {t0:.3f}" if start_from else f"the start {t0:.3f} (first GNSS epoch)"
+        raise DataError(f"{what} is outside the IMU data [{imu.t[0]:.3f}, {imu.t[-1]:.3f}]")
     if t_end is not None and t_end <= t0:
         raise DataError(f"--end {t_end} must be after the start {t0:.3f}")
     t_last = float(imu.t[-1]) if t_end is None else min(float(t_end), float(imu.t[-1]))

@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from imunoise.cli.options import prepare_out_dir
+from imunoise.cli.options import int_at_least, positive_float, prepare_out_dir
 from imunoise.errors import ModelError
 from imunoise.io.atomic import staged_dir
 
@@ -32,7 +32,8 @@ Model parameters are per sample at the IMU rate (rad/s for gyros, m/s² for acce
 Outage files hold "start duration" per line in s from the start of the drive (or GPS SOW when the start
 is at or after --start-sow).
 
-written files: imu.txt (KF-GINS increments with errors), imu_true.txt, gnss.txt, ref.nav (IMU origin),
+written files: imu.txt (KF-GINS increments with errors), imu_true.txt, gnss.txt, ref.nav (the GNSS antenna
+point, like the shared real drive's reference: position and velocity of the antenna, body attitude),
 outages.txt, truth.json (models, moving-regime models under the motion law, turn-on biases, stops, turns,
 speed profile), dataset.json (SPEC §12).
 --static writes imu.txt, imu_rate.csv (sow,gx,gy,gz,ax,ay,az) and truth.json."""
@@ -46,8 +47,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--duration", type=float, default=600.0, help="recording length, s (default 600)")
-    p.add_argument("--stops", type=int, default=3, help="traffic-light stops during the drive (default 3)")
+    p.add_argument("--duration", type=positive_float, default=600.0,
+                   help="length of the simulated recording [s] (default 600)")
+    p.add_argument("--stops", type=int_at_least(0), default=4,
+                   help="traffic-light stops of the simulated drive (default 4)")
     p.add_argument(
         "--stop-range",
         type=float,
@@ -57,7 +60,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="stop duration range, s (default 5 90)",
     )
     p.add_argument("--static-start", type=float, default=60.0, help="static period at the start, s (default 60)")
-    p.add_argument("--imu-model", default="mems", help="preset, structure, JSON file or 'none' (default mems)")
+    p.add_argument("--imu-model", default="mems",
+                   help="IMU error models: preset (mems, tactical, paper), structure, model JSON or "
+                   "'none' (default mems)")
     p.add_argument(
         "--motion-noise",
         default=None,
@@ -67,8 +72,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "(errors while moving = the static model; the default with --clean)",
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--imu-rate", type=float, default=100.0, help="IMU rate, Hz (default 100)")
-    p.add_argument("--gnss-rate", type=float, default=1.0, help="GNSS rate, Hz (default 1)")
+    p.add_argument("--imu-rate", type=positive_float, default=100.0, help="IMU rate, Hz (default 100)")
+    p.add_argument("--gnss-rate", type=positive_float, default=1.0, help="GNSS rate, Hz (default 1)")
     p.add_argument("--ref-rate", type=float, default=10.0, help="reference rate, Hz; 0 = IMU rate (default 10)")
     p.add_argument(
         "--gnss-sigma",
@@ -85,7 +90,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="GNSS noise correlation time, s (urban multipath; default 0 = white)",
     )
     p.add_argument("--outlier-rate", type=float, default=0.0, help="fraction of GNSS epochs with a gross error")
-    p.add_argument("--outages", type=Path, help="outage windows file ('start duration' per line)")
+    p.add_argument("--outages", type=Path, help="outage windows: a file of 'start duration' per line [s]")
     p.add_argument("--remove-outages", action="store_true", help="also drop the outage epochs from gnss.txt")
     p.add_argument(
         "--lever-arm",
@@ -93,7 +98,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         nargs=3,
         default=(0.0, 0.0, 0.0),
         metavar=("X", "Y", "Z"),
-        help="GNSS antenna in body FRD, m (default 0 0 0)",
+        help="GNSS antenna position in body FRD from the IMU [m] (default 0 0 0)",
     )
     p.add_argument(
         "--start-llh",
@@ -106,11 +111,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--start-sow", type=float, default=100000.0, help="GPS SOW of the first sample")
     p.add_argument("--clean", action="store_true", help="no turn-on bias, vibration, motion noise or outliers")
     p.add_argument("--gzip", action="store_true", help="gzip imu.txt, imu_true.txt and ref.nav")
-    p.add_argument("--static", action="store_true", help="write a static recording instead of a drive")
+    p.add_argument("--static", action="store_true", help="a static recording instead of a drive")
     p.add_argument(
         "--out", type=Path, default=Path("out/simulate"), help="output folder (default out/simulate, git-ignored)"
     )
     p.set_defaults(func=run)
+
+
+def check_start_llh(llh) -> None:
+    """Refuse a ``--start-llh`` that is no place on Earth (latitude beyond ±90°, longitude outside
+    [−180°, 360°), height below −1000 km or above 100 km of the ellipsoid)."""
+    lat, lon, h = (float(x) for x in llh)
+    if not -90.0 <= lat <= 90.0:
+        raise ModelError(f"--start-llh: latitude {lat:g}° is not within ±90° (the order is LAT LON H, degrees)")
+    if not -180.0 <= lon < 360.0:
+        raise ModelError(f"--start-llh: longitude {lon:g}° is not within [−180°, 360°) (the order is LAT LON H)")
+    if not -1.0e6 < h < 1.0e5:
+        raise ModelError(f"--start-llh: height {h:g} m is not an ellipsoidal height near the Earth's surface [m]")
 
 
 def _models_arg(text: str):
@@ -123,6 +140,7 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.sim.motion import DEFAULT_MOTION, resolve_motion
 
     t0 = time.perf_counter()
+    check_start_llh(args.start_llh)
     models = _models_arg(args.imu_model)
     # a bad preset fails before anything is written
     motion = resolve_motion(args.motion_noise or ("none" if args.clean else DEFAULT_MOTION)).name

@@ -4,7 +4,8 @@ Every writer goes through a temporary file in the destination folder and :func:`
 POSIX and Windows for a rename inside one file system — so an interrupted or failing run never leaves a
 complete-looking truncated file: at worst a hidden ``.NAME.XXXX.partial`` temporary, removed on any
 Python exception. :func:`staged_dir` does the same for a set of files that only make sense together
-(a simulated drive: IMU, GNSS, reference and truth).
+(a simulated drive: IMU, GNSS, reference and truth); :func:`staged_run` publishes the outputs of a whole
+command run at its end and removes the files an earlier run of the same command left beside them.
 """
 
 from __future__ import annotations
@@ -13,12 +14,12 @@ import os
 import secrets
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_path", "atomic_write_text", "atomic_write_bytes", "atomic_savefig", "staged_dir"]
+__all__ = ["atomic_path", "atomic_write_text", "atomic_write_bytes", "atomic_savefig", "staged_dir", "staged_run"]
 
 
 def _temp_beside(path: Path) -> Path:
@@ -112,5 +113,66 @@ def staged_dir(out: str | Path) -> Iterator[Path]:
             if dest.is_dir() and not dest.is_symlink():
                 shutil.rmtree(dest)
             os.replace(entry, dest)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _merge_into(src: Path, dest: Path, moved: set[Path], root: Path) -> None:
+    """Move every file under ``src`` to the same place under ``dest`` (each an atomic rename), creating
+    folders; an existing folder of the same name is kept with whatever else it holds."""
+    dest.mkdir(parents=True, exist_ok=True)
+    for entry in sorted(src.iterdir()):
+        target = dest / entry.name
+        if entry.is_dir() and not entry.is_symlink():
+            _merge_into(entry, target, moved, root)
+        else:
+            if target.is_dir() and not target.is_symlink():
+                raise IsADirectoryError(21, "a folder is in the way of an output file", str(target))
+            os.replace(entry, target)
+            moved.add(target.relative_to(root))
+
+
+@contextmanager
+def staged_run(out: str | Path, owned: Sequence[str]) -> Iterator[Path]:
+    """The outputs of one run of a command: written into a hidden staging folder in ``out``, published
+    into ``out`` only when the run completes, and the files an earlier run of the same command left there
+    removed (issue 22 "Interrupted or repeated runs").
+
+    On an exception (also KeyboardInterrupt) the staging folder is deleted and ``out`` is left exactly as it
+    was: nothing of the interrupted run appears complete. On success every staged file is moved into ``out``
+    (each an atomic rename; folders merged, never replaced), then every file of ``out`` matching one of the
+    ``owned`` glob patterns (the names this command writes, e.g. ``outage_*/metrics.json``) that this run did
+    not write is deleted, and folders left empty by that are removed. Nothing else in ``out`` is touched.
+
+    Parameters
+    ----------
+    out : str or Path
+        The output folder (created if needed).
+    owned : sequence of str
+        Glob patterns, relative to ``out``, of every file the command can write.
+
+    Returns
+    -------
+    Iterator[Path]
+        The staging folder to write into (the same layout as ``out``).
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    # staged inside ``out`` (writable, same file system; a hidden name no output pattern matches)
+    stage = Path(tempfile.mkdtemp(dir=out, prefix=".run.", suffix=".partial"))
+    try:
+        yield stage
+        moved: set[Path] = set()
+        _merge_into(stage, out, moved, out)
+        for pattern in owned:
+            for old in sorted(out.glob(pattern)):
+                rel = old.relative_to(out)
+                if rel in moved or old.is_dir():
+                    continue
+                old.unlink()
+                parent = old.parent
+                while parent != out and parent.is_dir() and not any(parent.iterdir()):
+                    parent.rmdir()
+                    parent = parent.parent
     finally:
         shutil.rmtree(stage, ignore_errors=True)

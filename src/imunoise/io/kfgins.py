@@ -30,6 +30,7 @@ from imunoise.errors import DataError
 from imunoise.imu import LEGACY_AXES, ImuData, as_columns, as_time_column  # ImuData: re-exported, its old home
 from imunoise.io.atomic import atomic_write_bytes
 from imunoise.io.files import is_number, read_text
+from imunoise.io.navchecks import check_gnss_llh
 
 __all__ = [
     "DataWarning",
@@ -357,6 +358,7 @@ def read_gnss(
     elif ncol < 7:
         raise DataError(f"GNSS file {path}: {ncol} columns; expected 7 (t lat lon h σN σE σD) or 4 (t lat lon h)")
     _check_finite(data, lines, path, "GNSS", range(7))
+    check_gnss_llh(data[:, 1], data[:, 2], str(path), lines)  # degrees of a real place, not radians
     sig = data[:, 4:7]
     if (sig < 0).any():
         k = int(np.flatnonzero((sig < 0).any(axis=1))[0])

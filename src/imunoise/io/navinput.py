@@ -39,6 +39,7 @@ from imunoise.io.gpstime import (
     unix_ns_to_gps_ns,
 )
 from imunoise.io.kfgins import DataWarning, GnssData, read_gnss, read_imu
+from imunoise.io.navchecks import check_gnss_llh
 from imunoise.io.rosbag import is_bag, read_imu_bag, read_navsat_bag, write_imu_bag
 from imunoise.io.rtklib import is_pos, read_pos
 
@@ -207,11 +208,14 @@ def read_nav_gnss(
                 DataWarning,
                 stacklevel=2,
             )
+        check_gnss_llh(np.degrees(fix.llh[:, 0]), np.degrees(fix.llh[:, 1]), f"{path}:{fix.topic}")
         return GnssData(t, fix.llh, fix.sigma_ned)
     if topic is not None:
         raise DataError(f"--gnss-topic {topic} is for a ROS bag, but {path} is not one")
     if is_pos(path):
-        return read_pos(path, max_quality=max_quality).to_gnssdata(week)
+        gnss = read_pos(path, max_quality=max_quality).to_gnssdata(week)
+        check_gnss_llh(np.degrees(gnss.llh[:, 0]), np.degrees(gnss.llh[:, 1]), str(path))
+        return gnss
     if max_quality != 6:
         raise DataError(f"--min-quality is for an RTKLIB .pos file, but {path} is a KF-GINS GNSS file")
     return read_gnss(path)

@@ -21,7 +21,7 @@ from imunoise.nav.ekf import InitialState
 
 log = logging.getLogger(__name__)
 
-__all__ = ["level", "gnss_course", "coarse_align"]
+__all__ = ["level", "gnss_course", "check_static_window", "coarse_align"]
 
 
 def level(accel_mean: np.ndarray) -> tuple[float, float]:
@@ -62,6 +62,72 @@ def gnss_course(gnss, t_from: float, min_speed: float = 3.0) -> tuple[float, flo
     return float(0.5 * (t[i] + t[j])), float(course), float(speed[i])
 
 
+STILL_SHARE_MOVING_MAX = 0.10
+"""Share of a levelling window the static detector may call moving (doors, a passenger) before it is refused."""
+
+LAMBDA0_FLOOR = 1e-3
+"""Smallest λ0 [m/s²] of the levelling-window check (noise-free data would give 0)."""
+
+GNSS_STILL_RADIUS_M = 10.0
+"""GNSS antenna displacement inside a levelling window above which the window is refused as driving."""
+
+
+def check_static_window(
+    t: np.ndarray, accel: np.ndarray, gnss, ta: float, tb: float, option: str = "--static-duration"
+) -> None:
+    """Refuse a levelling window [ta, tb] that is not still, with the measured motion (SPEC §7 detector test).
+
+    The static detector's statistic T (paper Eq. 9: moving std of accel x and y over N = 100 samples) is
+    computed over the window; λ0 is learned on its first third by the detector's rule (2 × median T,
+    :func:`imunoise.detect.learn_lambda0`, at least :data:`LAMBDA0_FLOOR`), and epochs with T above the
+    adaptive threshold's ceiling 2λ0 count as moving. More than :data:`STILL_SHARE_MOVING_MAX` of the window
+    moving, or GNSS fixes inside it spread over more than max(:data:`GNSS_STILL_RADIUS_M`, 10 σ_h), is
+    refused: levelling over driving turns accelerations into tilt (and a wrong gyro bias and yaw).
+
+    Raises
+    ------
+    DataError
+        Naming ``option``, the window, the motion measured and the still span at its start.
+    """
+    from imunoise.detect import moving_std
+
+    m = (t >= ta) & (t <= tb)
+    n_win = 100
+    acc = accel[m]
+    tw = t[m]
+    dur = tb - ta
+    if acc.shape[0] >= 3 * n_win:
+        T = moving_std(acc[:, :2], n_win)[n_win - 1 :]
+        # λ0 by the detector's rule on the first third, with a floor: noise-free (simulated) data have T = 0
+        lam0 = max(2.0 * float(np.median(T[: max(T.shape[0] // 3, n_win)])), LAMBDA0_FLOOR)
+        tt = tw[n_win - 1 :]
+        moving = (T > 2.0 * lam0).any(axis=1)
+        share = float(moving.mean())
+        if share > STILL_SHARE_MOVING_MAX:
+            k = int(np.argmax(moving))  # the window is still up to here
+            raise DataError(
+                f"{option} {dur:g}: the IMU is not still over the levelling window [{ta:.3f}, {tb:.3f}] s: the "
+                f"static detector's statistic (Eq. 9, moving std of accel x/y) exceeds 2λ0 = {2 * lam0:.3g} m/s² "
+                f"on {100 * share:.0f} % of it (peak {float(np.nanmax(T)):.3g} m/s², first at {tt[k] - ta:.1f} s); "
+                f"give the length of the stop at the start (≤ {max(tt[k] - ta, 0.0):.1f} s)"
+            )
+    gt = np.asarray(gnss.t, dtype=float)
+    g = (gt >= ta) & (gt <= tb)
+    if np.count_nonzero(g) >= 2:
+        llh = np.asarray(gnss.llh, dtype=float)[g]
+        ned = llh_to_ned(llh, llh[0])
+        spread = float(np.hypot(ned[:, 0], ned[:, 1]).max())
+        sig = np.asarray(gnss.sigma_ned, dtype=float)[g]
+        allowed = max(GNSS_STILL_RADIUS_M, 10.0 * float(np.median(np.hypot(sig[:, 0], sig[:, 1]))))
+        if spread > allowed:
+            k = int(np.argmax(np.hypot(ned[:, 0], ned[:, 1]) > allowed))
+            raise DataError(
+                f"{option} {dur:g}: the GNSS antenna moves {spread:.0f} m inside the levelling window "
+                f"[{ta:.3f}, {tb:.3f}] s (beyond {allowed:.0f} m at {gt[g][k] - ta:.1f} s); give the length of the "
+                "stop at the start"
+            )
+
+
 def _interp_llh(gnss, t0: float) -> np.ndarray:
     t = np.asarray(gnss.t, dtype=float)
     llh = np.asarray(gnss.llh, dtype=float)
@@ -81,13 +147,15 @@ def coarse_align(
     lever_arm=(0.0, 0.0, 0.0),
     min_speed: float = 3.0,
     estimate_gyro_bias: bool = True,
+    check_still: bool = False,
 ) -> InitialState:
     """Initial state at ``t0`` (default: the first IMU epoch covered by GNSS) for a vehicle at rest.
 
     ``static_window`` (t_a, t_b) is the still period used for levelling and the gyro bias (default: the
     first ``static_duration`` s of the IMU data). Position is the GNSS antenna position at t0 moved by
     the lever arm to the IMU; velocity 0 (the window must be static; a warning is logged when the
-    accelerometers say otherwise).
+    accelerometers say otherwise; with ``check_still`` a window the static detector or the GNSS shows
+    moving is refused, :func:`check_static_window`).
     """
     t = np.asarray(imu.t, dtype=float)
     gyro, accel = imu.rates()
@@ -99,6 +167,8 @@ def coarse_align(
     m = (t >= ta) & (t <= tb)
     if m.sum() < 10:
         raise DataError(f"static window {ta:.3f}..{tb:.3f} holds {m.sum()} IMU samples; need ≥ 10")
+    if check_still:
+        check_static_window(t, accel, gnss, ta, tb)
     f_mean = accel[m].mean(axis=0)
     w_mean = gyro[m].mean(axis=0)
     g_norm = float(np.linalg.norm(f_mean))
@@ -109,7 +179,10 @@ def coarse_align(
     if yaw is None:
         found = gnss_course(gnss, t0, min_speed)
         if found is None:
-            raise DataError(f"no GNSS course with speed > {min_speed} m/s after t0; give the initial yaw")
+            raise DataError(
+                f"no GNSS course with speed > {min_speed:g} m/s after the start {t0:.3f} s (the GNSS track never "
+                "moves that fast); give the initial heading with --yaw DEG"
+            )
         tc, course, _ = found
         # yaw rate from the bias-corrected gyros between t0 and the course epoch
         mk = (t > t0) & (t <= tc)
