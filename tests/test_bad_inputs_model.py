@@ -229,3 +229,11 @@ def test_select_model_defaults_to_wvic_and_needs_the_rate():
     assert select_model(wv, complete="WN+RW").best.freq == 200.0  # the WV carries its rate
     with pytest.raises(DataError, match="200 Hz"):
         select_model(wv, freq=100.0, complete="WN+RW")
+
+
+@pytest.mark.parametrize("flag, value", [("--max-iter", 0), ("--max-iter", -1), ("--tol", -1), ("--tol", "nan")])
+def test_em_iteration_options_are_checked(tmp_path, capsys, flag, value):
+    p = gyro_csv(tmp_path / "g.csv", header="gyro_x", cols=1)
+    code, _, err = run_cli(["em", p, "--freq", 100, "--model", "WN", flag, value, "--out", tmp_path / "o"], capsys)
+    one_line_error(code, err, flag, f"got {value}")
+    assert not (tmp_path / "o").exists()
