@@ -237,3 +237,17 @@ def test_em_iteration_options_are_checked(tmp_path, capsys, flag, value):
     code, _, err = run_cli(["em", p, "--freq", 100, "--model", "WN", flag, value, "--out", tmp_path / "o"], capsys)
     one_line_error(code, err, flag, f"got {value}")
     assert not (tmp_path / "o").exists()
+
+
+def test_the_stamp_unit_rule():
+    from imunoise.io.time_column import infer_time_unit
+
+    assert infer_time_unit(0.005, None, "f") == ("s", None)
+    assert infer_time_unit(20.0, None, "f")[0] == "ms"  # 50 Hz
+    assert infer_time_unit(500.0, None, "f")[0] == "us"  # 2 kHz (2 Hz in ms is not a typical IMU rate)
+    assert infer_time_unit(5e6, None, "f")[0] == "ns"
+    assert infer_time_unit(5e6, "ns", "f") == ("ns", None)
+    with pytest.raises(DataError, match="10 Hz in ms or 1e\\+04 Hz in us; give --time-unit"):
+        infer_time_unit(100.0, None, "f")  # on the boundary of two units: asked, not guessed
+    with pytest.raises(DataError, match="give --time-unit ms"):
+        infer_time_unit(10.0, "s", "f")  # 0.1 Hz in s, 100 Hz in ms

@@ -85,19 +85,19 @@ def infer_time_unit(step: float, given: str | None, source: str) -> tuple[str, s
             return given, None
         u = typical[0]
         raise DataError(
-            f"{source}: a step of {step:.6g} {given} between stamps is {_rate(step, given):.3g} Hz, not an IMU "
-            f"rate; in {u} it is {_rate(step, u):.6g} Hz: give --time-unit {u}"
+            f"{source}: a step of {step:.4g} {given} between stamps is {_rate(step, given):.3g} Hz, not an IMU "
+            f"rate; in {u} it is {_rate(step, u):.4g} Hz: give --time-unit {u}"
         )
     if lo <= _rate(step, "s") <= hi:
         return "s", None
     if len(typical) == 1:
         u = typical[0]
         return u, (
-            f"{source}: time unit taken as {u} from the stamp spacing ({step:.6g} per sample = "
-            f"{_rate(step, u):.6g} Hz); give --time-unit to say otherwise"
+            f"{source}: time unit taken as {u} from the stamp spacing ({step:.4g} per sample = "
+            f"{_rate(step, u):.4g} Hz); give --time-unit to say otherwise"
         )
     plausible = [u for u in units if lo <= _rate(step, u) <= hi]
     if plausible:
         options = " or ".join(f"{_rate(step, u):.3g} Hz in {u}" for u in plausible)
-        raise DataError(f"{source}: a step of {step:.6g} between stamps is {options}; give --time-unit")
+        raise DataError(f"{source}: a step of {step:.4g} between stamps is {options}; give --time-unit")
     return "s", None
