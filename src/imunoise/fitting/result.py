@@ -491,7 +491,7 @@ class GMWMFit:
         Returns
         -------
         GMWMFit
-            Any other file (YAML, a multi-axis ``imu_model.json``, binary, truncated) raises one
+            Any other file (YAML, a multi-axis model of ``ImuModel.load``, binary, truncated) raises one
             :class:`~imunoise.errors.ModelError` naming ``path`` and what was expected.
         """
         from imunoise.errors import ImunoiseError
@@ -507,8 +507,6 @@ class GMWMFit:
             ) from exc
         if not isinstance(d, dict):
             raise ModelError(f"fit file {path} holds a JSON {type(d).__name__}, not a fit; give {expected}")
-        if d.get("kind") == "imunoise.imu_model":
-            raise ModelError(f"fit file {path} is a multi-axis IMU model: read it with ImuModel.load")
         try:
             return cls.from_dict(d)
         except ImunoiseError as exc:
