@@ -133,7 +133,14 @@ def test_nanosecond_stamps_without_a_time_unit(tmp_path, capsys):
         s = read_imu_source(p)
     assert s.freq == 200.0 and s.meta["time"]["time_unit"] == "ns"
     assert any("time unit taken as ns" in str(w.message) for w in caught)
-    # the CLI's --time-unit defaults to s: refused with the flag and the unit that fits
+    # the CLI, the column found by its name: the same reading, the warning kept in model.json
+    out = tmp_path / "o"
+    code, _, err = run_cli(["fit", p, "--column", "gyro_x", "--model", "WN", "--out", out], capsys)
+    assert code == 0, err
+    d = json.loads((out / "model.json").read_text())
+    assert d["freq_hz"] == 200.0 and d["extra"]["timing"]["rate_hz"] == 200.0
+    assert any("time unit taken as ns" in w for w in d["extra"]["warnings"])
+    # --time-column t with --time-unit at its default s: refused with the flag and the unit that fits
     code, _, err = run_cli(["fit", p, "--time-column", "t", "--column", "gyro_x", "--model", "WN"], capsys)
     one_line_error(code, err, "ns.csv", "2e-07 Hz", "--time-unit ns")
 

@@ -42,7 +42,7 @@ from imunoise.io.tabular import (
     unit_for,
 )
 from imunoise.io.text_layout import text_layout
-from imunoise.io.time_column import infer_time_unit, unit_in_name
+from imunoise.io.time_column import infer_time_unit, stated_time_unit
 from imunoise.units import TIME_UNITS, quantity_of, si_unit, time_to_seconds, to_si
 
 __all__ = [
@@ -403,7 +403,7 @@ def _table_blocks(
     idx = [i for _, i in pairs]
     axes = [n for n, _ in pairs]
     if t_idx is not None:
-        given_unit = time_unit or unit_in_name(table.columns[t_idx])
+        given_unit = stated_time_unit(time_unit, table.columns[t_idx], t_found)
         step = stamp_step(head.sample[:, t_idx]) if head.sample is not None else 0.0
         time_unit, note = infer_time_unit(step, given_unit, f"{path} time column {table.columns[t_idx]!r}")
         if note:

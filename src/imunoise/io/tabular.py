@@ -26,7 +26,7 @@ import numpy as np
 from imunoise.errors import DataError, UnitError
 from imunoise.io.files import is_number, read_text
 from imunoise.io.text_layout import text_layout
-from imunoise.io.time_column import find_time_column, infer_time_unit, unit_in_name
+from imunoise.io.time_column import find_time_column, infer_time_unit, stated_time_unit
 from imunoise.units import TIME_UNITS, quantity_of, si_unit, time_to_seconds, to_si
 
 __all__ = [
@@ -575,7 +575,7 @@ def read_columns(
         source = f"{path} time column {name!r}"
         exact = _exact_integer_column(table, t_idx) if np.nanmax(np.abs(t_raw)) > 2.0**53 else None
         step = stamp_step(t_raw if exact is None else (exact - exact[0]).astype(float))
-        time_unit, note = infer_time_unit(step, time_unit or unit_in_name(name), source)
+        time_unit, note = infer_time_unit(step, stated_time_unit(time_unit, name, t_found), source)
         if note:
             warnings.warn(note, TimingWarning, stacklevel=2)
         if exact is not None:

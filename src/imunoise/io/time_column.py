@@ -14,6 +14,10 @@ so at most one of s/ms/µs/ns puts a step inside it). :func:`infer_time_unit`:
   a warning kept with the output); two candidates and no typical one: refused, asking for ``--time-unit``;
 * unit given: used, unless it gives no IMU rate while another unit gives a typical one: then refused with
   that unit in the message (``--time-unit ns``), rather than fitting at 2·10⁻⁷ Hz.
+
+What counts as given (:func:`stated_time_unit`): a unit passed by the caller, else the unit in the column's
+name. For a column found by its name (no ``--time-column``), ``s`` — the default of ``--time-unit`` — is
+not a statement about that column: its unit comes from the name or the spacing.
 """
 
 from __future__ import annotations
@@ -24,7 +28,15 @@ from collections.abc import Sequence
 from imunoise.errors import DataError
 from imunoise.units import TIME_UNITS
 
-__all__ = ["IMU_RATES", "TYPICAL_IMU_RATES", "TIME_NAMES", "find_time_column", "infer_time_unit", "unit_in_name"]
+__all__ = [
+    "IMU_RATES",
+    "TYPICAL_IMU_RATES",
+    "TIME_NAMES",
+    "find_time_column",
+    "infer_time_unit",
+    "stated_time_unit",
+    "unit_in_name",
+]
 
 IMU_RATES = (1.0, 1e5)
 """Hz: the rates an IMU log can have; outside them the stamp unit is doubted."""
@@ -53,6 +65,14 @@ def unit_in_name(name: str) -> str | None:
     """The time unit a time column's name states (``time_ns`` -> ``"ns"``), else None."""
     base, unit = _split_unit(name)
     return unit if base in TIME_NAMES else None
+
+
+def stated_time_unit(time_unit: str | None, name: str, found_by_name: bool) -> str | None:
+    """The unit stated for time column ``name``: ``time_unit``, except the default ``"s"`` for a column
+    found by its name; else the unit in the name (``time_ns``); else None (inferred)."""
+    if time_unit is not None and not (found_by_name and time_unit == "s"):
+        return time_unit
+    return unit_in_name(name)
 
 
 def find_time_column(names: Sequence[str]) -> int | None:
