@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from imunoise.errors import DataError
+from imunoise.errors import DataError, ModelError
 
 __all__ = ["BatchResult", "TABLE_FIELDS", "expand_paths", "process_file", "run_batch", "run_sequential", "write_table"]
 
@@ -104,7 +104,6 @@ def process_file(path: str, cfg: dict[str, Any], out_dir: str, name: str) -> lis
     ``columns``, ``units``, ``time_column``, ``time_unit``, ``topic``, ``weights``, ``robust``, ``seed``,
     ``decimate``.
     """
-    from imunoise.errors import ModelError
     from imunoise.export import axis_noise, density_units
     from imunoise.imu_model import ImuModel, fit_axis
     from imunoise.io.imu_input import read_imu_source, sensor_of
@@ -239,6 +238,8 @@ def run_batch(
     core), ``"threads"`` (in-process, for debugging) or a ``dask.distributed`` scheduler address
     (``tcp://host:8786``). ``wall_s`` includes the cluster start-up.
     """
+    if n_workers is not None and (isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1):
+        raise ModelError(f"n_workers must be a whole number ≥ 1 (None = one per core), got {n_workers!r}")
     from dask.distributed import Client, LocalCluster, as_completed
     from tqdm import tqdm
 

@@ -43,6 +43,7 @@ __all__ = [
     "select_model",
     "refit",  # re-export: the estimator's home is imunoise.estimator (deprecated path, kept working)
     "candidates",
+    "fits_levels",
     "wvic_penalty",
     "wv_correlation",
     "wv_deviance",
@@ -209,6 +210,8 @@ class ModelRanking:
         -------
         str
         """
+        if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 0):
+            raise ModelError(f"limit must be a whole number ≥ 0 (0 = none, None = all), got {limit!r}")
         shown = self.fits if limit is None else self.fits[:limit]
         w = max([len(str(f.model)) for f in shown] + [len(s) for s, _ in self.skipped] + [5])
         head = f"{'rank':>4}  {'model':<{w}}  {'#par':>4}  {'GOF (Eq. 8)':>12}  {'WVIC':>12}  {'time ms':>8}"
@@ -391,12 +394,40 @@ def _to_fit(
 # ----------------------------------------------------------------------------------------------
 # Public API
 # ----------------------------------------------------------------------------------------------
+def fits_levels(n_params: int, n_levels: int) -> bool:
+    """True when a model of ``n_params`` parameters can be selected on ``n_levels`` wavelet levels: p < J.
+
+    The GMWM matches J empirical WV levels with p parameters (paper Eq. 6); J − p is the degrees of freedom
+    left to test the fit (the GOF of Eq. 8 is asymptotically χ² with J − p degrees of freedom). With p = J
+    the model interpolates the WV (GOF 0 for any data) and selection by GOF always picks it: 50 samples give
+    J = 5 levels, on which a 5-parameter 2*AR1+RW would "win" without saying anything about the sensor.
+    """
+    return n_params < n_levels
+
+
+def _data_freq(data: Any, freq: Any) -> float:
+    """The sample rate of ``data``: ``freq`` for arrays (required), the one a WaveletVariance or
+    GMWMProblem carries otherwise (a different ``freq`` is refused)."""
+    from imunoise.fitting.arguments import check_freq
+    from imunoise.wv import WaveletVariance
+
+    wv = data.wv if isinstance(data, GMWMProblem) else data if isinstance(data, WaveletVariance) else None
+    if wv is not None:
+        own = float(wv.freq)
+        if freq is not None and abs(check_freq(freq) - own) > 1e-9 * own:
+            raise DataError(f"freq={freq!r} but the wavelet variance was computed at {own:g} Hz; drop freq")
+        return own
+    if freq is None:
+        raise DataError("select_model needs the sample rate of the data: give freq=HZ (e.g. freq=100.0)")
+    return check_freq(freq)
+
+
 def select_model(
     data: Any,
     *,
-    freq: float = 1.0,
+    freq: float | None = None,
     complete: ModelLike | None = None,
-    criterion: str = "gof",
+    criterion: str = "wvic",
     top: int = 3,
     weights: str | np.ndarray = "efficient",
     robust: bool = False,
@@ -409,19 +440,23 @@ def select_model(
 ) -> ModelRanking:
     """Fit every non-empty sub-model of ``complete`` on one WV and Ω and rank them (SPEC §5, paper §2.2).
 
-    Candidates with more parameters than wavelet levels are skipped and listed in ``ranking.skipped``.
+    A candidate needs more wavelet levels than parameters (p < J, :func:`fits_levels`): with p ≥ J it
+    reproduces any WV exactly (GOF 0, no degree of freedom left to test it), so it is skipped and listed in
+    ``ranking.skipped`` with the reason.
 
     Parameters
     ----------
     data
         1-D array, list of static segments (pooled WV), a WaveletVariance or a GMWMProblem.
     freq
-        Sample rate in Hz (a number, else ``DataError``).
+        Sample rate in Hz, required for arrays (``DataError`` when missing: the continuous-time values
+        depend on it); a WaveletVariance or GMWMProblem carries its own (a different ``freq`` is refused).
     complete
         A process, a Model or a model string (:func:`imunoise.model.as_model`); default the paper's
         4*AR1+DR+WN+QN+RW.
     criterion
-        ``"gof"`` (paper Eq. 8) or ``"wvic"`` (:mod:`imunoise.fitting.wvic`).
+        ``"wvic"`` (default, as the CLI; :mod:`imunoise.fitting.wvic`) or ``"gof"`` (paper Eq. 8, which
+        always prefers the largest nested model).
     top
         Number of best fits that get parameter covariances (confidence intervals).
     weights, robust
@@ -452,14 +487,15 @@ def select_model(
         raise ModelError(f"top must be a positive whole number, got {top!r}")
     complete_model = default_complete() if complete is None else as_model(complete)
     unit = check_unit(unit)
-    problem = prepare(data, freq=freq, weights=weights, robust=robust)
+    problem = prepare(data, freq=_data_freq(data, freq), weights=weights, robust=robust)
     J = len(problem.tau)
     cands = candidates(complete_model)
     solved: dict[Candidate, _Solved] = {}
     skipped: list[tuple[str, str]] = []
     for i, cand in enumerate(cands):
-        if cand.n_params > J:
-            skipped.append((str(cand), f"{cand.n_params} parameters > {J} wavelet levels (needs more data)"))
+        if not fits_levels(cand.n_params, J):
+            skipped.append((str(cand), f"{cand.n_params} parameters on {J} wavelet levels: needs at least "
+                                       f"{cand.n_params + 1} (more data)"))
         else:
             try:
                 solved[cand] = _fit_candidate(problem, cand, solved, n_random=n_random, n_local=n_local, seed=seed)

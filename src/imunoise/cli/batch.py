@@ -19,6 +19,7 @@ from imunoise.cli.options import (
     parse_units,
     prepare_out_dir,
 )
+from imunoise.errors import ModelError
 
 EXAMPLES = """examples:
   imunoise batch "logs/*.csv" --freq 200 --model "WN+RW" --columns gyro_x=gx,gyro_y=gy,gyro_z=gz \\
@@ -68,6 +69,10 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.io.tabular import parse_column_map
 
     check_freq(args.freq)
+    if args.workers is not None and args.workers < 1:
+        raise ModelError(f"--workers must be ≥ 1 worker process, got {args.workers} (omit it for one per core)")
+    if args.decimate < 1:
+        raise ModelError(f"--decimate must be a whole number ≥ 1, got {args.decimate}")
     paths = expand_paths(args.glob)
     prepare_out_dir(args.out)  # an unusable --out fails before the cluster starts
     cfg = {

@@ -54,10 +54,17 @@ def load_init(spec: str):
 
 
 def run(args: argparse.Namespace) -> int:
+    import math
+
     from imunoise.em import em_fit
+    from imunoise.errors import ModelError
     from imunoise.io.atomic import atomic_path, atomic_write_text
     from imunoise.plots import plot_wv_fit
 
+    if args.max_iter < 1:
+        raise ModelError(f"--max-iter must be ≥ 1 iteration, got {args.max_iter}")
+    if not (math.isfinite(args.tol) and args.tol > 0):
+        raise ModelError(f"--tol must be a finite relative change > 0 (default 1e-8), got {args.tol}")
     init = load_init(args.init)  # before the data: a bad --init fails fast
     series = load_series(args)
     out = out_dir(args, "em")

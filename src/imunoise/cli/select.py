@@ -77,6 +77,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.top < 1:
         raise ModelError(f"--top must be ≥ 1, got {args.top}")
+    if args.limit < 0:
+        raise ModelError(f"--limit must be ≥ 0 (0 = every row), got {args.limit}")
     series = load_series(args)
     out = out_dir(args, "select")
     n_cand = len(candidates(args.complete))

@@ -468,19 +468,20 @@ class GMWMFit:
         )
 
     def save(self, path: str) -> None:
-        """Write :meth:`to_dict` as JSON.
+        """Write :meth:`to_dict` as JSON (atomically: no half-written file on a crash).
 
         Parameters
         ----------
         path
             Output file.
         """
-        with open(path, "w") as fh:
-            json.dump(self.to_dict(), fh, indent=1)
+        from imunoise.io.atomic import atomic_write_text
+
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=1))
 
     @classmethod
     def load(cls, path: str) -> GMWMFit:
-        """Read a fit saved by :meth:`save`.
+        """Read a fit saved by :meth:`save` (or the ``model.json`` of ``imunoise fit``/``select``).
 
         Parameters
         ----------
@@ -490,6 +491,27 @@ class GMWMFit:
         Returns
         -------
         GMWMFit
+            Any other file (YAML, a multi-axis model of ``ImuModel.load``, binary, truncated) raises one
+            :class:`~imunoise.errors.ModelError` naming ``path`` and what was expected.
         """
-        with open(path) as fh:
-            return cls.from_dict(json.load(fh))
+        from imunoise.errors import ImunoiseError
+        from imunoise.io.files import read_text
+
+        expected = "the model.json written by GMWMFit.save or `imunoise fit`/`imunoise select`"
+        text = read_text(path, "fit file", ModelError, expected=expected)
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ModelError(
+                f"fit file {path} is not JSON ({exc.msg} at line {exc.lineno}); GMWMFit.load reads {expected}"
+            ) from exc
+        if not isinstance(d, dict):
+            raise ModelError(f"fit file {path} holds a JSON {type(d).__name__}, not a fit; give {expected}")
+        try:
+            return cls.from_dict(d)
+        except ImunoiseError as exc:
+            raise ModelError(f"fit file {path}: {exc}; give {expected}") from exc
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ModelError(
+                f"fit file {path}: not a complete imunoise fit (bad or missing {exc}); give {expected}"
+            ) from exc

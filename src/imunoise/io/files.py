@@ -81,7 +81,7 @@ def read_text(
             f"{what} {path} is not a text file (binary content near the start); give {expected}"
         )
     try:
-        return raw.decode("utf-8")
+        return raw.decode("utf-8-sig")  # a byte-order mark (Excel's "CSV UTF-8") is not part of the text
     except UnicodeDecodeError:
         # no NUL and few control bytes: a legacy 8-bit text (e.g. a '°' in a Latin-1 header)
         return raw.decode("latin-1")

@@ -29,7 +29,17 @@ from imunoise.io.rosbag import is_bag, read_imu_bag
 from imunoise.io.tabular import RATE_TOLERANCE, TimeReport, TimingWarning, UnitWarning, clean_time, read_columns
 from imunoise.units import quantity_of
 
-__all__ = ["AXES", "ImuSeries", "read_imu_source", "decimate", "sensor_of", "unknown_unit_messages"]
+__all__ = [
+    "AXES",
+    "ImuSeries",
+    "read_imu_source",
+    "decimate",
+    "sensor_of",
+    "unknown_unit_messages",
+    "degenerate_axis",
+    "check_axis_names",
+    "DEGENERATE_FRACTION",
+]
 
 
 _RATE_OF_INCREMENT = {"angle_increment": "rad/s", "velocity_increment": "m/s²"}
@@ -135,7 +145,7 @@ def read_imu_source(
     columns: str | Sequence[str | int] | Mapping[str, str | int] | None = None,
     units: str | Mapping[str, str] | None = None,
     time_column: str | int | None = None,
-    time_unit: str = "s",
+    time_unit: str | None = None,
     freq: float | None = None,
     decimate_by: int = 1,
     decimate_method: str = "average",
@@ -146,9 +156,14 @@ def read_imu_source(
     Bags: all six axes of ``topic`` (``gyro_x`` … ``accel_z``) unless ``columns`` names a subset; the
     rate comes from the header stamps (checked against ``freq`` when given). Tables: ``columns`` as in
     :func:`imunoise.io.tabular.read_columns`, ``units`` per column, the rate from ``time_column`` or
-    ``freq`` (one is needed). ``decimate_by`` > 1 block-averages (:func:`decimate`).
+    ``freq`` (one is needed); a column named like a time stamp is the time column when none is given, and
+    the stamp unit is inferred when not given (:mod:`imunoise.io.time_column`). Names given to columns
+    (``gyro_x=gx``) must be IMU axes (:data:`AXES`). ``decimate_by`` > 1 block-averages (:func:`decimate`).
+
+    A near-constant axis (:func:`degenerate_axis`) is refused: it has no noise to model.
     """
     path = Path(path)
+    check_axis_names(columns)
     if is_bag(path):
         bag = read_imu_bag(path, topic, stamps=stamps, freq=freq)
         all_axes = bag.axes()
@@ -196,6 +211,8 @@ def read_imu_source(
             report=cols.report,
             meta={"format": "table", "columns": dict(cols.column)},
         )
+        if cols.extra.get("time_column") is not None:
+            series.meta["time"] = {k: cols.extra[k] for k in ("time_column", "time_unit", "time_column_found")}
         if cols.extra.get("units_from_file"):
             series.meta["units_from_file"] = True
         if file_freq and not freq and cols.report is None:
@@ -208,9 +225,55 @@ def read_imu_source(
             TimingWarning,
             stacklevel=2,
         )
+    for axis, values in series.data.items():
+        why = degenerate_axis(values)
+        if why:
+            col = series.meta.get("columns", {}).get(axis, axis)
+            raise DataError(
+                f"{series.source}: column {col!r} ({axis}) is {why}: there is no sensor noise to model (a fit "
+                "would describe the odd samples only); check the column (--columns) or the recording"
+            )
     if decimate_by != 1 or decimate_method != "average":
         series = _decimated(series, decimate_by, decimate_method)
     return series
+
+
+DEGENERATE_FRACTION = 0.01
+"""An axis where fewer than this fraction of the samples (or fewer than 3) differ from the median value is
+near-constant (:func:`degenerate_axis`)."""
+
+
+def degenerate_axis(x: np.ndarray) -> str | None:
+    """Why ``x`` cannot be modelled as sensor noise, or None.
+
+    A still IMU's output changes from sample to sample (white noise at least); a series in which all but a
+    few samples (fewer than :data:`DEGENERATE_FRACTION` of them, or fewer than 3) hold one value is an
+    empty, saturated or unplugged channel, and its wavelet variance comes from the odd samples alone (one
+    spike in zeros gives a "white noise" whose density depends only on the spike's size).
+    """
+    x = np.asarray(x, dtype=float)
+    if x.size == 0:
+        return "empty"
+    m = float(np.median(x))
+    n_diff = int(np.count_nonzero(x != m))
+    if n_diff == 0:
+        return f"constant ({m:g} in all {x.size} samples)"
+    if n_diff < max(DEGENERATE_FRACTION * x.size, 3):
+        return f"near-constant ({x.size - n_diff} of {x.size} samples are exactly {m:g}, {n_diff} differ)"
+    return None
+
+
+def check_axis_names(columns: Any) -> None:
+    """Refuse ``NAME=COLUMN`` pairs whose NAME is not an IMU axis (a typo like ``gyro_w`` would be fitted
+    and exported under a name no tool reads)."""
+    from imunoise.io.tabular import parse_column_map
+
+    cmap = parse_column_map(columns)
+    if not isinstance(cmap, Mapping):
+        return
+    bad = [str(k) for k in cmap if str(k) not in AXES]
+    if bad:
+        raise DataError(f"--columns: unknown axis {bad[0]!r}; name the columns with the axes {', '.join(AXES)}")
 
 
 GYRO_STATIC_MAX_MEAN = 0.1

@@ -14,7 +14,6 @@ by f² at the end (rate = increment·f is linear).
 
 from __future__ import annotations
 
-import csv
 import gzip
 import warnings
 import zipfile
@@ -27,17 +26,23 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import DataError, UnitError
-from imunoise.io.files import is_number, looks_binary
+from imunoise.io.files import looks_binary
+from imunoise.io.imu_input import check_axis_names
 from imunoise.io.rosbag import imu_topic, is_bag, iter_imu_bag
 from imunoise.io.tabular import (
     RATE_TOLERANCE,
     Table,
     TimingWarning,
     UnitWarning,
+    column_pairs,
     parse_column_map,
     parse_rows,
+    stamp_step,
+    time_index,
     unit_for,
 )
+from imunoise.io.text_layout import text_layout
+from imunoise.io.time_column import infer_time_unit, stated_time_unit
 from imunoise.units import TIME_UNITS, quantity_of, si_unit, time_to_seconds, to_si
 
 __all__ = [
@@ -91,7 +96,7 @@ def open_imu_blocks(
     columns: str | Sequence[str | int] | Mapping[str, str | int] | None = None,
     units: str | Mapping[str, str] | None = None,
     time_column: str | int | None = None,
-    time_unit: str = "s",
+    time_unit: str | None = None,
     freq: float | None = None,
     stamps: str = "header",
     chunk_rows: int = CHUNK_ROWS,
@@ -102,11 +107,12 @@ def open_imu_blocks(
     and non-finite values raise :class:`DataError` when their block is reached.
     """
     path = Path(path)
+    check_axis_names(columns)
     if is_bag(path):
         return _bag_blocks(path, topic, columns, freq, stamps, chunk_rows)
     if not path.exists():
         raise DataError(f"file not found: {path}")
-    if time_unit not in TIME_UNITS:
+    if time_unit is not None and time_unit not in TIME_UNITS:
         raise UnitError(f"unknown time unit {time_unit!r}; use one of {', '.join(TIME_UNITS)}")
     suffix = path.suffixes[-1] if path.suffixes else ""
     if suffix == ".npy":
@@ -125,6 +131,7 @@ class _Head:
     table: Table
     n_rows: int
     size: int
+    sample: np.ndarray | None = None  # the first rows (text, .npy): the stamp unit is inferred from them
 
 
 def _numpy_error(path: Path, kind: str, exc: Exception) -> DataError:
@@ -161,7 +168,7 @@ def _npy_rows(path: Path, chunk_rows: int) -> tuple[_Head, Callable[[], Iterator
             block = np.asarray(arr[i : i + chunk_rows], dtype=float)
             yield block, block.shape[0] * row_bytes, None
 
-    return _Head(table, n, n * row_bytes), rows
+    return _Head(table, n, n * row_bytes, np.asarray(arr[:200], dtype=float)), rows
 
 
 def _npz_rows(path: Path, chunk_rows: int) -> tuple[_Head, Callable[[], Iterator[tuple[np.ndarray, int, Any]]]]:
@@ -297,29 +304,25 @@ def _text_rows(path: Path, chunk_rows: int) -> tuple[_Head, Callable[[], Iterato
         raise DataError(f"data file {path}: not a valid or complete gzip file ({exc}); get the file again") from exc
     if not head_lines:
         raise DataError(f"{path} has no data lines")
-    sample = "\n".join(ln for _, ln in head_lines[:20])
-    try:
-        delim = csv.Sniffer().sniff(sample, delimiters=",;\t ").delimiter
-    except csv.Error:
-        delim = ","
-    if delim == " " or ("," not in sample and ";" not in sample and "\t" not in sample):
-        delim = None
-
-    def split(line: str) -> list[str]:
-        return [t.strip() for t in (line.split(delim) if delim else line.split())]
-
-    first_tokens = split(head_lines[0][1])
-    has_header = not all(is_number(t) for t in first_tokens if t != "")
-    names = first_tokens if has_header else [str(i) for i in range(len(first_tokens))]
-    if has_header and len(head_lines) < 2:
+    layout = text_layout(path, head_lines)  # separator, decimal comma, header: the rules of read_table
+    names = layout.names
+    if layout.has_header and len(head_lines) < 2:
         raise DataError(f"{path} has a header but no data rows")
-    header_line = head_lines[0][0] if has_header else 0
+    header_line = head_lines[0][0] if layout.has_header else 0
     per_line = max(head_bytes / max(head_lines[-1][0], 1), 1.0)
     n_est = int(size / per_line)
-    table = Table(names, np.empty((0, len(names))), str(path), 1, delimiter=delim)
+    table = Table(names, np.empty((0, len(names))), str(path), 1, delimiter=layout.delimiter)
 
     def parse(rows: list[tuple[int, str]]) -> np.ndarray:
-        return parse_rows(path, rows, delim, len(names))
+        if layout.decimal_comma:
+            rows = [(k, layout.normalise(ln)) for k, ln in rows]
+        return parse_rows(path, rows, layout.delimiter, len(names))
+
+    first_rows = head_lines[1:] if layout.has_header else head_lines
+    try:
+        sample = parse(first_rows[: min(len(first_rows), 200)]) if first_rows else None
+    except DataError:
+        sample = None  # the bad line is reported when its block is read
 
     def rows() -> Iterator[tuple[np.ndarray, int, Any]]:
         pos = 0
@@ -327,7 +330,7 @@ def _text_rows(path: Path, chunk_rows: int) -> tuple[_Head, Callable[[], Iterato
             with _open_text(path, gz) as (fh, raw):
                 block: list[tuple[int, str]] = []
                 for lineno, b in enumerate(fh, 1):
-                    line = _decode(b)
+                    line = _decode(b).removeprefix("\ufeff") if lineno == 1 else _decode(b)
                     if lineno == header_line or not line.strip() or line.lstrip().startswith("#"):
                         continue
                     block.append((lineno, line))
@@ -342,7 +345,7 @@ def _text_rows(path: Path, chunk_rows: int) -> tuple[_Head, Callable[[], Iterato
                 f"data file {path}: the gzip stream ends early or is corrupt ({exc}); get the file again"
             ) from exc
 
-    return _Head(table, n_est, size), rows
+    return _Head(table, n_est, size, sample), rows
 
 
 class _open_text:
@@ -375,13 +378,13 @@ def _table_blocks(
     columns: Any,
     units: Any,
     time_column: str | int | None,
-    time_unit: str,
+    time_unit: str | None,
     freq: float | None,
 ) -> ImuBlocks:
     """Column mapping, units and rate as in :func:`read_columns` + :func:`read_imu_source`."""
     table = head.table
     cmap = parse_column_map(columns)
-    t_idx = table.column_index(time_column) if time_column is not None else None
+    t_idx, t_found = time_index(table, time_column, cmap)
     units_from_file = False
     if table.units:
         if units is None:
@@ -396,18 +399,17 @@ def _table_blocks(
                         UnitWarning,
                         stacklevel=3,
                     )
-    if cmap is None:
-        pairs = [(c, c) for i, c in enumerate(table.columns) if i != t_idx]
-    elif isinstance(cmap, Mapping):
-        pairs = [(str(k), v) for k, v in cmap.items()]
-    else:
-        pairs = [(table.columns[table.column_index(c)], c) for c in cmap]
-    if not pairs:
-        raise DataError(f"{path}: no data columns selected (columns are: {', '.join(table.columns)})")
-    idx = [table.column_index(c) for _, c in pairs]
+    pairs = column_pairs(table, cmap, t_idx)
+    idx = [i for _, i in pairs]
     axes = [n for n, _ in pairs]
+    if t_idx is not None:
+        given_unit = stated_time_unit(time_unit, table.columns[t_idx], t_found)
+        step = stamp_step(head.sample[:, t_idx]) if head.sample is not None else 0.0
+        time_unit, note = infer_time_unit(step, given_unit, f"{path} time column {table.columns[t_idx]!r}")
+        if note:
+            warnings.warn(note, TimingWarning, stacklevel=3)
     unit, source_unit, factor, increment = {}, {}, [], []
-    for (name, _), i in zip(pairs, idx):
+    for name, i in pairs:
         u = unit_for(name, table.columns[i], units)
         if u:
             quantity_of(u)
@@ -474,7 +476,9 @@ def _table_blocks(
         n_estimate=head.n_rows,
         size=head.size,
         size_unit="B",
-        time_source=f"{path} time column {t_name!r} ({time_unit})" if t_name is not None else None,
+        time_source=f"{path} time column {t_name!r} ({time_unit}{', found by its name' if t_found else ''})"
+        if t_name is not None
+        else None,
         meta=meta,
         blocks=blocks(),
     )

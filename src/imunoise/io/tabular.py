@@ -12,7 +12,6 @@ infers (or checks) the sample rate. The same report is used by the ROS bag reade
 
 from __future__ import annotations
 
-import csv
 import io
 import warnings
 import zipfile
@@ -26,6 +25,8 @@ import numpy as np
 
 from imunoise.errors import DataError, UnitError
 from imunoise.io.files import is_number, read_text
+from imunoise.io.text_layout import text_layout
+from imunoise.io.time_column import find_time_column, infer_time_unit, stated_time_unit
 from imunoise.units import TIME_UNITS, quantity_of, si_unit, time_to_seconds, to_si
 
 __all__ = [
@@ -43,6 +44,9 @@ __all__ = [
     "read_columns",
     "unit_for",
     "parse_column_map",
+    "column_pairs",
+    "time_index",
+    "stamp_step",
     "GAP_FACTOR",
     "RATE_TOLERANCE",
 ]
@@ -222,29 +226,19 @@ def read_table(path: str | Path) -> Table:
     text = read_text(path, "data file")  # binary junk, truncated .gz: one DataError naming the file
     raw_lines = text.splitlines()
     content = [(i + 1, ln) for i, ln in enumerate(raw_lines) if ln.strip() and not ln.lstrip().startswith("#")]
-    if not content:
-        raise DataError(f"{path} has no data lines")
-    sample = "\n".join(ln for _, ln in content[:20])
-    try:
-        delim = csv.Sniffer().sniff(sample, delimiters=",;\t ").delimiter
-    except csv.Error:
-        delim = ","
-    if delim == " " or ("," not in sample and ";" not in sample and "\t" not in sample):
-        delim = None  # any white space
-
-    def split(line: str) -> list[str]:
-        return [t.strip() for t in (line.split(delim) if delim else line.split())]
-
-    first = split(content[0][1])
-    has_header = not all(is_number(t) for t in first if t != "")
-    rows = content[1:] if has_header else content
+    layout = text_layout(path, content)  # separator, decimal comma, header (refused when it misnames the rows)
+    rows = content[1:] if layout.has_header else content
     if not rows:
         raise DataError(f"{path} has a header but no data rows")
-    rows = _drop_cut_lines(path, rows, split, None if not has_header else len(first))
-    columns = first if has_header else [str(i) for i in range(len(split(rows[0][1])))]
-    data = parse_rows(path, rows, delim, len(columns))
+    if layout.decimal_comma:
+        rows = [(k, layout.normalise(ln)) for k, ln in rows]
+    rows = _drop_cut_lines(path, rows, layout.split, len(layout.names) if layout.has_header else None)
+    columns = layout.names if layout.has_header else [str(i) for i in range(len(layout.split(rows[0][1])))]
+    data = parse_rows(path, rows, layout.delimiter, len(columns))
+    if data.shape[1] != len(columns):
+        raise DataError(f"{path}: the rows have {data.shape[1]} fields but the first data line has {len(columns)}")
     line_of_row = np.array([lineno for lineno, _ in rows])
-    return Table(columns, data, str(path), int(line_of_row[0]), line_of_row, delim)
+    return Table(columns, data, str(path), int(line_of_row[0]), line_of_row, layout.delimiter)
 
 
 def read_series(
@@ -452,15 +446,75 @@ class Columns:
 
 
 def parse_column_map(columns: str | Sequence[str | int] | Mapping[str, str | int] | None) -> Any:
-    """``"gyro_x=gx,gyro_y=3"`` -> {"gyro_x": "gx", "gyro_y": "3"}; ``"gx,gy"`` -> ["gx", "gy"]."""
+    """``"gyro_x=gx,gyro_y=3"`` -> {"gyro_x": "gx", "gyro_y": "3"}; ``"gx,gy"`` -> ["gx", "gy"]. A name given
+    twice is refused (the second would silently replace the first)."""
     if columns is None or not isinstance(columns, str):
         return columns
     items = [c.strip() for c in columns.split(",") if c.strip()]
     if items and all("=" in c for c in items):
-        return {k.strip(): v.strip() for k, v in (c.split("=", 1) for c in items)}
+        pairs = [(k.strip(), v.strip()) for k, v in (c.split("=", 1) for c in items)]
+        keys = [k for k, _ in pairs]
+        twice = sorted({k for k in keys if keys.count(k) > 1})
+        if twice:
+            raise DataError(f"--columns {columns!r} names {twice[0]} twice; give each name one column")
+        return dict(pairs)
     if any("=" in c for c in items):
         raise DataError(f"--columns {columns!r}: use either all NAME=COLUMN pairs or a plain list of columns")
     return items
+
+
+def column_pairs(table: Table, cmap: Any, t_idx: int | None) -> list[tuple[str, int]]:
+    """(output name, column index) of every selected column (``cmap`` from :func:`parse_column_map`; None:
+    every column but the time). One file column read as two names, or the time column read as data, is
+    refused: both would fit the same numbers twice (or the clock as a sensor)."""
+    if cmap is None:
+        pairs = [(c, i) for i, c in enumerate(table.columns) if i != t_idx]
+    elif isinstance(cmap, Mapping):
+        pairs = [(str(k), table.column_index(v)) for k, v in cmap.items()]
+    else:
+        pairs = [(table.columns[i], i) for i in (table.column_index(c) for c in cmap)]
+    if not pairs:
+        raise DataError(f"{table.path}: no data columns selected (columns are: {', '.join(table.columns)})")
+    seen: dict[int, str] = {}
+    for name, i in pairs:
+        if i == t_idx:
+            raise DataError(
+                f"--columns: column {table.columns[i]!r} of {table.path} is the time column; leave it out of "
+                "--columns (or choose another --time-column)"
+            )
+        if i in seen:
+            raise DataError(
+                f"--columns maps column {table.columns[i]!r} of {table.path} to both {seen[i]} and {name}; "
+                "give each axis its own column"
+            )
+        seen[i] = name
+    return pairs
+
+
+def time_index(table: Table, time_column: str | int | None, cmap: Any) -> tuple[int | None, bool]:
+    """The time column: the one given, else the one named like a time stamp
+    (:func:`imunoise.io.time_column.find_time_column`) unless ``cmap`` selects it as data. Returns (index or
+    None, found by its name)."""
+    if time_column is not None:
+        return table.column_index(time_column), False
+    i = find_time_column(table.columns)
+    if i is None:
+        return None, False
+    if cmap is not None:
+        chosen = cmap.values() if isinstance(cmap, Mapping) else cmap
+        try:
+            if i in {table.column_index(c) for c in chosen}:
+                return None, False
+        except DataError:
+            pass  # a bad column name is reported by column_pairs, with the time column set or not
+    return i, True
+
+
+def stamp_step(raw: np.ndarray) -> float:
+    """Median positive step between sorted stamps, in the file's numbers (for :func:`infer_time_unit`)."""
+    d = np.diff(np.sort(raw[np.isfinite(raw)]))
+    d = d[d > 0]
+    return float(np.median(d)) if d.size else 0.0
 
 
 def _exact_integer_column(table: Table, idx: int) -> np.ndarray | None:
@@ -484,7 +538,7 @@ def read_columns(
     *,
     units: str | Mapping[str, str] | None = None,
     time_column: str | int | None = None,
-    time_unit: str = "s",
+    time_unit: str | None = None,
     freq: float | None = None,
     gap_factor: float = GAP_FACTOR,
 ) -> Columns:
@@ -494,36 +548,36 @@ def read_columns(
     (output names = column names), or None for every column except the time column. ``units``: see
     :func:`unit_for`; increments (``rad``, ``deg``, ``m/s``) stay increments here (converted to SI).
     ``time_column`` in ``time_unit`` (s, ms, us/µs, ns): the rows are sorted, duplicates dropped and the
-    rate inferred and checked against ``freq`` (:func:`clean_time`).
+    rate inferred and checked against ``freq`` (:func:`clean_time`). Without ``time_column`` a column named
+    like a time stamp (``t``, ``time``, ``stamp``, ...) is the time; without ``time_unit`` the unit comes
+    from the column's name or the stamp spacing (:mod:`imunoise.io.time_column`, which also refuses a
+    given unit that makes no IMU rate when another one does).
     """
-    if time_unit not in TIME_UNITS:
+    if time_unit is not None and time_unit not in TIME_UNITS:
         raise UnitError(f"unknown time unit {time_unit!r}; use one of {', '.join(TIME_UNITS)}")
     table = read_table(path)
     cmap = parse_column_map(columns)
-    t_idx = table.column_index(time_column) if time_column is not None else None
+    t_idx, t_found = time_index(table, time_column, cmap)
     units_from_file = False
     if table.units:
         if units is None:
             units, units_from_file = dict(table.units), True  # the file says (e.g. the ADIS .npz 'units')
         else:
             _check_given_units(table, units)
-    if cmap is None:
-        pairs = [(c, c) for i, c in enumerate(table.columns) if i != t_idx]
-    elif isinstance(cmap, Mapping):
-        pairs = [(str(k), v) for k, v in cmap.items()]
-    else:
-        pairs = []
-        for c in cmap:
-            i = table.column_index(c)
-            pairs.append((table.columns[i], c))
-    if not pairs:
-        raise DataError(f"{path}: no data columns selected (columns are: {', '.join(table.columns)})")
+    pairs = column_pairs(table, cmap, t_idx)
     data = table.data
     t = None
     report = None
+    extra: dict[str, Any] = {}
     if t_idx is not None:
+        name = table.columns[t_idx]
         t_raw = data[:, t_idx]
+        source = f"{path} time column {name!r}"
         exact = _exact_integer_column(table, t_idx) if np.nanmax(np.abs(t_raw)) > 2.0**53 else None
+        step = stamp_step(t_raw if exact is None else (exact - exact[0]).astype(float))
+        time_unit, note = infer_time_unit(step, stated_time_unit(time_unit, name, t_found), source)
+        if note:
+            warnings.warn(note, TimingWarning, stacklevel=2)
         if exact is not None:
             # epoch stamps in ns/µs exceed float64's 2^53 integer range: take differences in integers
             t_rel = time_to_seconds((exact - exact[0]).astype(float), time_unit)
@@ -531,19 +585,17 @@ def read_columns(
         else:
             t = time_to_seconds(t_raw, time_unit)
             t_rel = t - t[0] if t.size and np.isfinite(t[0]) else t
-        name = table.columns[t_idx]
-        keep, report = clean_time(
-            t_rel, source=f"{path} time column {name!r} ({time_unit})", freq=freq, gap_factor=gap_factor
-        )
+        found = ", found by its name" if t_found else ""
+        keep, report = clean_time(t_rel, source=f"{source} ({time_unit}{found})", freq=freq, gap_factor=gap_factor)
         if keep.size != t.size or np.any(keep[1:] < keep[:-1]):
             data = data[keep]
         t = t[keep]
+        extra = {"time_column": name, "time_unit": time_unit, "time_column_found": t_found}
     values: dict[str, np.ndarray] = {}
     unit: dict[str, str] = {}
     source_unit: dict[str, str] = {}
     colname: dict[str, str] = {}
-    for name, col in pairs:
-        idx = table.column_index(col)
+    for name, idx in pairs:
         v = np.ascontiguousarray(data[:, idx], dtype=float)
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:
@@ -568,7 +620,7 @@ def read_columns(
         column=colname,
         t=t,
         report=report,
-        extra={"freq_hz": table.freq_hz, "units_from_file": units_from_file},
+        extra={"freq_hz": table.freq_hz, "units_from_file": units_from_file, **extra},
     )
 
 
