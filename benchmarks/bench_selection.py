@@ -86,7 +86,7 @@ def nesting_rows() -> list[str]:
     if not path.exists():
         return ["_simts reference series not available (../shared/data/simts_reference missing)._"]
     x = np.load(path)
-    r = select_model(x, freq=1.0)
+    r = select_model(x, freq=1.0, criterion="gof")
     pairs = viol = 0
     worst = 0.0
     for big in r.fits:
