@@ -1,6 +1,9 @@
 """Every example of README.md runs as written (how: tests/doc_examples.py), and the slow tier of README and guide.
 
-The guide's examples run in test_guide_examples.py (a file of its own, so the two spread over two workers).
+The README's tour repeats examples of the user guide word for word; such a block runs once, in
+test_guide_examples.py, in the guide's order (which keeps what it reads from the examples before it). A README
+block that is not in the guide runs here. The slow-tagged blocks of both run here, so that the guide's fast
+examples and the slow tier spread over two workers.
 """
 
 from __future__ import annotations
@@ -14,12 +17,24 @@ from doc_examples import TEST_TIMEOUT_S, guide_blocks, parse_markdown, parse_rst
 
 README = REPO / "README.md"
 BLOCKS = parse_markdown(README.read_text(encoding="utf-8"))
+GUIDE_FAST = [b for b in guide_blocks() if b.tag == ""]
+
+
+def _same(a, b) -> bool:
+    return a.lang == b.lang and a.code.strip() == b.code.strip()
 
 
 @pytest.mark.timeout(TEST_TIMEOUT_S)
-def test_readme_examples(tmp_path):
-    """The untagged blocks, in README order, in one scratch repository root."""
-    run_all([b for b in BLOCKS if b.tag == ""], tmp_path)
+def test_readme_examples_run_here_or_in_the_guide(tmp_path):
+    """README blocks found word for word among the guide's run there, in the README's order; the rest run here."""
+    fast = [b for b in BLOCKS if b.tag == ""]
+    assert fast, "the README has no example: the tags changed?"
+    pos = [next((k for k, g in enumerate(GUIDE_FAST) if _same(b, g)), None) for b in fast]
+    shared = [p for p in pos if p is not None]
+    assert shared == sorted(shared), "README examples shared with the guide must keep the guide's order"
+    own = [b for b, p in zip(fast, pos, strict=True) if p is None]
+    if own:
+        run_all(own, tmp_path)
 
 
 @pytest.mark.slow
