@@ -193,7 +193,7 @@ def _stagger_labels(ax, marks: Sequence[tuple[float, str]], rows: Sequence[float
     renderer = fig.canvas.get_renderer()
     rows = list(rows)
     step = rows[1] - rows[0] if len(rows) > 1 else -0.24
-    pad = 3.0
+    pad = 8.0  # px between neighbours on a row, so "0.07 s" and "0.07 s" read as two labels
     right = [-np.inf] * len(rows)  # right edge (px) of the last label on each row
     placed, height = [], 0.0
     for x, text in sorted(marks):
