@@ -27,8 +27,8 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py --out BENCHMARKS.md
 
 docs: $(STAMP)
-	$(BIN)/python -m sphinx -W --keep-going -q -b html docs/api out/docs
-	@echo "API reference: out/docs/index.html"
+	$(BIN)/python -m sphinx -W --keep-going -q -b html docs out/docs
+	@echo "user guide and API reference: out/docs/index.html"
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks

@@ -1,6 +1,7 @@
 """API reference and docstrings (architecture issue: numpydoc docstrings, ``make docs``, package docstrings).
 
-The Sphinx build of docs/api must pass with warnings as errors (what ``make docs`` runs), the exported
+The Sphinx build of docs/ (user guide + API reference) must pass with warnings as errors (what ``make docs``
+runs), the exported
 names and the main entry points must document their parameters in numpydoc sections, and each package's
 docstring must say what it owns; the import layering those docstrings state is checked against the code.
 """
@@ -36,12 +37,12 @@ def test_sphinx_build_has_no_warnings_and_documents_the_api(tmp_path):
     from imunoise.cli import build_parser
 
     out, warn = tmp_path / "html", tmp_path / "warnings.txt"
-    code = build_main(["-W", "--keep-going", "-q", "-b", "html", "-w", str(warn), str(ROOT / "docs" / "api"), str(out)])
+    code = build_main(["-W", "--keep-going", "-q", "-b", "html", "-w", str(warn), str(ROOT / "docs"), str(out)])
     assert code == 0, f"Sphinx build failed (make docs):\n{warn.read_text() if warn.exists() else ''}"
     assert not warn.exists() or not warn.read_text().strip(), warn.read_text()
 
     def page(name: str) -> str:
-        return (out / f"{name}.html").read_text(encoding="utf-8")
+        return (out / "api" / f"{name}.html").read_text(encoding="utf-8")
 
     expect = {
         "index": ["facade.html", "online.html", "cli.html"],
@@ -65,6 +66,14 @@ def test_sphinx_build_has_no_warnings_and_documents_the_api(tmp_path):
     # numpydoc sections become field lists, not literal "Parameters" / "-------" text
     assert '>Parameters<span class="colon">' in page("wv"), "napoleon did not turn Parameters into a field list"
     assert "----------" not in page("wv")
+    # the front page leads to the guide and the reference; each guide page is built with its examples
+    front = (out / "index.html").read_text(encoding="utf-8")
+    guide = sorted(p.stem for p in (ROOT / "docs" / "guide").glob("*.rst"))
+    assert all(f"guide/{g}.html" in front for g in guide) and "api/index.html" in front
+    for g in guide:
+        html = (out / "guide" / f"{g}.html").read_text(encoding="utf-8")
+        assert "readme-test" not in html  # the test tags are comments, not text
+    assert 'class="highlight-python' in (out / "guide" / "modelling.html").read_text(encoding="utf-8")
     # the CLI page holds the --help of every registered command
     cli = page("cli")
     sub = next(a for a in build_parser()._actions if a.__class__.__name__ == "_SubParsersAction")

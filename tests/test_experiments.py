@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from conftest import REPO
 from imunoise.cli import main
 from imunoise.experiments import denial, online_exp
 from imunoise.experiments.common import paired_ci, repo_data_dir
@@ -20,6 +21,14 @@ FAST = OnlineConfig(complete="2*AR1 + WN + RW")
 SIM = {"duration_s": 240.0, "n_stops": 2, "n_outages": 1, "static_s": 30.0, "stop_range_s": (8.0, 20.0)}
 SPEC_KEYS = {"horizontal_rms_m", "vertical_rms_m", "ecef_rms_m", "outage_end_horizontal_m",
              "mean_outage_end_horizontal_m"}
+
+
+def shipped_drive():
+    """``data/drive_0708``; skips only when the checkout lacks the file (a reader error must fail the test)."""
+    manifest = REPO / "data" / "drive_0708" / "dataset.json"
+    if not manifest.exists():
+        pytest.skip(f"the shipped drive is absent: {manifest.relative_to(REPO)}")
+    return repo_data_dir()
 
 
 def test_paired_ci_matches_the_t_interval():
@@ -94,17 +103,15 @@ def test_denial_sim_models_and_keys():
     for name in ("plain", "av", "gmwm", "gmwm_top3"):
         assert SPEC_KEYS <= set(res["methods"][name])
     models = res["models_per_seed"][0]
-    assert models["gmwm"] != models["gmwm_top3"] or models["gmwm"][0]
+    assert len(models["gmwm"]) == len(models["gmwm_top3"]) == len(AXES)
+    # the 3rd of the GOF ranking is another structure than its best, on every axis
+    assert all(best != third for best, third in zip(models["gmwm"], models["gmwm_top3"])), models
     assert all(m.startswith("AR1") or "WN" in m or "RW" in m for m in models["av"])
 
 
 @pytest.fixture(scope="module")
 def real():
-    try:
-        folder = repo_data_dir()
-    except Exception as exc:  # noqa: BLE001
-        pytest.skip(f"data/drive_0708 not available: {exc}")
-    return online_exp.run_real(str(folder), methods=("plain", "gmwm"), workers=2, base=FAST)
+    return online_exp.run_real(str(shipped_drive()), methods=("plain", "gmwm"), workers=2, base=FAST)
 
 
 def test_real_drive_online(real, tmp_path):
@@ -146,10 +153,7 @@ def test_cli_rejects_unknown_method(tmp_path, capsys):
 
 
 def test_cli_online_on_the_shipped_drive(tmp_path):
-    try:
-        folder = repo_data_dir()
-    except Exception as exc:  # noqa: BLE001
-        pytest.skip(f"data/drive_0708 not available: {exc}")
+    folder = shipped_drive()
     out = tmp_path / "on"
     rc = main(["online", "--data", str(folder), "--latency", "0", "--out", str(out)])
     assert rc == 0

@@ -169,3 +169,138 @@ def test_report_numbers_never_break_and_log_wraps(tmp_path):
     assert ".n,td.num{white-space:nowrap}" in html
     assert "<div class='log'><div>{&quot;t&quot;: <span class='n'>243284.717</span>" in html
     assert "```" in rep.markdown()
+
+
+# -- the experiment reports' figures ---------------------------------------------------------------------
+@pytest.fixture
+def keep_experiment_figures(monkeypatch):
+    """The figures imunoise.experiments.plots closes, kept open for inspection."""
+    import imunoise.experiments.plots as eplots
+
+    figs, close = [], plt.close
+    monkeypatch.setattr(eplots.plt, "close", lambda fig=None: figs.append(fig))
+    yield figs
+    for f in figs:
+        close(f)
+
+
+def _paired(baseline: str, method: str, gnss: str, lo: float, ratio: float, hi: float) -> dict:
+    return {"metric": "drift", "baseline": baseline, "method": method, "gnss": gnss, "ratio": ratio,
+            "ci": [lo, hi], "significant": not lo <= 1.0 <= hi}
+
+
+def test_paired_figure_ticks_label_the_whole_ci_range(keep_experiment_figures, tmp_path, recwarn):
+    """Every panel carries plain-number ticks from below its lowest CI bound to above its highest (the demo's
+    figure had a single tick "1" on one panel and none above 1 on the other, with CIs up to 1.6)."""
+    from imunoise.experiments.plots import paired_figure
+
+    entries = [_paired("plain", "gmwm", "rtk", 0.61, 0.88, 1.25), _paired("plain", "em", "rtk", 0.66, 1.03, 1.61),
+               _paired("plain", "gmwm", "noise", 0.33, 0.55, 0.91),
+               _paired("static_var", "gmwm", "rtk", 0.97, 1.02, 1.06),
+               _paired("static_var", "em", "noise", 0.99, 1.30, 1.71),
+               _paired("static_var", "gmwm", "noise", 0.94, 0.99, 1.05)]
+    paired_figure(entries, tmp_path / "paired.png")
+    fig = keep_experiment_figures[0]
+    fig.canvas.draw()
+    panels = [ax for ax in fig.axes if ax.get_xscale() == "log"]
+    assert len(panels) == 2
+    for ax, base in zip(panels, ("plain", "static_var"), strict=True):
+        cis = [e["ci"] for e in entries if e["baseline"] == base]
+        lo, hi = min(c[0] for c in cis), max(c[1] for c in cis)
+        x0, x1 = ax.get_xlim()
+        ticks = [v for v in ax.get_xticks() if x0 <= v <= x1]
+        labels = [t.get_text() for t in ax.get_xticklabels() if x0 <= t.get_position()[0] <= x1]
+        assert len(ticks) >= 3 and 1.0 in ticks, (base, ticks)
+        assert ticks[0] <= lo and ticks[-1] >= hi, (base, ticks, lo, hi)  # labelled ticks enclose every CI
+        assert sum(v > 1.0 for v in ticks) >= 1 and sum(v < 1.0 for v in ticks) >= 1
+        assert labels == [f"{v:g}" for v in ticks], labels
+        assert x0 <= lo and x1 >= hi
+    assert not [w for w in recwarn.list if "matplotlib" in w.filename or "Legend" in str(w.message)]
+
+
+def test_ratio_ticks_enclose_the_range_with_few_plain_numbers():
+    from imunoise.experiments.plots import ratio_ticks
+
+    assert ratio_ticks(0.33, 1.61) == [0.3, 0.5, 0.7, 1.0, 1.5, 2.0]
+    assert ratio_ticks(0.94, 1.06) == [0.94, 0.96, 0.98, 1.0, 1.02, 1.04, 1.06]
+    assert ratio_ticks(1.0, 1.0) == [0.98, 1.0, 1.02]  # a CI of zero width still gets a scale
+    for lo, hi in ((0.59, 1.26), (0.2, 0.9), (1.1, 4.0), (0.02, 50.0), (0.999, 1.0005)):
+        t = ratio_ticks(lo, hi)
+        assert t[0] <= min(lo, 1.0) and t[-1] >= max(hi, 1.0) and 1.0 in t and len(t) <= 11, (lo, hi, t)
+
+
+def _scenario_and_runs(with_outage_runs: bool):
+    from types import SimpleNamespace
+
+    t0 = 1000.0
+    windows = [(1100.0, 60.0), (1300.0, 60.0)]
+    t = np.arange(t0, t0 + 500.0, 1.0)
+    sc = SimpleNamespace(init=SimpleNamespace(t=t0), windows=windows)
+    full = SimpleNamespace(t=t, ecef=0.01 * np.ones((t.size, 3)), horizontal=0.02 * np.ones(t.size))
+    obj = {"_err": full}
+    if with_outage_runs:
+        obj["_runs"] = [(w, None, SimpleNamespace(t=t, horizontal=1.0 + np.maximum(t - w[0], 0.0))) for w in windows]
+    return sc, {"plain": obj, "gmwm": dict(obj)}
+
+
+def test_error_figure_shades_outages_only_on_the_outage_panel(keep_experiment_figures, tmp_path, recwarn):
+    from imunoise.experiments.plots import error_figure
+
+    sc, objects = _scenario_and_runs(with_outage_runs=True)
+    error_figure(sc, objects, tmp_path / "errors.png", ["plain", "gmwm"])
+    axs = keep_experiment_figures[0].axes
+    outage, full_gnss = axs[0], axs[1:4]
+    assert len(outage.patches) == len(sc.windows)
+    spans = sorted((p.get_x(), p.get_x() + p.get_width()) for p in outage.patches)
+    assert spans == [(100.0, 160.0), (300.0, 360.0)]
+    assert [len(ax.patches) for ax in full_gnss] == [0, 0, 0]  # GNSS was there throughout those runs
+    assert outage.get_legend() is not None
+    assert not recwarn.list, [str(w.message) for w in recwarn.list]
+
+
+def test_figures_without_labelled_curves_warn_nothing(keep_experiment_figures, tmp_path):
+    """A run with no outage runs (or no model updates) has nothing to put in a legend: no legend is asked
+    for, so matplotlib's "No artists with labels found to put in legend" does not reach stderr."""
+    import warnings
+    from types import SimpleNamespace
+
+    from imunoise.experiments.plots import error_figure, timeline_figure
+
+    sc, objects = _scenario_and_runs(with_outage_runs=False)
+    empty = SimpleNamespace(segments=[], gate_open=np.zeros(0, bool), sample_t=np.zeros(0), updates=[])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        error_figure(sc, objects, tmp_path / "errors.png", ["plain", "gmwm"])
+        timeline_figure(empty, tmp_path / "timeline.png", 1000.0)
+    assert keep_experiment_figures[0].axes[0].get_legend() is None
+
+
+def test_timeline_compute_time_labels_do_not_overlap_in_the_saved_figure(keep_experiment_figures, tmp_path):
+    """Labels measured on the final layout (legend outside included) and as many rows as they need: the
+    saved figure has no two labels over each other, each under its own point and inside the axes."""
+    from types import SimpleNamespace
+
+    from imunoise.experiments.plots import timeline_figure
+
+    t0 = 243263.0
+    stops = [(t0 + 5, t0 + 30), (t0 + 200, t0 + 212), (t0 + 215, t0 + 221), (t0 + 224, t0 + 231)]
+    updates = [SimpleNamespace(kind="identify", t_stop=t0 + 30, t_effect=t0 + 30.5, elapsed_s=[0.9] * 6)]
+    updates += [SimpleNamespace(kind="refit", t_stop=t0 + 33 + 2 * k, t_effect=t0 + 33.2 + 2 * k,
+                                elapsed_s=[0.0123] * 6) for k in range(7)]  # seven refits within 14 s
+    updates += [SimpleNamespace(kind="refit", t_stop=t1, t_effect=t1 + 0.1, elapsed_s=[0.05] * 6) for _, t1 in stops]
+    full = SimpleNamespace(segments=[SimpleNamespace(t0=a, t1=b) for a, b in stops],
+                           gate_open=np.zeros(0, bool), sample_t=np.zeros(0), updates=updates)
+    timeline_figure(full, tmp_path / "timeline.png", t0)
+    fig = keep_experiment_figures[0]
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    labels = [t for t in ax.texts if t.get_text()]  # the arrows are empty annotations
+    boxes = [t.get_window_extent(r) for t in labels]
+    assert len(boxes) == len(updates)
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            assert not boxes[i].overlaps(boxes[j]), (labels[i].get_text(), labels[j].get_text())
+    frame = ax.get_window_extent(r)
+    assert all(frame.y0 <= b.y0 and b.y1 <= frame.y1 for b in boxes)  # none clipped below the axes
+    assert sorted(t.get_position()[0] for t in labels) == pytest.approx(sorted(u.t_effect - t0 for u in updates))

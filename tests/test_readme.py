@@ -1,232 +1,61 @@
-"""Every fenced example of README.md runs as written (issue "Trustworthy outputs", acceptance 3).
+"""Every example of README.md runs as written (how: tests/doc_examples.py), and the slow tier of README and guide.
 
-The README's fenced blocks are collected in order: ```` ```bash ````, ```` ``` ```` (plain, shell) and
-```` ```python ````. Shell blocks run in ``bash -e`` from a scratch copy of the repository root (``data/`` is
-linked, ``scripts/`` and ``../shared/data`` too when present), with ``imunoise`` and ``python`` on PATH resolving to the
-interpreter running the tests; Python blocks run as scripts with that interpreter. Blocks run in README
-order, so a later example may use what an earlier one wrote (``out/gyro.csv``, ``sim/d1``, …), as a reader
-following the README would.
-
-An HTML comment right before a block changes how it is run:
-
-* ``<!-- readme-test: skip REASON -->``: not run; reported as a skipped test with the reason.
-* ``<!-- readme-test: slow REASON -->``: run by :func:`test_readme_slow_examples` (marked slow).
-* ``<!-- readme-test: needs-shared -->``: needs ``../shared/data``; run by :func:`test_readme_shared_examples`
-  (marked slow), which skips when the folder is absent.
-* ``<!-- readme-test: inputs NAME... (why) -->``: the block reads a recording of the user's own; the test
-  writes a simulated static recording under that name first (:func:`_make_inputs`, known names only).
+The README's tour repeats examples of the user guide word for word; such a block runs once, in
+test_guide_examples.py, in the guide's order (which keeps what it reads from the examples before it). A README
+block that is not in the guide runs here. The slow-tagged blocks of both run here, so that the guide's fast
+examples and the slow tier spread over two workers.
 """
 
 from __future__ import annotations
 
-import os
 import re
-import shutil
-import subprocess
-import sys
-import time
-from dataclasses import dataclass
-from pathlib import Path
 
-import numpy as np
 import pytest
 
-from conftest import REPO, SHARED_DATA
+from conftest import REPO
+from doc_examples import TEST_TIMEOUT_S, guide_blocks, parse_markdown, parse_rst, run_all
 
 README = REPO / "README.md"
-SHELL_LANGS = {"", "bash", "sh", "shell", "console"}
-TAG = re.compile(r"^<!--\s*readme-test:\s*(skip|slow|needs-shared|inputs)\b\s*(.*?)\s*-->\s*$")
-FENCE = re.compile(r"^```\s*([A-Za-z0-9_+-]*)\s*$")
-TIMEOUT_S = 600
+BLOCKS = parse_markdown(README.read_text(encoding="utf-8"))
+GUIDE_FAST = [b for b in guide_blocks() if b.tag == ""]
 
 
-@dataclass(frozen=True)
-class Block:
-    line: int  # 1-based line of the opening fence
-    lang: str  # "shell" or "python"
-    code: str
-    tag: str  # "", "skip", "slow", "needs-shared", "inputs"
-    note: str  # reason / input names
-
-    @property
-    def label(self) -> str:
-        first = next((ln for ln in self.code.splitlines() if ln.strip() and not ln.startswith("#")), "")
-        return f"README.md:{self.line} ({self.lang}) {first[:70]}"
+def _same(a, b) -> bool:
+    return a.lang == b.lang and a.code.strip() == b.code.strip()
 
 
-def parse_readme(text: str) -> list[Block]:
-    """The fenced shell and Python blocks of ``text`` in order, with the tag of the comment before each."""
-    blocks: list[Block] = []
-    lines = text.splitlines()
-    i = 0
-    pending: tuple[str, str] | None = None
-    while i < len(lines):
-        line = lines[i]
-        tag = TAG.match(line)
-        if tag:
-            pending = (tag.group(1), tag.group(2))
-            i += 1
-            continue
-        fence = FENCE.match(line)
-        if fence:
-            lang = fence.group(1).lower()
-            j = i + 1
-            while j < len(lines) and not lines[j].startswith("```"):
-                j += 1
-            if j == len(lines):
-                raise AssertionError(f"README.md:{i + 1}: unclosed code fence")
-            code = "\n".join(lines[i + 1 : j]) + "\n"
-            kind = "shell" if lang in SHELL_LANGS else "python" if lang == "python" else None
-            if kind is not None:
-                t, note = pending or ("", "")
-                blocks.append(Block(i + 1, kind, code, t, note))
-            elif pending is not None:
-                raise AssertionError(f"README.md:{i + 1}: readme-test tag before a ```{lang} block")
-            pending = None
-            i = j + 1
-            continue
-        if line.strip() and pending is not None:
-            raise AssertionError(f"README.md:{i + 1}: a readme-test tag must come right before a code fence")
-        i += 1
-    return blocks
-
-
-BLOCKS = parse_readme(README.read_text(encoding="utf-8"))
-
-
-def _workdir(root: Path) -> Path:
-    """A scratch 'repository root': data/ linked, ../shared/data linked when present, wrappers on PATH."""
-    repo = root / "repo"
-    repo.mkdir()
-    (repo / "data").symlink_to(REPO / "data", target_is_directory=True)
-    (repo / "scripts").symlink_to(REPO / "scripts", target_is_directory=True)  # README runs some scripts
-    if SHARED_DATA.exists():
-        (root / "shared").mkdir()
-        (root / "shared" / "data").symlink_to(SHARED_DATA, target_is_directory=True)
-    bindir = root / "bin"
-    bindir.mkdir()
-    for name, body in (("imunoise", f'exec "{sys.executable}" -m imunoise "$@"'),
-                       ("python", f'exec "{sys.executable}" "$@"')):
-        p = bindir / name
-        p.write_text(f"#!/bin/sh\n{body}\n")
-        p.chmod(0o755)
-    return repo
-
-
-def _env(repo: Path) -> dict:
-    env = dict(os.environ)
-    env["PATH"] = f"{repo.parent / 'bin'}{os.pathsep}{env.get('PATH', '')}"
-    src = str(REPO / "src")
-    env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-    env["MPLBACKEND"] = "Agg"
-    return env
-
-
-def _static_imu(n: int, freq: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Simulated static IMU rates (gyro rad/s, accel m/s² with gravity on z): WN + RW per axis."""
-    from imunoise.model import Model
-
-    g = Model.parse("WN+RW").with_params({"WN.sigma2": (1.7e-4) ** 2 * freq, "RW.gamma2": (1.9e-5) ** 2 / freq})
-    a = Model.parse("WN+RW").with_params({"WN.sigma2": (2e-3) ** 2 * freq, "RW.gamma2": (3e-4) ** 2 / freq})
-    gyro = np.column_stack([g.simulate(n, seed=seed + k) for k in range(3)])
-    accel = np.column_stack([a.simulate(n, seed=seed + 3 + k) for k in range(3)]) + [0.0, 0.0, 9.81]
-    return gyro, accel
-
-
-def _write_log(path: Path, n: int, seed: int) -> None:
-    """CSV with a ns time stamp, gyro in deg/s and accel in g (the README's log.csv layout), 200 Hz."""
-    gyro, accel = _static_imu(n, 200.0, seed)
-    stamp = 1_700_000_000_000_000_000 + np.arange(n, dtype=np.int64) * 5_000_000
-    with path.open("w") as fh:
-        fh.write("stamp,gx,gy,gz,ax,ay,az\n")
-        for k in range(n):
-            g, a = np.degrees(gyro[k]), accel[k] / 9.80665
-            fh.write(f"{stamp[k]},{g[0]:.9e},{g[1]:.9e},{g[2]:.9e},{a[0]:.9e},{a[1]:.9e},{a[2]:.9e}\n")
-
-
-def _make_inputs(names: list[str], repo: Path) -> None:
-    """Write the placeholder recordings a tagged block names (simulated static data, 200 Hz)."""
-    from imunoise.io.rosbag import write_imu_bag
-
-    for name in names:
-        if name == "static_imu.mcap":
-            n = 2**15
-            gyro, accel = _static_imu(n, 200.0, seed=10)
-            tmp = repo.parent / "bagtmp"
-            written = write_imu_bag(tmp / "static_imu.mcap", 1.7e9 + np.arange(n) / 200.0, gyro, accel,
-                                    topic="/imu0", frame_id="imu")
-            shutil.move(str(written), repo / "static_imu.mcap")
-        elif name == "log.csv":
-            _write_log(repo / "log.csv", 2**14, seed=20)
-        elif name == "logs/*.csv":
-            (repo / "logs").mkdir(exist_ok=True)
-            for k in range(3):
-                _write_log(repo / "logs" / f"drive{k + 1}.csv", 2**13, seed=30 + 10 * k)
-        else:
-            raise AssertionError(f"the README test does not know how to write the input {name!r}")
-
-
-def _input_names(note: str) -> list[str]:
-    return [w for w in note.split("(")[0].split() if w]
-
-
-def _run_block(block: Block, repo: Path) -> tuple[float, str | None]:
-    """Run one block in ``repo``; (seconds, None) or (seconds, failure text)."""
-    if block.tag == "inputs":
-        _make_inputs(_input_names(block.note), repo)
-    if block.lang == "shell":
-        cmd = ["bash", "-e", "-o", "pipefail", "-c", block.code]
-    else:
-        script = repo.parent / f"readme_{block.line}.py"
-        script.write_text(block.code)
-        cmd = [sys.executable, str(script)]
-    t0 = time.perf_counter()
-    try:
-        proc = subprocess.run(cmd, cwd=repo, env=_env(repo), capture_output=True, text=True, timeout=TIMEOUT_S)
-    except subprocess.TimeoutExpired:
-        return time.perf_counter() - t0, f"{block.label}: timed out after {TIMEOUT_S} s"
-    dt = time.perf_counter() - t0
-    if proc.returncode != 0:
-        tail = "\n".join((proc.stdout + proc.stderr).strip().splitlines()[-15:])
-        return dt, f"{block.label}: exit {proc.returncode}\n{tail}"
-    return dt, None
-
-
-def _run_all(blocks: list[Block], root: Path) -> None:
-    assert blocks, "no README blocks of this kind: the tags changed?"
-    repo = _workdir(root)
-    failures, times = [], []
-    for b in blocks:
-        dt, err = _run_block(b, repo)
-        times.append(f"{dt:6.1f} s  {b.label}")
-        if err:
-            failures.append(err)
-    print("\n".join(times))
-    assert not failures, "README examples failed:\n\n" + "\n\n".join(failures)
-
-
-def test_readme_examples(tmp_path):
-    """The untagged and 'inputs' blocks, in README order, in one scratch repository root."""
-    _run_all([b for b in BLOCKS if b.tag in ("", "inputs")], tmp_path)
+@pytest.mark.timeout(TEST_TIMEOUT_S)
+def test_readme_examples_run_here_or_in_the_guide(tmp_path):
+    """README blocks found word for word among the guide's run there, in the README's order; the rest run here."""
+    fast = [b for b in BLOCKS if b.tag == ""]
+    assert fast, "the README has no example: the tags changed?"
+    pos = [next((k for k, g in enumerate(GUIDE_FAST) if _same(b, g)), None) for b in fast]
+    shared = [p for p in pos if p is not None]
+    assert shared == sorted(shared), "README examples shared with the guide must keep the guide's order"
+    own = [b for b, p in zip(fast, pos, strict=True) if p is None]
+    if own:
+        run_all(own, tmp_path)
 
 
 @pytest.mark.slow
-def test_readme_slow_examples(tmp_path):
-    """Blocks tagged slow (each replays the real drive several times)."""
-    _run_all([b for b in BLOCKS if b.tag == "slow"], tmp_path)
+@pytest.mark.timeout(TEST_TIMEOUT_S)
+def test_slow_examples(tmp_path):
+    """Blocks tagged slow in the README and the guide (each replays the real drive several times)."""
+    run_all([b for b in BLOCKS + guide_blocks() if b.tag == "slow"], tmp_path)
 
 
-@pytest.mark.slow
-def test_readme_shared_examples(tmp_path, shared_data):
-    """Blocks tagged needs-shared: they read ../shared/data (skipped when it is absent)."""
-    shared_data()  # skips with the reason when ../shared/data is missing
-    _run_all([b for b in BLOCKS if b.tag == "needs-shared"], tmp_path)
-
-
-@pytest.mark.parametrize("block", [b for b in BLOCKS if b.tag == "skip"], ids=lambda b: f"line{b.line}")
+@pytest.mark.parametrize("block", [b for b in BLOCKS if b.tag in ("skip", "template")], ids=lambda b: f"line{b.line}")
 def test_readme_skipped_blocks_are_reported(block):
-    assert block.note, f"{block.label}: a skip tag needs a reason"
-    pytest.skip(f"{block.label}: {block.note}")
+    assert block.note, f"{block.label}: a skip tag or a template line needs a reason"
+    pytest.skip(f"{block.label}: {block.tag}: {block.note}")
+
+
+def test_readme_is_a_front_door():
+    """At most 250 lines, and it starts with exactly the two commands a newcomer runs."""
+    lines = README.read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= 250, f"README.md has {len(lines)} lines: move the detail to the guide (docs/guide)"
+    first = [b for b in BLOCKS][0]
+    assert first.code == "make demo\nmake test\n" and first.line <= 3, first
 
 
 def test_every_command_example_is_fenced():
@@ -239,17 +68,30 @@ def test_every_command_example_is_fenced():
             raise AssertionError(f"README.md:{k}: command outside a fenced block: {line.strip()}")
 
 
-def test_parser_reads_tags_and_languages():
+def test_parser_reads_tags_languages_and_templates():
     text = (
         "x\n<!-- readme-test: slow takes long -->\n```bash\nimunoise a\n```\n\n```python\nprint(1)\n```\n"
-        "```yaml\nk: v\n```\n<!-- readme-test: inputs log.csv (your log) -->\n```\nimunoise b \\\n  c\n```\n"
+        "```yaml\nk: v\n```\n```\n# template: your log.csv\nimunoise b \\\n  c\n```\n"
     )
-    got = parse_readme(text)
-    assert [(b.line, b.lang, b.tag) for b in got] == [(3, "shell", "slow"), (7, "python", ""), (14, "shell", "inputs")]
-    assert got[0].note == "takes long" and _input_names(got[2].note) == ["log.csv"]
-    assert got[2].code == "imunoise b \\\n  c\n"
+    got = parse_markdown(text)
+    want = [(3, "shell", "slow"), (7, "python", ""), (13, "shell", "template")]
+    assert [(b.line, b.lang, b.tag) for b in got] == want
+    assert got[0].note == "takes long" and got[2].note == "your log.csv"
+    assert got[2].code == "# template: your log.csv\nimunoise b \\\n  c\n"
     with pytest.raises(AssertionError, match="right before"):
-        parse_readme("<!-- readme-test: skip x -->\ntext\n```bash\nimunoise\n```\n")
+        parse_markdown("<!-- readme-test: skip x -->\ntext\n```bash\nimunoise\n```\n")
+    rst = (
+        "Title\n=====\n\n.. readme-test: skip ten minutes\n\n.. code-block:: bash\n\n   imunoise a \\\n"
+        "       --b\n\n   imunoise c\n\ntext\n\n.. code-block:: python\n   :caption: x\n\n   print(1)\n\n"
+        ".. code-block:: yaml\n\n   k: v\n"
+    )
+    got = parse_rst(rst, "p.rst")
+    assert [(b.line, b.lang, b.tag) for b in got] == [(6, "shell", "skip"), (15, "python", "")]
+    assert got[0].code == "imunoise a \\\n    --b\n\nimunoise c\n" and got[1].code == "print(1)\n"
+    with pytest.raises(AssertionError, match="literal block"):
+        parse_rst("Run this::\n\n   imunoise a\n", "p.rst")
+    with pytest.raises(AssertionError, match="start of a line"):
+        parse_rst("- item\n\n  .. code-block:: bash\n\n     imunoise a\n", "p.rst")
 
 
 # -- the fixes the README examples needed ------------------------------------------------------------------

@@ -18,7 +18,7 @@ from imunoise.experiments.common import METHOD_LABELS  # noqa: E402
 from imunoise.imu import AXES  # noqa: E402
 
 __all__ = ["detection_figure", "trajectory_figure", "error_figure", "timeline_figure", "wv_figures",
-           "av_figures", "mc_figure", "paired_figure"]
+           "av_figures", "mc_figure", "paired_figure", "ratio_ticks"]
 
 _COLORS = {"plain": "tab:gray", "plain_zupt": "tab:brown", "av": "tab:orange", "em": "tab:purple",
            "gmwm": "tab:blue", "gmwm_wvic": "tab:cyan", "gmwm_raw": "tab:olive", "gmwm_zupt": "tab:green",
@@ -121,13 +121,16 @@ def error_figure(sc: Any, objects: dict[str, dict], path: Path, methods: Sequenc
             for i, lab in enumerate("XYZ"):
                 axs[1 + i].plot(e.t - t0, e.ecef[:, i], color=_color(name), lw=0.7)
                 axs[1 + i].set_ylabel(f"ECEF {lab} error [m]")
-    for s, d in sc.windows:
-        for ax in axs:
-            ax.axvspan(s - t0, s + d - t0, color="gold", alpha=0.15)
+    for s, d in sc.windows:  # only the outage panel: the full-GNSS runs below had GNSS throughout
+        axs[0].axvspan(s - t0, s + d - t0, color="gold", alpha=0.15)
     axs[0].set_ylabel("horizontal error in outages [m]")
     # above the panel: inside, it covered the drift curves of the later windows
-    axs[0].legend(fontsize=7, ncol=3, loc="lower left", bbox_to_anchor=(0.0, 1.02), borderaxespad=0.0,
-                  frameon=False)
+    if axs[0].get_legend_handles_labels()[0]:
+        axs[0].legend(fontsize=7, ncol=3, loc="lower left", bbox_to_anchor=(0.0, 1.02), borderaxespad=0.0,
+                      frameon=False)
+    else:
+        axs[0].text(0.5, 0.5, "no outage runs", transform=axs[0].transAxes, ha="center", va="center",
+                    color="0.4")
     axs[1].set_title("full GNSS: position residuals (ECEF)", fontsize=9)
     axs[-1].set_xlabel(f"time since start {t0:.1f} s [s]")
     for ax in axs:
@@ -162,11 +165,12 @@ def timeline_figure(full: Any, path: Path, t0: float) -> Path:
         marks.append((u.t_effect - t0, f"{sum(u.elapsed_s):.2g} s"))
     ax.set_yticks([0, 1, 2], ["model", "gate", "static"])
     ax.set_ylim(-1.0, 2.5)
-    _stagger_labels(ax, marks, rows=(-0.38, -0.62, -0.86))
     ax.set_xlabel(f"time since {t0:.1f} s [s]")
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
     ax.grid(alpha=0.3, axis="x")
     ax.set_title("online timeline: stops → modelling → model in the filter (labels: compute time)")
+    _stagger_labels(ax, marks, rows=(-0.38, -0.62, -0.86))  # last: measured on the final layout
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -175,22 +179,45 @@ def timeline_figure(full: Any, path: Path, t0: float) -> Path:
 def _stagger_labels(ax, marks: Sequence[tuple[float, str]], rows: Sequence[float], fontsize: int = 7) -> None:
     """Text labels under points at x, each on the first row where it does not touch its left neighbour.
 
-    Widths are measured in display pixels (after the x limits are fixed), so labels of model updates a
-    few seconds apart on a 10 min axis no longer print over each other.
+    Widths are measured in display pixels on the figure's final layout (the layout engine runs first and is
+    then frozen, so saving does not shrink the axes under the labels). When every row is taken, a row is
+    added below at the same spacing and the y range grows to hold it: labels never print over each other.
     """
     if not marks:
         return
     fig = ax.figure
     ax.set_xlim(*ax.get_xlim())  # freeze autoscaling before measuring
+    fig.canvas.draw()  # the layout engine places the axes (legend and titles included)
+    if fig.get_layout_engine() is not None:
+        fig.set_layout_engine("none")  # keep that placement when saving
     renderer = fig.canvas.get_renderer()
+    rows = list(rows)
+    step = rows[1] - rows[0] if len(rows) > 1 else -0.24
+    pad = 8.0  # px between neighbours on a row, so "0.07 s" and "0.07 s" read as two labels
     right = [-np.inf] * len(rows)  # right edge (px) of the last label on each row
+    placed, height = [], 0.0
     for x, text in sorted(marks):
         t = ax.text(x, rows[0], text, fontsize=fontsize, ha="center", va="center")
         bb = t.get_window_extent(renderer)
-        pad = 3.0
-        row = next((i for i, r in enumerate(right) if bb.x0 - pad > r), int(np.argmin(right)))
-        t.set_y(rows[row])
+        height = max(height, bb.height)
+        row = next((i for i, r in enumerate(right) if bb.x0 - pad > r), None)
+        if row is None:
+            rows.append(rows[-1] + step)
+            right.append(-np.inf)
+            row = len(rows) - 1
+        placed.append((t, row))
         right[row] = bb.x1
+    lo, hi = ax.get_ylim()
+    new_lo = min(lo, rows[-1] + 0.75 * step)
+    if new_lo < lo:
+        ax.set_ylim(new_lo, hi)
+        # rows stay a text height apart in pixels: a taller figure (the layout is frozen, widths unchanged)
+        need = (height + 2.0) * (hi - new_lo) / abs(step)
+        have = ax.get_window_extent(renderer).height
+        if have < need:
+            fig.set_figheight(fig.get_figheight() * need / have)
+    for t, row in placed:
+        t.set_y(rows[row])
 
 
 def wv_figures(fits: Sequence[Any], folder: Path, stem: str = "wv") -> list[Path]:
@@ -261,6 +288,31 @@ def mc_figure(results: dict, path: Path, methods: Sequence[str]) -> Path:
     return path
 
 
+# tick ladders for ratios on a log axis, densest first: plain numbers a reader can read off
+_RATIO_LADDERS = (
+    tuple(np.round(np.arange(0.80, 1.2501, 0.02), 2)),
+    tuple(np.round(np.arange(0.50, 2.0001, 0.05), 2)),
+    (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0),
+    (0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0, 5.0, 7.0, 10.0, 20.0),
+    tuple(float(m * 10.0**k) for k in range(-4, 4) for m in (1, 2, 5)),
+)
+
+
+def ratio_ticks(lo: float, hi: float, max_ticks: int = 9) -> list[float]:
+    """Ticks for ratios in [lo, hi] on a log axis: the densest ladder of plain numbers that holds 1, a tick at or
+    below ``lo`` and one at or above ``hi``, with at most ``max_ticks`` ticks (the coarsest ladder otherwise)."""
+    lo, hi = min(lo, 0.99), max(hi, 1.01)
+    for ladder in _RATIO_LADDERS:
+        below = [v for v in ladder if v <= lo * (1 + 1e-9)]
+        above = [v for v in ladder if v >= hi * (1 - 1e-9)]
+        if not below or not above:
+            continue
+        ticks = [float(v) for v in ladder if below[-1] <= v <= above[0]]
+        if len(ticks) <= max_ticks or ladder is _RATIO_LADDERS[-1]:
+            return ticks
+    return [10.0 ** np.floor(np.log10(lo)), 1.0, 10.0 ** np.ceil(np.log10(hi))]  # beyond 1e-4 … 1e3
+
+
 def paired_figure(paired: Sequence[dict], path: Path, *, metric: str = "drift",
                   baselines: Sequence[str] = ("plain", "static_var")) -> Path:
     """Forest plot of the paired ratios (:func:`imunoise.experiments.dense.paired_list`): one panel per
@@ -287,10 +339,15 @@ def paired_figure(paired: Sequence[dict], path: Path, *, metric: str = "drift",
                     mfc=c if e.get("significant") else "white")
         ax.axvline(1.0, color="k", lw=0.8)
         ax.set_xscale("log")
-        # plain numbers on the log axis (0.5, 0.7, 1, 1.5 …), not powers of ten
+        spans = [v for e in by.values() for v in e["ci"] if np.isfinite(v) and v > 0]
+        ticks = ratio_ticks(min(spans, default=1.0), max(spans, default=1.0))
+        # plain numbers (0.5, 0.7, 1, 1.5 …) from a tick below the lowest bound to one above the highest,
+        # so every CI lies inside labelled ticks; matplotlib's log locator labels only powers of ten
+        ax.xaxis.set_major_locator(matplotlib.ticker.FixedLocator(ticks))
         ax.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _p: f"{v:g}"))
-        ax.xaxis.set_minor_formatter(matplotlib.ticker.FuncFormatter(
-            lambda v, _p: f"{v:g}" if f"{v:g}"[-1] in "2468" or f"{v:.2g}".endswith("5") else ""))
+        ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+        ax.set_xlim(ticks[0] / 1.03, ticks[-1] * 1.03)
+        ax.tick_params(axis="x", labelsize=8)
         ax.set_xlabel(f"end-{metric} ratio vs {base} (geometric mean, 95 % CI)")
         ax.set_title(f"vs {base}  (< 1: less {metric})", fontsize=10)
         ax.grid(True, which="both", axis="x", alpha=0.3)

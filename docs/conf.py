@@ -1,6 +1,8 @@
-"""Sphinx configuration of the imunoise API reference (``make docs``; built by tests/test_docs.py too).
+"""Sphinx configuration of the imunoise documentation (``make docs``; built by tests/test_docs.py too).
 
-The reference is generated from the numpydoc docstrings (autodoc + napoleon); warnings are errors (``-W``).
+Two parts: the user guide (``guide/``, reStructuredText, its examples run by tests/test_guide_examples.py) and
+the API reference (``api/``), generated from the numpydoc docstrings (autodoc + napoleon). Warnings are errors
+(``-W``).
 The build needs no network: the HTML refers to MathJax by URL only for rendering the equations.
 """
 
@@ -13,7 +15,7 @@ from docutils import nodes
 from sphinx.util.docutils import SphinxDirective
 
 HERE = Path(__file__).resolve().parent
-SRC = HERE.parents[1] / "src"
+SRC = HERE.parent / "src"
 if str(SRC) not in sys.path:  # the checkout's code, also when imunoise is not installed (editable installs agree)
     sys.path.insert(0, str(SRC))
 
@@ -25,7 +27,7 @@ copyright = "imunoise contributors, BSD-3-Clause"
 release = version = imunoise.__version__
 
 extensions = ["sphinx.ext.autodoc", "sphinx.ext.napoleon", "sphinx.ext.mathjax"]
-exclude_patterns = ["_build"]
+exclude_patterns = ["_build", "acceptance", "img"]  # Markdown records and figures, not pages
 html_theme = "alabaster"
 html_static_path: list[str] = []
 
