@@ -71,6 +71,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="online methods: fixed delay [s] from a stop's end to its model in the filter, so a run "
                         "repeats to the bit (default: the measured compute time, as the paper; the hot-swap "
                         "moment then follows the machine's load)")
+    p.add_argument("--seed-role", choices=("dev", "report"), default="dev",
+                   help="what the seeds are for, recorded in results.json and named in the report: dev "
+                   "(development, default) or report (fresh seeds, run once per method version)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=run)
 
@@ -154,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
             res = online_exp.run_sim(seeds, methods=methods, workers=args.workers, progress=step, base=args.base,
                                      **kw)
         bar.close()
+        res["seed_role"] = args.seed_role
         html = write_sim(res, out, title=f"imunoise: {args.which} experiment, Monte Carlo ({len(seeds)} seeds)")
     else:
         data = args.data or str(repo_data_dir())
@@ -162,6 +166,7 @@ def run(args: argparse.Namespace) -> int:
         if args.which == "denial":
             res, sc = denial.run_real(data, methods=methods, start=args.start, progress=step)
             bar.close()
+            res["seed_role"] = args.seed_role
             html = write_denial_real(res, sc, out)
         else:
             windows = None
@@ -172,6 +177,7 @@ def run(args: argparse.Namespace) -> int:
             res, sc = online_exp.run_real(data, methods=methods, workers=args.workers, start=args.start, progress=step,
                                           windows=windows, base=args.base)
             bar.close()
+            res["seed_role"] = args.seed_role
             html = write_online_real(res, sc, out)
     print_headline(headline_rows(res), fmt)
     print(f"\nreport: {html.resolve()}  ({time.perf_counter() - t0:.1f} s)")
@@ -263,6 +269,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
     bar.close()
     res["elapsed_s"] = time.perf_counter() - t0
     res["latency_s"] = args.latency  # None: each model took effect after its measured compute time
+    res["seed_role"] = args.seed_role
     html = write_evidence(res, out, title=title)
     rows = paired_rows(res)
     heads = ["GNSS", "method", "baseline", "metric", "ratio", "95 % CI", "n_win", "n_ind", "n_drv", "verdict"]
