@@ -59,10 +59,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="simulator: IMU error models: preset (paper, mems, tactical), structure, or model JSON "
                    "(imunoise.sim.resolve_imu_models; default: paper = gyros of paper Table 4 and mems "
                    "accelerometers, 3*AR1+WN+RW per axis)")
-    p.add_argument("--motion-noise", default=None, metavar="PRESET|none",
+    p.add_argument("--motion-noise", default=None, metavar="LAW|FILE.json",
                    help="simulator: motion law of the IMU errors (imunoise.sim.motion): drive0708 (default: white "
-                   "noise and gyro y/z bias wander grow while moving, calibrated on the real drive) or none "
-                   "(moving = static, the paper's premise)")
+                   "noise and gyro y/z bias wander grow while moving, calibrated on the real drive), none "
+                   "(moving = static, the paper's premise), another shipped law (gyro_departure_step, "
+                   "gyro_moving_gm, accel_moving_gm, warmup) or a law file FILE.json")
     p.add_argument("--static-hours", type=float, default=2.0, help="denial --sim: static recording [h] (default 2)")
     p.add_argument("--methods", help="comma-separated subset of the methods")
     p.add_argument("--start", type=float, help="real data: navigation start [s, data time base]")
@@ -204,9 +205,9 @@ def _motion_arg(args: argparse.Namespace) -> str | None:
         if args.motion_noise is not None:
             raise ModelError("--motion-noise belongs to the simulator (--sim); real data have their own motion")
         return None
-    from imunoise.sim.motion import DEFAULT_MOTION, resolve_motion
+    from imunoise.sim.motion import DEFAULT_MOTION, motion_arg
 
-    return resolve_motion(args.motion_noise or DEFAULT_MOTION).name
+    return motion_arg(args.motion_noise or DEFAULT_MOTION)
 
 
 def print_headline(rows, fmt) -> None:

@@ -478,14 +478,23 @@ def simulate_drive(
     models = resolve_imu_models(imu_models, cfg.imu_rate_hz)
     law = None if cfg.motion_noise is None else resolve_motion(cfg.motion_noise)
     moving_models = dict(models)
-    if law is None or law.is_static:
+    if law is None or not law.modulates:
         err = simulate_model_errors(models, n, ss_imu)
     else:
         # body turn rate = norm of the Euler-angle rates: zero at rest, unlike ω_ib (Earth rate)
         turn = np.sqrt(kin.yaw_rate**2 + kin.pitch_rate**2 + kin.roll_rate**2)[at]
-        m_white, m_bias = law.multipliers(spd[at], turn, static_mask)
+        # ‖f − g‖, the vehicle's acceleration: ‖dv_n/dt‖ (Coriolis and transport rate < 0.01 m/s² in a car)
+        acc = np.linalg.norm(np.gradient(kin.vel, tau, axis=0), axis=1)[at]
+        m_white, m_bias = law.multipliers(spd[at], turn, static_mask, accel=acc)
         err = modulated_errors(models, n, ss_imu, m_white, m_bias)
-        moving_models = oracle_models(models, law, spd[at][~static_mask], turn[~static_mask])
+        moving_models = oracle_models(models, law, spd[at][~static_mask], turn[~static_mask],
+                                      acc[~static_mask], rate_hz=cfg.imu_rate_hz)
+    if law is not None and law.has_terms:
+        # their own stream (spawn key 4, beside the drive's four): the other draws stay as without the terms
+        err = err + law.additive_errors(t, static_mask, cfg.imu_rate_hz,
+                                        np.random.SeedSequence(seed, spawn_key=(4,)))
+        if not law.modulates:
+            moving_models = oracle_models(models, law, rate_hz=cfg.imu_rate_hz)
     rb = np.random.default_rng(ss_bias)
     bias = np.concatenate([rb.normal(0, cfg.gyro_bias_sigma, 3), rb.normal(0, cfg.accel_bias_sigma, 3)])
     scale = rb.normal(0, cfg.scale_factor_sigma, 6) if cfg.scale_factor_sigma > 0 else np.zeros(6)
