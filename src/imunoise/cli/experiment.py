@@ -64,7 +64,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "noise and gyro y/z bias wander grow while moving, calibrated on the real drive), none "
                    "(moving = static, the paper's premise), another shipped law (gyro_departure_step, "
                    "gyro_moving_gm, accel_moving_gm, warmup) or a law file FILE.json")
-    p.add_argument("--static-hours", type=float, default=2.0, help="denial --sim: static recording [h] (default 2)")
+    p.add_argument("--static-hours", type=float, default=None,
+                   help="denial --sim: static recording [h] (default 2; 1 with --imu-noise)")
+    p.add_argument("--imu-noise", default=None, metavar="FILE.npz",
+                   help="simulator: replay a real static recording (.npz with data, columns, units, freq_hz) as "
+                   "the drives' IMU errors, one non-overlapping stretch per drive, its mean removed "
+                   "(imunoise.sim.replay; other rates than the simulator's are refused)")
     p.add_argument("--methods", help="comma-separated subset of the methods")
     p.add_argument("--start", type=float, help="real data: navigation start [s, data time base]")
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
@@ -138,6 +143,10 @@ def run(args: argparse.Namespace) -> int:
             raise ModelError("--outages dense:..., --gnss and --pairs belong to the online experiment")
         return _run_evidence(args, out, outages, t0)
     methods = select_methods(args.which, args.sim, args.methods)
+    if args.imu_noise:
+        from imunoise.experiments.common import replay_methods
+
+        methods = replay_methods(methods, bool(args.methods))
     if kind == "file" and args.sim:
         raise ModelError("--outages FILE is for real data; the simulator takes a number or dense:L:S")
     if kind == "count" and not args.sim:
@@ -151,9 +160,14 @@ def run(args: argparse.Namespace) -> int:
         if args.imu:
             kw["imu_models"] = args.imu
         kw["motion_noise"] = args.motion_noise
+        static_h = args.static_hours if args.static_hours is not None else (1.0 if args.imu_noise else 2.0)
+        from imunoise.experiments.common import imu_noise_kwargs
+
+        kw.update(imu_noise_kwargs(args.imu_noise, args.seed0, imu=args.imu,
+                                   reserve_s=3600.0 * static_h if args.which == "denial" else 0.0))
         if args.which == "denial":
             res = denial.run_sim(seeds, methods=methods, workers=args.workers,
-                                 static_recording_s=3600.0 * args.static_hours, progress=step, **kw)
+                                 static_recording_s=3600.0 * static_h, progress=step, **kw)
         else:
             res = online_exp.run_sim(seeds, methods=methods, workers=args.workers, progress=step, base=args.base,
                                      **kw)
@@ -202,12 +216,14 @@ def _motion_arg(args: argparse.Namespace) -> str | None:
     """The preset name of ``--motion-noise`` (default :data:`imunoise.sim.motion.DEFAULT_MOTION`) on the
     simulator; checked before any run. Real data have their own motion: the option is refused there."""
     if not args.sim:
-        if args.motion_noise is not None:
-            raise ModelError("--motion-noise belongs to the simulator (--sim); real data have their own motion")
+        if args.motion_noise is not None or args.imu_noise is not None:
+            raise ModelError("--motion-noise and --imu-noise belong to the simulator (--sim); real data have their "
+                             "own motion and noise")
         return None
     from imunoise.sim.motion import DEFAULT_MOTION, motion_arg
 
-    return motion_arg(args.motion_noise or DEFAULT_MOTION)
+    # a replayed recording is used as it is: no law by default
+    return motion_arg(args.motion_noise or ("none" if args.imu_noise else DEFAULT_MOTION))
 
 
 def print_headline(rows, fmt) -> None:
@@ -239,6 +255,10 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
 
     spec = spec if isinstance(spec, dense.DenseSpec) else dense.DenseSpec()
     methods = select_methods("online", args.sim, args.methods, evidence=True)
+    if args.imu_noise:
+        from imunoise.experiments.common import replay_methods
+
+        methods = replay_methods(methods, bool(args.methods))
     regimes = [parse_gnss(g) for g in (args.gnss or ["rtk"])]
     if args.noise_seeds < 1:
         raise ModelError(f"--noise-seeds must be ≥ 1, got {args.noise_seeds}")
@@ -259,6 +279,9 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
         if args.imu:
             scen["imu_models"] = args.imu
         scen["motion_noise"] = args.motion_noise
+        from imunoise.experiments.common import imu_noise_kwargs
+
+        scen.update(imu_noise_kwargs(args.imu_noise, args.seed0, imu=args.imu))
         res = dense.run_sim(seeds, progress=step, **kw, **scen)
         title = f"imunoise: dense-window evidence, {len(seeds)} simulated drives"
     else:

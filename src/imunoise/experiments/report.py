@@ -141,6 +141,23 @@ def seed_role_text(results: dict) -> str:
     return f"Seeds: {role} — {SEED_ROLES.get(role, role)}."
 
 
+def replay_text(scen: dict) -> str:
+    """The sentence on the IMU errors' origin when a real recording is replayed (``--imu-noise``), else ""."""
+    path = scen.get("imu_noise")
+    if not path:
+        return ""
+    from imunoise.sim.replay import load_recording
+
+    rec = load_recording(path)
+    reserve = scen.get("imu_noise_reserve_s") or 0.0
+    return (f"IMU errors: NOT the model above but a real static recording replayed, {path} "
+            f"({rec.n / rec.rate_hz:.0f} s at {rec.rate_hz:g} Hz = the simulator's rate, not resampled; its mean "
+            "over the whole file removed): "
+            f"drive d = seed − {scen.get('imu_noise_first', 0)} uses samples [d·n, (d + 1)·n), no two drives "
+            "overlap, stops show the recording at the stop times"
+            + (f"; the static recording is its last {reserve:.0f} s, which no drive uses." if reserve else "."))
+
+
 def _ci_text(e: dict | None) -> str:
     return "" if e is None else f"[{fmt(e['ci'][0], 3)}, {fmt(e['ci'][1], 3)}]"
 
@@ -344,6 +361,8 @@ def write_sim(results: dict, out: Path, *, title: str) -> Path:
         "windows removed in one run). Values are means over seeds; the differences are paired per seed with "
         "Student-t 95 % confidence intervals."
     )
+    if scen.get("imu_noise"):
+        rep.paragraph(replay_text(scen))
     _headline(rep, results, out, f"means over {n} seeds (m; Δ < 0 better than plain)")
     drows = []
     for name, d in results["differences"].items():
