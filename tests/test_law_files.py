@@ -140,3 +140,26 @@ def test_a_law_file_runs_the_simulator_and_names_itself(tmp_path):
     assert k.size == 3 and np.array_equal(a[: k[0]], a0[: k[0]])  # start + 2 stops; nothing changes before
     assert not np.array_equal(a[k[0]:, 0], a0[k[0]:, 0])
     assert np.array_equal(a[:, 3:], a0[:, 3:])  # accelerometers untouched
+
+
+def test_law_schedule_is_what_the_simulator_injects():
+    from imunoise.sim.law_schedule import warmup_random_walk
+    from imunoise.sim.motion import modulated_errors
+
+    d, _ = _imu("drive0708")
+    s = d.law_schedule
+    n = len(d.imu.t)
+    ss_imu = np.random.SeedSequence(3).spawn(4)[1]
+    again = modulated_errors(d.imu_models, n, ss_imu, np.sqrt(s.white_var_scale), np.sqrt(s.bias_var_scale))
+    np.testing.assert_allclose(again, d.model_errors, rtol=1e-12, atol=1e-18)
+    assert np.array_equal(s.moving, ~d.static_mask) and np.all(s.white_var_scale[d.static_mask] == 1.0)
+    assert s.white_var_scale[:, 3].max() == pytest.approx(49.0)  # (1 + 6)² at cruise
+    assert s.departure_index.size == 3 and not s.step_var.any() and not s.warmup_rw_q.any()
+    cp = s.change_points()
+    assert cp[0] == 0 and set(s.departure_index) <= set(cp)
+    # the warm-up's closest random walk: variance after the drive = the warm-up's squared total change
+    q = warmup_random_walk(np.array([2.0]), 600.0, 300.0)
+    assert q[0] * 300.0 == pytest.approx((2.0 * (1 - math.exp(-0.5))) ** 2)
+    step = _imu("gyro_departure_step")[0].law_schedule
+    assert step.step_var[:3] == pytest.approx([LAWS["gyro_departure_step"].departure_step[0] ** 2] * 3)
+    assert simulate_drive(DriveConfig(seed=1, **SHORT), "paper", seed=1).law_schedule is None

@@ -164,7 +164,7 @@ def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4,
                     np.asarray(cfg.lever_arm_m, dtype=float), init, windows, outage_runs=False,
                     static_truth=drive.static_mask, truth_models=drive.moving_models,
                     extra={"stops": drive.truth["stops"], "seed": seed, "ekf": ekf, "static_models": drive.imu_models,
-                           "motion_noise": drive.truth["motion_noise"]})
+                           "motion_noise": drive.truth["motion_noise"], "law_schedule": drive.law_schedule})
 
 
 def imu_noise_kwargs(path: str | None, seed0: int, *, imu: Any = None, reserve_s: float = 0.0) -> dict:

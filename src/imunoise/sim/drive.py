@@ -42,6 +42,7 @@ from imunoise.io.kfgins import (
 from imunoise.model import Model
 from imunoise.nav.earth import OMEGA_E, radii
 from imunoise.sim.imu_errors import models_to_json, resolve_imu_models, simulate_model_errors
+from imunoise.sim.law_schedule import LawSchedule, law_schedule
 from imunoise.sim.motion import NONE, MotionNoise, modulated_errors, oracle_models, resolve_motion
 from imunoise.sim.replay import load_recording, stretch
 from imunoise.sim.trajectory import DrivePlan, Kinematics, Ramps, kinematics, simpson_increments
@@ -325,6 +326,9 @@ class SimulatedDrive:
     # moving-regime per-axis models under the motion law (imunoise.sim.motion.oracle_models over this drive's
     # moving samples); the static models when there is no law or it is "none"
     moving_models: dict[str, Model] = field(default_factory=dict)
+    # what the law injects per sample (imunoise.sim.law_schedule): the input of a law-aware filter; None without
+    # a law
+    law_schedule: LawSchedule | None = None
 
     @property
     def bias_true(self) -> np.ndarray:
@@ -492,6 +496,7 @@ def simulate_drive(
     law = None if cfg.motion_noise is None else resolve_motion(cfg.motion_noise)
     moving_models = dict(models)
     replay = None
+    m_white = m_bias = None
     if cfg.imu_noise is not None:  # real errors: no model, no vibration term (the recording is the truth)
         rec = load_recording(cfg.imu_noise)
         a, b = stretch(rec, seed - cfg.imu_noise_first, n, cfg.imu_rate_hz, reserve_s=cfg.imu_noise_reserve_s)
@@ -577,6 +582,7 @@ def simulate_drive(
     truth = _truth(cfg, seed, plan, kin, at, models, bias, scale, t[ig][is_out], static_mask, t)
     truth["motion_noise"] = None if law is None else law.to_dict()
     truth["imu_noise"] = replay
+    schedule = None if law is None else law_schedule(law, t, static_mask, m_white, m_bias)
     truth["models_moving"] = models_to_json(moving_models, cfg.imu_rate_hz)
     if law is not None:
         truth["vibration_std_at_speed"] = {"gyro_rad_s": 0.0, "accel_m_s2": 0.0, "full_at_mps": 3.0,
@@ -596,6 +602,7 @@ def simulate_drive(
         model_errors=err,
         vibration=vib,
         moving_models=moving_models,
+        law_schedule=schedule,
     )
 
 
