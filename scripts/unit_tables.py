@@ -63,15 +63,15 @@ def pooled(results: list[dict], labels: list[str], n_boot: int = 2000) -> list[d
 
 
 def means(results: list[dict]) -> dict[str, float]:
-    """Paper-style mean end drift per method over every drive and window of every unit (not a test)."""
+    """Paper-style mean end drift per method over every drive and window of every unit, first GNSS regime (not a
+    test)."""
+    key = min(k for k in set.intersection(*(set(_drive_values(r)) for r in results)) if k[1] == "drift")
     out = {}
     for m in results[0].get("methods", []):
         v = []
         for res in results:
-            for vals in _drive_values(res).values():
-                for d in vals.get(m, []):
-                    v += [x for x in np.ravel(np.array(d, dtype=object)) if x is not None]
-                break
+            for d in _drive_values(res)[key].get(m, []):
+                v += [x for x in np.ravel(np.array(d, dtype=object)) if x is not None]
         if v:
             out[m] = float(np.mean(np.array(v, dtype=float)))
     return out
@@ -100,9 +100,12 @@ def main(argv: list[str]) -> int:
     labels = a.labels.split(",") if a.labels else [Path(f).resolve().parent.name for f in a.results]
     if len(labels) != len(results) or len(set(labels)) != len(labels):
         p.error("--labels needs one distinct label per results.json")
+    if not set.intersection(*(set(_drive_values(r)) for r in results)):
+        p.error("the runs share no GNSS regime and metric (mix of dense-window and Monte Carlo runs, or other "
+                "--gnss): give runs of one protocol")
     roles = sorted({r.get("seed_role", "dev") for r in results})
     print(f"{len(results)} units ({', '.join(labels)}); seeds: {', '.join(roles)}\n")
-    print("mean end drift per method [m] (all drives and windows; not a test): "
+    print("mean end drift per method [m] (all drives and windows, first GNSS regime; not a test): "
           + ", ".join(f"{m} {v:.1f}" for m, v in means(results).items()) + "\n")
     print(table(pooled(results, labels, a.bootstrap)))
     return 0
