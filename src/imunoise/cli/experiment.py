@@ -214,7 +214,8 @@ def _base_config(args: argparse.Namespace):
 
 def _motion_arg(args: argparse.Namespace) -> str | None:
     """The law of ``--motion-noise`` on the simulator, a shipped law's name or a law file's path (default
-    :data:`imunoise.sim.motion.DEFAULT_MOTION`, ``none`` with ``--imu-noise``); checked before any run. Real data have their own motion: the option is refused there."""
+    :data:`imunoise.sim.motion.DEFAULT_MOTION`, ``none`` with ``--imu-noise``); checked before any run. Real
+    data have their own motion: the option is refused there."""
     if not args.sim:
         if args.motion_noise is not None or args.imu_noise is not None:
             raise ModelError("--motion-noise and --imu-noise belong to the simulator (--sim); real data have their "
