@@ -163,3 +163,12 @@ def test_law_schedule_is_what_the_simulator_injects():
     step = _imu("gyro_departure_step")[0].law_schedule
     assert step.step_var[:3] == pytest.approx([LAWS["gyro_departure_step"].departure_step[0] ** 2] * 3)
     assert simulate_drive(DriveConfig(seed=1, **SHORT), "paper", seed=1).law_schedule is None
+
+
+def test_simulate_cli_takes_a_law_file(tmp_path):
+    f = tmp_path / "mine.json"
+    f.write_text(json.dumps({"name": "bench_step", "departure_step": [1e-3] * 3 + [0] * 3}))
+    assert cli_main(["simulate", "--duration", "200", "--stops", "1", "--motion-noise", str(f),
+                     "--out", str(tmp_path / "d")]) == 0
+    truth = json.loads((tmp_path / "d" / "truth.json").read_text())
+    assert truth["motion_noise"]["name"] == "bench_step" and truth["motion_noise"]["departure_step"][0] == 1e-3
