@@ -40,7 +40,10 @@ def tables(res: dict) -> str:
     lines = []
     where = f"seeds {res['seeds'][0]}–{res['seeds'][-1]}" if res.get("seeds") else res.get("data", "")
     lines.append(f"{res['n_drives']} drive(s) ({where}), {res['n_windows']} windows, {res['n_independent']} "
-                 f"independent, protocol {res['protocol']['outages']}; scenario {res.get('scenario', '')}")
+                 f"independent, protocol {res['protocol']['outages']}; scenario {res.get('scenario', '')}; "
+                 f"seeds: {res.get('seed_role', 'dev')}")
+    scopes = sorted({e["scope"] for e in res["paired"] if e.get("scope")})
+    lines += [f"({sc})" for sc in scopes]
     for g in res["gnss"]:
         lines += ["", f"#### GNSS {g}", ""]
         heads = ["method"] + [f"{lab} vs {b}" for _, lab in METRICS for b in ("plain", "static_var")]

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from imunoise.errors import DataError
 from imunoise.experiments.stats import (
@@ -16,6 +17,7 @@ from imunoise.experiments.stats import (
     log_ratios,
     n_independent,
     paired_entry,
+    politis_white_block,
 )
 
 
@@ -68,22 +70,56 @@ def test_seed_reproducible():
     assert bootstrap_ratio(g, 3, seed=4, n_boot=300) == bootstrap_ratio(g, 3, seed=4, n_boot=300)
 
 
-@pytest.mark.parametrize("drives,n,lo", [(1, 22, 0.84), (5, 12, 0.90)])
-def test_ci_coverage_on_overlapping_windows(drives, n, lo):
-    """Synthetic log-ratios with a known mean and the correlation of windows opened every L/3: the 95 % CI
-    covers the true geometric-mean ratio in about 95 % of 300 replications (measured 88 % for one drive of
-    22 windows, 97 % for five drives; the one-drive interval is knowingly a little optimistic)."""
-    rng = np.random.default_rng(7)
-    mu = 0.1
-    hits = 0
-    reps = 300
-    for r in range(reps):
-        groups = [_overlap_series(rng, n, mu) for _ in range(drives)]
-        ni = sum(n_independent(np.arange(n) * 20.0, 60.0) for _ in range(drives))
-        res = bootstrap_ratio(groups, default_block(60, 20), n_boot=300, seed=r, n_indep=ni)
-        hits += res["ci"][0] <= math.exp(mu) <= res["ci"][1]
-    cov = hits / reps
-    assert lo <= cov <= 0.995, cov
+def _ar(rng, n, rho):
+    e = np.empty(n)
+    e[0] = rng.normal()
+    for k in range(1, n):
+        e[k] = rho * e[k - 1] + math.sqrt(1 - rho * rho) * rng.normal()
+    return e
+
+
+def test_politis_white_block_matches_its_formula_on_a_long_ar1():
+    # AR(ρ), unit variance: g = (1+ρ)/(1−ρ), G = 2ρ/(1−ρ)², b_CB = (1.5 (G/g)²)^{1/3} n^{1/3} (PPW 2009)
+    rho, n = 0.5, 20000
+    g, big_g = (1 + rho) / (1 - rho), 2 * rho / (1 - rho) ** 2
+    want = (1.5 * (big_g / g) ** 2) ** (1 / 3) * n ** (1 / 3)
+    got = politis_white_block(_ar(np.random.default_rng(2), n, rho))
+    assert got == pytest.approx(want, rel=0.2), (got, want)
+    assert politis_white_block(np.random.default_rng(3).normal(size=n)) < 3.0  # white noise: short blocks
+    assert politis_white_block(np.ones(50)) == 1.0
+
+
+def test_cluster_t_interval_is_the_t_interval_of_equal_drive_means():
+    rng = np.random.default_rng(5)
+    groups = [rng.normal(0.1, 0.2, 10) for _ in range(6)]
+    r = bootstrap_ratio(groups, 3)
+    means = np.array([g.mean() for g in groups])
+    half = stats.t.ppf(0.975, 5) * means.std(ddof=1) / math.sqrt(6)
+    assert r["df"] == 5 and r["n_clusters"] == 6 and r["cluster"] == "drive" and r["scope"] is None
+    assert math.log(r["ci"][0]) == pytest.approx(means.mean() - half, rel=1e-12)
+    assert math.log(r["ci"][1]) == pytest.approx(means.mean() + half, rel=1e-12)
+
+
+def test_units_are_the_clusters_above_drives():
+    rng = np.random.default_rng(6)
+    groups = [rng.normal(0.0, 0.1, 8) for _ in range(6)]
+    r = bootstrap_ratio(groups, 3, units=["a", "a", "b", "b", "c", "c"])
+    assert r["n_clusters"] == 3 and r["df"] == 2 and r["cluster"] == "unit" and r["n_drives"] == 6
+    pooled = [np.concatenate(groups[i:i + 2]) for i in (0, 2, 4)]
+    assert r["ci"] == pytest.approx(bootstrap_ratio(pooled, 3)["ci"], rel=1e-12)
+    with pytest.raises(DataError, match="one label per drive"):
+        bootstrap_ratio(groups, 3, units=["a"])
+
+
+def test_one_drive_says_its_scope_and_uses_a_data_chosen_block():
+    x = 0.1 + 0.1 * _ar(np.random.default_rng(8), 100, 0.8)
+    e = paired_entry("a", "b", "drift", {"a": [list(np.exp(x))], "b": [[1.0] * 100]}, 3, n_boot=500)
+    assert e["scope"] == "one drive: the interval describes this drive's windows only"
+    assert e["interval"] == "block bootstrap" and e["n_clusters"] == 1
+    assert 3 <= e["block"] <= 33 and e["df"] == 100 // e["block"] - 1
+    white = paired_entry("a", "b", "drift", {"a": [list(np.exp(np.random.default_rng(8).normal(0, .1, 100)))],
+                                             "b": [[1.0] * 100]}, 3, n_boot=500)
+    assert white["block"] < e["block"]  # the AR(0.8) windows need longer blocks than white ones
 
 
 def test_window_paired_of_the_official_windows():
@@ -113,8 +149,7 @@ def test_gain_share_is_the_log_ratio_of_the_geometric_means():
 
 def test_gain_share_ci_coverage():
     # the method's per-window log gain is half the reference's plus overlap-correlated noise and a drive
-    # effect: the 95 % interval holds the true share 0.5 (measured: 92 % over 300 replications of 6 drives,
-    # 95 % of 30 drives)
+    # effect: the 95 % interval (drives resampled) holds the true share 0.5
     hits = 0
     for k in range(150):
         rng = np.random.default_rng(1000 + k)

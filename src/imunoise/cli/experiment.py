@@ -71,12 +71,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="simulator: IMU error models: preset (paper, mems, tactical), structure, or model JSON "
                    "(imunoise.sim.resolve_imu_models; default: paper = gyros of paper Table 4 and mems "
                    "accelerometers, 3*AR1+WN+RW per axis)")
-    p.add_argument("--motion-noise", default=None, metavar="PRESET|none",
+    p.add_argument("--motion-noise", default=None, metavar="LAW|FILE.json",
                    help="simulator: motion law of the IMU errors (imunoise.sim.motion): drive0708 (default: white "
-                   "noise and gyro y/z bias wander grow while moving, calibrated on the real drive) or none "
-                   "(moving = static, the paper's premise)")
-    p.add_argument("--static-hours", type=positive_float, default=2.0,
-                   help="denial --sim: static recording [h] (default 2)")
+                   "noise and gyro y/z bias wander grow while moving, calibrated on the real drive), none "
+                   "(moving = static, the paper's premise), another shipped law (gyro_departure_step, "
+                   "gyro_moving_gm, accel_moving_gm, warmup) or a law file FILE.json")
+    p.add_argument("--static-hours", type=positive_float, default=None,
+                   help="denial --sim: static recording [h] (default 2; 1 with --imu-noise)")
+    p.add_argument("--imu-noise", default=None, metavar="FILE.npz",
+                   help="simulator: replay a real static recording (.npz with data, columns, units, freq_hz) as "
+                   "the drives' IMU errors, one non-overlapping stretch per drive, its mean removed "
+                   "(imunoise.sim.replay; other rates than the simulator's are refused)")
     p.add_argument("--methods", help="comma-separated subset of the methods")
     p.add_argument("--start", type=float, help="real data: start time [s, data time base]")
     p.add_argument("--workers", type=positive_int, default=2, help="local worker processes (parallel; default 2)")
@@ -84,6 +89,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="online methods: fixed delay [s] from a stop's end to its model in the filter (a run "
                         "repeats to the bit; default: the measured compute time, as the paper; the hot-swap "
                         "moment then follows the machine's load)")
+    p.add_argument("--seed-role", choices=("dev", "report"), default="dev",
+                   help="what the seeds are for, recorded in results.json and named in the report: dev "
+                   "(development, default) or report (fresh seeds, run once per method version)")
     p.add_argument("--out", required=True, help="output folder")
     add_deprecated_alias(p, "--imu", "--imu-model")
     add_deprecated_alias(p, "--gnss", "--gnss-regime")
@@ -149,6 +157,10 @@ def run(args: argparse.Namespace) -> int:
             raise ModelError("--outages dense:..., --gnss-regime and --pairs belong to the online experiment")
         return _run_evidence(args, out, outages, t0)
     methods = select_methods(args.which, args.sim, args.methods)
+    if args.imu_noise:
+        from imunoise.experiments.common import replay_methods
+
+        methods = replay_methods(methods, bool(args.methods))
     if kind == "file" and args.sim:
         raise ModelError("--outages FILE is for real data; the simulator takes a number or dense:L:S")
     if kind == "count" and not args.sim:
@@ -162,13 +174,19 @@ def run(args: argparse.Namespace) -> int:
         if args.imu_model:
             kw["imu_models"] = args.imu_model
         kw["motion_noise"] = args.motion_noise
+        static_h = args.static_hours if args.static_hours is not None else (1.0 if args.imu_noise else 2.0)
+        from imunoise.experiments.common import imu_noise_kwargs
+
+        kw.update(imu_noise_kwargs(args.imu_noise, args.seed0, imu=args.imu_model,
+                                   reserve_s=3600.0 * static_h if args.which == "denial" else 0.0))
         if args.which == "denial":
             res = denial.run_sim(seeds, methods=methods, workers=args.workers,
-                                 static_recording_s=3600.0 * args.static_hours, progress=step, **kw)
+                                 static_recording_s=3600.0 * static_h, progress=step, **kw)
         else:
             res = online_exp.run_sim(seeds, methods=methods, workers=args.workers, progress=step, base=args.base,
                                      **kw)
         bar.close()
+        res["seed_role"] = args.seed_role
         html = write_sim(res, out, title=f"imunoise: {args.which} experiment, Monte Carlo ({len(seeds)} seeds)")
     else:
         data = args.data or str(repo_data_dir())
@@ -177,6 +195,7 @@ def run(args: argparse.Namespace) -> int:
         if args.which == "denial":
             res, sc = denial.run_real(data, methods=methods, start=args.start, progress=step)
             bar.close()
+            res["seed_role"] = args.seed_role
             html = write_denial_real(res, sc, out)
         else:
             windows = None
@@ -187,6 +206,7 @@ def run(args: argparse.Namespace) -> int:
             res, sc = online_exp.run_real(data, methods=methods, workers=args.workers, start=args.start, progress=step,
                                           windows=windows, base=args.base)
             bar.close()
+            res["seed_role"] = args.seed_role
             html = write_online_real(res, sc, out)
     print_headline(headline_rows(res), fmt)
     print(f"\nreport: {html.resolve()}  ({time.perf_counter() - t0:.1f} s)")
@@ -207,15 +227,18 @@ def _base_config(args: argparse.Namespace):
 
 
 def _motion_arg(args: argparse.Namespace) -> str | None:
-    """The preset name of ``--motion-noise`` (default :data:`imunoise.sim.motion.DEFAULT_MOTION`) on the
-    simulator; checked before any run. Real data have their own motion: the option is refused there."""
+    """The law of ``--motion-noise`` on the simulator, a shipped law's name or a law file's path (default
+    :data:`imunoise.sim.motion.DEFAULT_MOTION`, ``none`` with ``--imu-noise``); checked before any run. Real
+    data have their own motion: the option is refused there."""
     if not args.sim:
-        if args.motion_noise is not None:
-            raise ModelError("--motion-noise belongs to the simulator (--sim); real data have their own motion")
+        if args.motion_noise is not None or args.imu_noise is not None:
+            raise ModelError("--motion-noise and --imu-noise belong to the simulator (--sim); real data have their "
+                             "own motion and noise")
         return None
-    from imunoise.sim.motion import DEFAULT_MOTION, resolve_motion
+    from imunoise.sim.motion import DEFAULT_MOTION, motion_arg
 
-    return resolve_motion(args.motion_noise or DEFAULT_MOTION).name
+    # a replayed recording is used as it is: no law by default
+    return motion_arg(args.motion_noise or ("none" if args.imu_noise else DEFAULT_MOTION))
 
 
 def print_headline(rows, fmt) -> None:
@@ -247,6 +270,10 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
 
     spec = spec if isinstance(spec, dense.DenseSpec) else dense.DenseSpec()
     methods = select_methods("online", args.sim, args.methods, evidence=True)
+    if args.imu_noise:
+        from imunoise.experiments.common import replay_methods
+
+        methods = replay_methods(methods, bool(args.methods))
     regimes = [parse_gnss(g) for g in (args.gnss_regime or ["rtk"])]
     if args.noise_seeds < 1:
         raise ModelError(f"--noise-seeds must be ≥ 1, got {args.noise_seeds}")
@@ -267,6 +294,9 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
         if args.imu_model:
             scen["imu_models"] = args.imu_model
         scen["motion_noise"] = args.motion_noise
+        from imunoise.experiments.common import imu_noise_kwargs
+
+        scen.update(imu_noise_kwargs(args.imu_noise, args.seed0, imu=args.imu_model))
         res = dense.run_sim(seeds, progress=step, **kw, **scen)
         title = f"imunoise: dense-window evidence, {len(seeds)} simulated drives"
     else:
@@ -278,6 +308,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
     bar.close()
     res["elapsed_s"] = time.perf_counter() - t0
     res["latency_s"] = args.latency  # None: each model took effect after its measured compute time
+    res["seed_role"] = args.seed_role
     html = write_evidence(res, out, title=title)
     rows = paired_rows(res)
     heads = ["GNSS", "method", "baseline", "metric", "ratio", "95 % CI", "n_win", "n_ind", "n_drv", "verdict"]

@@ -66,10 +66,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--motion-noise",
         default=None,
-        metavar="PRESET|none",
+        metavar="LAW|FILE.json",
         help="motion law of the IMU errors (imunoise.sim.motion): drive0708 (default: white noise and gyro y/z "
-        "bias wander grow with speed, calibrated on the real drive; replaces the vibration term) or none "
-        "(errors while moving = the static model; the default with --clean)",
+        "bias wander grow with speed, calibrated on the real drive; replaces the vibration term), none "
+        "(errors while moving = the static model; the default with --clean), another shipped law "
+        "(gyro_departure_step, gyro_moving_gm, accel_moving_gm, warmup) or a law file FILE.json",
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--imu-rate", type=positive_float, default=100.0, help="IMU rate, Hz (default 100)")
@@ -137,13 +138,13 @@ def _models_arg(text: str):
 def run(args: argparse.Namespace) -> int:
     from imunoise.io.kfgins import read_outages, write_imu
     from imunoise.sim import DriveConfig, simulate_drive, simulate_static
-    from imunoise.sim.motion import DEFAULT_MOTION, resolve_motion
+    from imunoise.sim.motion import DEFAULT_MOTION, motion_arg
 
     t0 = time.perf_counter()
     check_start_llh(args.start_llh)
     models = _models_arg(args.imu_model)
     # a bad preset fails before anything is written
-    motion = resolve_motion(args.motion_noise or ("none" if args.clean else DEFAULT_MOTION)).name
+    motion = motion_arg(args.motion_noise or ("none" if args.clean else DEFAULT_MOTION))
     prepare_out_dir(args.out)  # an unusable --out fails before the simulation
     if args.static:
         rec = simulate_static(models, args.duration, args.imu_rate, args.seed, start_sow=args.start_sow)

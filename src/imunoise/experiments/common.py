@@ -22,7 +22,7 @@ import numpy as np
 from scipy import stats
 
 from imunoise.detect import DetectorConfig, detect_static, learn_lambda0, segment_data
-from imunoise.errors import DataError, ImunoiseError
+from imunoise.errors import DataError, ImunoiseError, ModelError
 from imunoise.imu import AXES
 from imunoise.nav.defaults import EkfConfig
 from imunoise.nav.ekf import InitialState
@@ -34,7 +34,8 @@ log = logging.getLogger(__name__)
 __all__ = [
     "Scenario", "load_real", "simulate_scenario", "static_segments", "baseline_fits", "filter_models",
     "run_filter", "evaluate", "evaluate_full", "evaluate_outages", "combine",
-    "paired_ci", "map_seeds", "METHOD_LABELS", "SIM_IMU", "SIM_MOTION", "repo_data_dir",
+    "paired_ci", "map_seeds", "METHOD_LABELS", "SIM_IMU", "SIM_MOTION", "repo_data_dir", "imu_noise_kwargs",
+    "replay_methods",
 ]
 
 SIM_IMU = "paper"  # gyros of paper Table 4 (3*AR1+WN+RW per axis), accelerometers of the "mems" preset
@@ -163,7 +164,37 @@ def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4,
                     np.asarray(cfg.lever_arm_m, dtype=float), init, windows, outage_runs=False,
                     static_truth=drive.static_mask, truth_models=drive.moving_models,
                     extra={"stops": drive.truth["stops"], "seed": seed, "ekf": ekf, "static_models": drive.imu_models,
-                           "motion_noise": drive.truth["motion_noise"]})
+                           "motion_noise": drive.truth["motion_noise"], "law_schedule": drive.law_schedule})
+
+
+def imu_noise_kwargs(path: str | None, seed0: int, *, imu: Any = None, reserve_s: float = 0.0) -> dict:
+    """Scenario keywords that replay the static recording ``path`` as the drives' IMU errors
+    (:mod:`imunoise.sim.replay`; ``--imu-noise``): drive d = seed − ``seed0`` gets the d-th stretch, the last
+    ``reserve_s`` s stay for the denial experiment's static recording. The file is read and checked now.
+
+    Raises
+    ------
+    ModelError, DataError
+        With ``--imu`` also given (the recording is the IMU's errors), or for an unreadable recording.
+    """
+    if path is None:
+        return {}
+    if imu:
+        raise ModelError("--imu and --imu-noise exclude each other: the replayed recording is the IMU's errors")
+    from imunoise.sim.replay import load_recording
+
+    rec = load_recording(str(Path(path).resolve()))
+    return {"imu_noise": rec.path, "imu_noise_first": int(seed0), "imu_noise_reserve_s": float(reserve_s),
+            "imu_models": None}
+
+
+def replay_methods(methods: Sequence[str], explicit: bool) -> tuple[str, ...]:
+    """The methods of a replayed-noise run: ``oracle`` needs true models, which a real recording has not; it
+    is dropped from a default list and refused when asked for."""
+    if "oracle" in methods and explicit:
+        raise ModelError("--methods oracle needs the simulator's true IMU models; with --imu-noise the errors are a "
+                         "real recording (no true model): leave oracle out")
+    return tuple(m for m in methods if m != "oracle")
 
 
 # --------------------------------------------------------------------------------------------------

@@ -1,7 +1,8 @@
 """GNSS-denial experiment (paper §3.1, Table 1; SPEC §11): static recording → models → 60 s outages.
 
 The IMU is modelled from static data: on the simulator a separate 2 h static recording of the same IMU
-model (the paper's set-up), on the real drive all static segments of the drive itself (it has no
+model (the paper's set-up; with a replayed real recording, ``imu_noise``, its last part that no drive
+uses), on the real drive all static segments of the drive itself (it has no
 separate static recording; 66 s of stops). Models: the top 3 by GOF (paper Eq. 8) of the selection over
 the complete model (``gmwm`` = the best, ``gmwm_top2``, ``gmwm_top3``), the best by WVIC (``gmwm_wvic``), the AV
 model (``av``); ``plain`` is the default model. Each drives the EKF (fixed model, same fit → filter
@@ -109,9 +110,14 @@ def _sim_job(args: tuple) -> dict:
     from imunoise.sim import simulate_static
 
     imu_models = scen_kw.get("imu_models", SIM_IMU)
-    rec = simulate_static(imu_models, duration_s=static_s, rate_hz=float(scen_kw.get("imu_rate_hz", 100.0)),
-                          seed=10_000 + seed)
-    data = rec.errors - rec.errors.mean(axis=0)
+    rate = float(scen_kw.get("imu_rate_hz", 100.0))
+    if scen_kw.get("imu_noise"):  # real noise: the end of the recording, which no drive uses
+        from imunoise.sim.replay import load_recording, static_part
+
+        errors = static_part(load_recording(scen_kw["imu_noise"]), static_s, rate)
+    else:
+        errors = simulate_static(imu_models, duration_s=static_s, rate_hz=rate, seed=10_000 + seed).errors
+    data = errors - errors.mean(axis=0)
     models = static_models([data], 100.0, complete=complete)
     sc = simulate_scenario(seed, **scen_kw)
     res = _evaluate_all(sc, models, methods, keep=False)
@@ -140,6 +146,7 @@ def run_sim(seeds: Sequence[int], *, methods: Sequence[str] = METHODS, workers: 
     res = summarize_seeds(per_seed, list(methods))
     res["experiment"] = "denial"
     res["data"] = "sim"
+    res["scenario"] = dict(scen_kw)
     res["static_s"] = static_recording_s
     res["models_per_seed"] = [r["models"] for r in per_seed]
     sel = [x for r in per_seed for x in r["selection_s"]]

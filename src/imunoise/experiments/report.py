@@ -17,7 +17,7 @@ from imunoise.io.jsonutil import json_default
 from imunoise.report import Report, fmt
 
 __all__ = ["write_results", "headline_rows", "write_online_real", "write_sim", "write_denial_real", "write_evidence",
-           "paired_rows"]
+           "paired_rows", "seed_role_text"]
 
 HEADLINE = ["method", "horizontal RMS [m]", "vertical RMS [m]", "ECEF RMS X/Y/Z [m]", "mean outage-end drift [m]",
             "Δ drift vs plain [%]"]
@@ -129,6 +129,35 @@ DEMO_HEADS = ["GNSS", "method", "drift vs plain", "95 % CI", "drift vs static_va
               "n_independent", "verdict vs plain"]
 
 
+SEED_ROLES = {
+    "dev": "development seeds (the methods were designed or tuned on runs like this one; not evidence)",
+    "report": "report seeds (fresh seeds, run once for this method version)",
+}
+
+
+def seed_role_text(results: dict) -> str:
+    """The sentence naming the run's seed role (``results["seed_role"]``, ``--seed-role``; issue 21 §4)."""
+    role = results.get("seed_role") or "dev"
+    return f"Seeds: {role} — {SEED_ROLES.get(role, role)}."
+
+
+def replay_text(scen: dict) -> str:
+    """The sentence on the IMU errors' origin when a real recording is replayed (``--imu-noise``), else ""."""
+    path = scen.get("imu_noise")
+    if not path:
+        return ""
+    from imunoise.sim.replay import load_recording
+
+    rec = load_recording(path)
+    reserve = scen.get("imu_noise_reserve_s") or 0.0
+    return (f"IMU errors: NOT the model above but a real static recording replayed, {path} "
+            f"({rec.n / rec.rate_hz:.0f} s at {rec.rate_hz:g} Hz = the simulator's rate, not resampled; its mean "
+            "over the whole file removed): "
+            f"drive d = seed − {scen.get('imu_noise_first', 0)} uses samples [d·n, (d + 1)·n), no two drives "
+            "overlap, stops show the recording at the stop times"
+            + (f"; the static recording is its last {reserve:.0f} s, which no drive uses." if reserve else "."))
+
+
 def _ci_text(e: dict | None) -> str:
     return "" if e is None else f"[{fmt(e['ci'][0], 3)}, {fmt(e['ci'][1], 3)}]"
 
@@ -166,8 +195,10 @@ def _evidence_section(rep: Report, evidence: dict, out: Path) -> None:
         f"driving ({evidence['n_windows']} windows, {evidence['n_independent']} of them share no data, "
         f"{evidence['n_drives']} drive); each window is one run without GNSS from the same aided state. Ratio = "
         "geometric mean over the windows of the method's end drift over the baseline's (noise seeds averaged per "
-        f"window); 95 % CI from a block bootstrap over windows ({p['block']} windows per block), t with "
-        "n_independent − 1 dof. A method is better only where the CI excludes 1. GNSS regimes: rtk = as "
+        "window); 95 % CI: one drive, so a circular block bootstrap over its windows with the block chosen from "
+        f"the data (Politis–White 2004/2009, at least {p['block']} windows), t with blocks − 1 dof; "
+        "one drive: the interval describes this drive's windows only. A method is better only where the CI "
+        "excludes 1. GNSS regimes: rtk = as "
         "recorded; noise:H,V,RATE = the RTK fixes thinned to RATE Hz with white noise of σ H m horizontal and "
         "V m vertical (the paper's meter-level regime)."
     )
@@ -193,6 +224,7 @@ def write_online_real(results: dict, sc: Any, out: Path, *, title: str | None = 
     out.mkdir(parents=True, exist_ok=True)
     obj = results.get("_objects", {})
     rep = Report(title or f"imunoise: online GMWM on {sc.name}")
+    rep.paragraph(seed_role_text(results))
     if evidence is not None:
         _evidence_section(rep, evidence, out)
         (out / "evidence.json").write_text(json.dumps(_clean(evidence), indent=1, default=json_default))
@@ -282,6 +314,7 @@ def write_denial_real(results: dict, sc: Any, out: Path) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     obj = results.get("_objects", {})
     rep = Report(f"imunoise: GNSS-denial experiment on {sc.name}")
+    rep.paragraph(seed_role_text(results))
     rep.paragraph(
         "Paper §3.1 (Table 1). The drive has no separate static recording, so the models come from all its "
         f"static segments ({results.get('static_s', 0):.0f} s): the three best by GOF of the selection over the "
@@ -317,6 +350,7 @@ def write_sim(results: dict, out: Path, *, title: str) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     methods = list(results["methods"])
     rep = Report(title)
+    rep.paragraph(seed_role_text(results))
     n = len(results["seeds"])
     scen = results.get("scenario") or {}
     motion = scen.get("motion_noise", "drive0708")
@@ -327,6 +361,8 @@ def write_sim(results: dict, out: Path, *, title: str) -> Path:
         "windows removed in one run). Values are means over seeds; the differences are paired per seed with "
         "Student-t 95 % confidence intervals."
     )
+    if scen.get("imu_noise"):
+        rep.paragraph(replay_text(scen))
     _headline(rep, results, out, f"means over {n} seeds (m; Δ < 0 better than plain)")
     drows = []
     for name, d in results["differences"].items():
@@ -356,6 +392,11 @@ PAIRED_HEADS = ["GNSS", "method", "baseline", "metric", "ratio", "95 % CI", "n_w
                 "n_drives", "verdict"]
 
 
+def _scope_note(results: dict) -> str:
+    scopes = {e.get("scope") for e in results.get("paired", []) if e.get("scope")}
+    return "".join(f" {sc[0].upper()}{sc[1:]}." for sc in sorted(scopes))
+
+
 def paired_rows(results: dict) -> list[list[Any]]:
     """Rows of the paired table (headline of the dense-window evidence)."""
     from imunoise.experiments.dense import significance_text
@@ -376,6 +417,7 @@ def write_evidence(results: dict, out: Path, *, title: str) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     p = results["protocol"]
     rep = Report(title)
+    rep.paragraph(seed_role_text(results))
     rep.paragraph(
         f"Dense outage protocol {p['outages']}: windows of {p['length_s']:g} s opened every {p['step_s']:g} s "
         f"after {p['lead_s']:g} s of GNSS-aided driving; each method runs once with GNSS everywhere and, at each "
@@ -384,9 +426,12 @@ def write_evidence(results: dict, out: Path, *, title: str) -> Path:
         f"{results['n_independent']} of them share no data. Metrics: drift = horizontal error at the window's "
         "end; rms = horizontal RMS inside the window; aided_rms = horizontal RMS of the GNSS-aided run over the "
         "window (paper Table 5's metric). Ratio = geometric mean of the paired ratios method/baseline over the "
-        f"windows (log-ratios averaged over GNSS noise seeds first); 95 % CI = exp(mean ± t·SE) with SE from a "
-        f"bootstrap over drives and moving blocks of {p['block']} windows ({p['n_boot']} replicates, seed "
-        f"{p['boot_seed']}), df = n_independent − 1. A method is better only where the CI excludes 1."
+        "windows (log-ratios averaged over GNSS noise seeds first); 95 % CI = exp(mean ± t·SE) with the drives "
+        "(units above drives when given) as the clusters: with C ≥ 2 clusters the cluster-robust SE and "
+        "df = C − 1; with one drive a circular block bootstrap whose block is chosen from the data "
+        f"(Politis–White 2004/2009, at least {p['block']} windows; {p['n_boot']} replicates, seed "
+        f"{p['boot_seed']}), df = blocks − 1, and the interval describes that drive's windows only. A method is "
+        "better only where the CI excludes 1." + _scope_note(results)
     )
     rep.heading("Paired ratios (headline)", 2)
     rows = paired_rows(results)

@@ -42,7 +42,9 @@ from imunoise.io.kfgins import (
 from imunoise.model import Model
 from imunoise.nav.earth import OMEGA_E, radii
 from imunoise.sim.imu_errors import models_to_json, resolve_imu_models, simulate_model_errors
-from imunoise.sim.motion import MotionNoise, modulated_errors, oracle_models, resolve_motion
+from imunoise.sim.law_schedule import LawSchedule, law_schedule
+from imunoise.sim.motion import NONE, MotionNoise, modulated_errors, oracle_models, resolve_motion
+from imunoise.sim.replay import load_recording, stretch
 from imunoise.sim.trajectory import DrivePlan, Kinematics, Ramps, kinematics, simpson_increments
 
 __all__ = ["DriveConfig", "SimulatedDrive", "simulate_drive", "plan_drive"]
@@ -98,6 +100,12 @@ class DriveConfig:
     # motion law of the stochastic errors (imunoise.sim.motion): a preset ("none", "drive0708") or a
     # MotionNoise; it replaces the vibration term. None: the vibration term alone (the earlier simulator).
     motion_noise: str | MotionNoise | None = None
+    # real noise (imunoise.sim.replay): a static recording (.npz) whose stretch [d·n, (d+1)·n), d = seed −
+    # imu_noise_first, replaces the stochastic model errors; its last imu_noise_reserve_s s stay unused (the
+    # denial experiment's static recording). A law may add its additive terms on top, not scale the recording.
+    imu_noise: str | None = None
+    imu_noise_first: int = 0
+    imu_noise_reserve_s: float = 0.0
 
     def __post_init__(self) -> None:
         if self.duration_s <= 0 or self.static_s < 0 or self.static_s >= self.duration_s:
@@ -123,7 +131,13 @@ class DriveConfig:
             raise ModelError(f"gnss_sigma_m must be > 0, got {self.gnss_sigma_m}")
         self.outages = [(float(s), float(d)) for s, d in self.outages]
         if self.motion_noise is not None:
-            resolve_motion(self.motion_noise)  # an unknown preset fails here, not after the trajectory
+            law = resolve_motion(self.motion_noise)  # an unknown preset fails here, not after the trajectory
+            if self.imu_noise is not None and law.modulates:
+                raise ModelError(f"--motion-noise {law.name} scales the white and bias noise of the IMU model; a "
+                                 "replayed recording (--imu-noise) is used as it is: give a law with additive "
+                                 "terms only (none, gyro_departure_step, gyro_moving_gm, accel_moving_gm, warmup)")
+        if self.imu_noise is not None:
+            load_recording(self.imu_noise)  # a bad file fails here
         for s, d in self.outages:
             if d <= 0:
                 raise ModelError(f"outage ({s}, {d}): the duration (second value, s) must be > 0")
@@ -312,6 +326,9 @@ class SimulatedDrive:
     # moving-regime per-axis models under the motion law (imunoise.sim.motion.oracle_models over this drive's
     # moving samples); the static models when there is no law or it is "none"
     moving_models: dict[str, Model] = field(default_factory=dict)
+    # what the law injects per sample (imunoise.sim.law_schedule): the input of a law-aware filter; None without
+    # a law
+    law_schedule: LawSchedule | None = None
 
     @property
     def bias_true(self) -> np.ndarray:
@@ -475,17 +492,35 @@ def simulate_drive(
     static_mask = ~moving_block
 
     # ---- IMU errors
-    models = resolve_imu_models(imu_models, cfg.imu_rate_hz)
+    models = resolve_imu_models(imu_models, cfg.imu_rate_hz) if cfg.imu_noise is None else {}
     law = None if cfg.motion_noise is None else resolve_motion(cfg.motion_noise)
     moving_models = dict(models)
-    if law is None or law.is_static:
+    replay = None
+    m_white = m_bias = None
+    if cfg.imu_noise is not None:  # real errors: no model, no vibration term (the recording is the truth)
+        rec = load_recording(cfg.imu_noise)
+        a, b = stretch(rec, seed - cfg.imu_noise_first, n, cfg.imu_rate_hz, reserve_s=cfg.imu_noise_reserve_s)
+        err = np.array(rec.errors[a:b])
+        law = NONE if law is None else law
+        replay = {**rec.describe(), "stretch_samples": [a, b], "stretch_s": [a / rec.rate_hz, b / rec.rate_hz],
+                  "resampled": False}
+    elif law is None or not law.modulates:
         err = simulate_model_errors(models, n, ss_imu)
     else:
         # body turn rate = norm of the Euler-angle rates: zero at rest, unlike ω_ib (Earth rate)
         turn = np.sqrt(kin.yaw_rate**2 + kin.pitch_rate**2 + kin.roll_rate**2)[at]
-        m_white, m_bias = law.multipliers(spd[at], turn, static_mask)
+        # ‖f − g‖, the vehicle's acceleration: ‖dv_n/dt‖ (Coriolis and transport rate < 0.01 m/s² in a car)
+        acc = np.linalg.norm(np.gradient(kin.vel, tau, axis=0), axis=1)[at]
+        m_white, m_bias = law.multipliers(spd[at], turn, static_mask, accel=acc)
         err = modulated_errors(models, n, ss_imu, m_white, m_bias)
-        moving_models = oracle_models(models, law, spd[at][~static_mask], turn[~static_mask])
+        moving_models = oracle_models(models, law, spd[at][~static_mask], turn[~static_mask],
+                                      acc[~static_mask], rate_hz=cfg.imu_rate_hz)
+    if law is not None and law.has_terms:
+        # their own stream (spawn key 4, beside the drive's four): the other draws stay as without the terms
+        err = err + law.additive_errors(t, static_mask, cfg.imu_rate_hz,
+                                        np.random.SeedSequence(seed, spawn_key=(4,)))
+        if not law.modulates and models:
+            moving_models = oracle_models(models, law, rate_hz=cfg.imu_rate_hz)
     rb = np.random.default_rng(ss_bias)
     bias = np.concatenate([rb.normal(0, cfg.gyro_bias_sigma, 3), rb.normal(0, cfg.accel_bias_sigma, 3)])
     scale = rb.normal(0, cfg.scale_factor_sigma, 6) if cfg.scale_factor_sigma > 0 else np.zeros(6)
@@ -546,6 +581,8 @@ def simulate_drive(
 
     truth = _truth(cfg, seed, plan, kin, at, models, bias, scale, t[ig][is_out], static_mask, t)
     truth["motion_noise"] = None if law is None else law.to_dict()
+    truth["imu_noise"] = replay
+    schedule = None if law is None else law_schedule(law, t, static_mask, m_white, m_bias)
     truth["models_moving"] = models_to_json(moving_models, cfg.imu_rate_hz)
     if law is not None:
         truth["vibration_std_at_speed"] = {"gyro_rad_s": 0.0, "accel_m_s2": 0.0, "full_at_mps": 3.0,
@@ -565,6 +602,7 @@ def simulate_drive(
         model_errors=err,
         vibration=vib,
         moving_models=moving_models,
+        law_schedule=schedule,
     )
 
 

@@ -1,0 +1,147 @@
+"""Real noise, known truth: replay a real static IMU recording as a simulated drive's IMU errors (issue 21 §3).
+
+A static recording (a ``.npz`` that states its ``columns`` gyro_x … accel_z, ``units`` and ``freq_hz``, as
+the shared ADIS16405 logs do) holds the sensor's real errors with their non-Gaussian, non-model structure.
+:func:`load_recording` converts them to SI (deg/s → rad/s, g → m/s² with g = 9.80665, or rad/s and m/s² as
+they are) and removes the mean of the whole file per axis, so the truth injected into a drive is the
+recording's own fluctuation about its long-run level (bias wander included):
+
+    e_k = r_{s+k} − (1/N) Σ_i r_i,   k = 0 … n − 1,
+
+with s the first sample of the drive's stretch. Drive d of a run (d = seed − first seed) gets the stretch
+[d·n, (d + 1)·n) of the recording (no two drives overlap); a stop of the drive therefore shows the recording's
+samples at the stop times, inside the drive's stretch. A static recording for the denial experiment is taken
+from the end of the file, [N − m, N), and no drive may reach into it (:func:`stretch`). The recording must
+have the simulator's rate: resampling would change the noise's spectrum, so another rate is refused with the
+rate to simulate at.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from imunoise.errors import DataError, ModelError
+from imunoise.imu import AXES, canonical_axis
+
+__all__ = ["NoiseRecording", "load_recording", "stretch", "static_part", "G0"]
+
+G0 = 9.80665  # m/s² per g (the recordings' README: use it unless a better local value is known)
+_UNIT = {"deg/s": math.pi / 180.0, "°/s": math.pi / 180.0, "rad/s": 1.0, "g": G0, "m/s^2": 1.0, "m/s²": 1.0,
+         "m/s2": 1.0}
+_GYRO_UNITS = ("deg/s", "°/s", "rad/s")
+_ACCEL_UNITS = ("g", "m/s^2", "m/s²", "m/s2")
+
+
+@dataclass(frozen=True)
+class NoiseRecording:
+    """A static recording's errors in SI, axes :data:`imunoise.imu.AXES`, the whole file's mean removed."""
+
+    path: str
+    rate_hz: float
+    errors: np.ndarray  # (N, 6): rad/s, m/s²
+    mean_removed: tuple[float, ...]  # the removed per-axis mean, SI
+
+    @property
+    def n(self) -> int:
+        return int(self.errors.shape[0])
+
+    def describe(self) -> dict:
+        return {"file": self.path, "rate_hz": self.rate_hz, "samples": self.n, "duration_s": self.n / self.rate_hz,
+                "mean_removed_si": list(self.mean_removed), "axes": list(AXES)}
+
+
+@functools.lru_cache(maxsize=8)
+def load_recording(path: str) -> NoiseRecording:
+    """The recording at ``path`` (module docstring), cached per process.
+
+    Raises
+    ------
+    DataError
+        If the file cannot be read or lacks ``data``/``columns``/``units``/``freq_hz``, or a column or unit is
+        unknown; each message names the file and the key.
+    """
+    p = Path(path)
+    try:
+        z = np.load(p, allow_pickle=False)
+    except (OSError, ValueError) as exc:
+        raise DataError(f"--imu-noise {p}: cannot read it as .npz ({exc})") from None
+    missing = [k for k in ("data", "columns", "units", "freq_hz") if k not in z.files]
+    if missing:
+        raise DataError(f"--imu-noise {p}: key '{missing[0]}' missing (a recording states data, columns, units "
+                        "and freq_hz)")
+    data = np.asarray(z["data"], dtype=float)
+    cols = [str(c) for c in np.atleast_1d(z["columns"])]
+    units = [str(u) for u in np.atleast_1d(z["units"])]
+    if len(units) == 1:
+        units = units * len(cols)
+    if data.ndim != 2 or data.shape[1] != len(cols) or len(units) != len(cols):
+        raise DataError(f"--imu-noise {p}: key 'data' has shape {data.shape} for {len(cols)} columns and "
+                        f"{len(units)} units")
+    rate = float(z["freq_hz"])
+    if not (math.isfinite(rate) and rate > 0):
+        raise DataError(f"--imu-noise {p}: key 'freq_hz' must be > 0, got {rate}")
+    out = np.zeros((data.shape[0], len(AXES)))
+    seen = set()
+    for j, (c, u) in enumerate(zip(cols, units, strict=True)):
+        ax = canonical_axis(c)
+        if ax is None:
+            raise DataError(f"--imu-noise {p}: key 'columns' has {c!r}; use {', '.join(AXES)}")
+        if u not in (_GYRO_UNITS if ax.startswith("gyro") else _ACCEL_UNITS):
+            raise DataError(f"--imu-noise {p}: key 'units' has {u!r} for {c}; use deg/s or rad/s (gyros), "
+                            "g or m/s^2 (accelerometers)")
+        out[:, AXES.index(ax)] = data[:, j] * _UNIT[u]
+        seen.add(ax)
+    if seen != set(AXES):
+        raise DataError(f"--imu-noise {p}: key 'columns' lacks {sorted(set(AXES) - seen)}")
+    if not np.all(np.isfinite(out)):
+        raise DataError(f"--imu-noise {p}: key 'data' holds non-finite values")
+    mean = out.mean(axis=0)
+    out -= mean
+    out.setflags(write=False)
+    return NoiseRecording(str(p.resolve()), rate, out, tuple(float(m) for m in mean))
+
+
+def _check_rate(rec: NoiseRecording, rate_hz: float) -> None:
+    if abs(rec.rate_hz - rate_hz) > 1e-9 * rate_hz:
+        raise ModelError(f"--imu-noise {rec.path}: recorded at {rec.rate_hz:g} Hz, the simulator runs at "
+                         f"{rate_hz:g} Hz; a recording is not resampled (that would change its noise spectrum): "
+                         f"simulate at {rec.rate_hz:g} Hz")
+
+
+def stretch(rec: NoiseRecording, index: int, n: int, rate_hz: float, *, reserve_s: float = 0.0) -> tuple[int, int]:
+    """Samples [a, b) of drive ``index`` (0-based) for a drive of ``n`` samples at ``rate_hz``: a = index·n,
+    b = a + n, never reaching into the last ``reserve_s`` seconds (the denial experiment's static part).
+
+    Raises
+    ------
+    ModelError
+        For another rate than the recording's, a negative index, or a stretch past the usable samples (saying
+        how many drives of this length fit).
+    """
+    _check_rate(rec, rate_hz)
+    usable = rec.n - int(round(reserve_s * rec.rate_hz))
+    if index < 0:
+        raise ModelError(f"--imu-noise {rec.path}: drive index {index} < 0 (seeds start at --seed0)")
+    a, b = index * n, (index + 1) * n
+    if b > usable:
+        fit = max(usable // n, 0)
+        raise ModelError(f"--imu-noise {rec.path}: drive {index + 1} needs samples [{a}, {b}) but "
+                         f"{usable} are usable ({rec.n / rec.rate_hz:.0f} s recorded"
+                         f"{f', the last {reserve_s:.0f} s kept for the static recording' if reserve_s else ''}); "
+                         f"{fit} drive(s) of {n / rate_hz:.0f} s fit: use --seeds ≤ {fit} or shorter drives")
+    return a, b
+
+
+def static_part(rec: NoiseRecording, seconds: float, rate_hz: float) -> np.ndarray:
+    """The last ``seconds`` of the recording (the denial experiment's static recording, which no drive uses)."""
+    _check_rate(rec, rate_hz)
+    m = int(round(seconds * rec.rate_hz))
+    if not 0 < m < rec.n:
+        raise ModelError(f"--imu-noise {rec.path}: a static part of {seconds:g} s does not fit in "
+                         f"{rec.n / rec.rate_hz:.0f} s (use --static-hours below that)")
+    return rec.errors[rec.n - m:]

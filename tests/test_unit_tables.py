@@ -1,0 +1,44 @@
+"""scripts/unit_tables.py: units (sensors) as the clusters of the paired ratios, drives nested inside."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import stats
+
+_SPEC = importlib.util.spec_from_file_location(
+    "unit_tables", Path(__file__).resolve().parents[1] / "scripts" / "unit_tables.py")
+unit_tables = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(unit_tables)
+
+
+def _mc(rng, effect):
+    # a Monte Carlo results.json of 3 drives × 4 windows: gmwm = plain × exp(effect + noise)
+    plain = [list(rng.uniform(50, 300, 4)) for _ in range(3)]
+    gm = [[v * math.exp(effect + rng.normal(0, 0.05)) for v in d] for d in plain]
+    return {"methods": ["plain", "gmwm"], "data": "sim", "seed_role": "dev",
+            "per_seed": {"plain": [{"outage_end_horizontal_m": d} for d in plain],
+                         "gmwm": [{"outage_end_horizontal_m": d} for d in gm]}}
+
+
+def test_units_are_the_clusters():
+    rng = np.random.default_rng(0)
+    effects = [-0.2, -0.1, 0.0, -0.3, -0.15]
+    res = [_mc(rng, e) for e in effects]
+    (e,) = unit_tables.pooled(res, [f"u{k}" for k in range(5)], n_boot=100)
+    assert e["n_clusters"] == 5 and e["df"] == 4 and e["n_drives"] == 15 and e["n_windows"] == 60
+    # equal units: the interval is the t interval of the five unit means of the log-ratios
+    unit_means = []
+    for r in res:
+        lr = [math.log(g / p) for dg, dp in zip(r["per_seed"]["gmwm"], r["per_seed"]["plain"])
+              for g, p in zip(dg["outage_end_horizontal_m"], dp["outage_end_horizontal_m"])]
+        unit_means.append(np.mean(lr))
+    m = np.mean(unit_means)
+    half = stats.t.ppf(0.975, 4) * np.std(unit_means, ddof=1) / math.sqrt(5)
+    assert math.log(e["ratio"]) == pytest.approx(m, rel=1e-12)
+    assert [math.log(x) for x in e["ci"]] == pytest.approx([m - half, m + half], rel=1e-10)
+    assert "| sim | drift | gmwm | plain |" in unit_tables.table([e])
