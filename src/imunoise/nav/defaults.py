@@ -116,6 +116,10 @@ class EkfConfig:
     ``zupt_sigma`` (m/s) and ``zupt_every`` (samples) set the zero-velocity updates of the batch run when
     a static mask is given.
 
+    ``aiding``: the optional measurements beside GNSS position and ZUPT, one settings object each (e.g.
+    :class:`~imunoise.nav.measurements.nhc.NhcConfig`); the filter runs every one listed, in the batch and
+    the step path alike. Empty (the default): the filter is the one without them.
+
     ``scale_factors`` adds six scale-factor error states (gyro x,y,z, accel x,y,z; dimensionless, the
     21-state filter of KF-GINS): the sensor model is ω̃ = (1 + s_g)ω + b_g, f̃ = (1 + s_a)f + b_a, the
     increments are compensated as (Δθ − b̂_g Δt)/(1 + ŝ_g). Each s is a first-order Gauss–Markov process
@@ -147,6 +151,11 @@ class EkfConfig:
     gyro_scale_std: float = 1000e-6
     accel_scale_std: float = 1000e-6
     scale_tau_s: float = 3600.0
+    aiding: tuple = ()
+
+    def aid(self, kind: type):
+        """The settings of ``kind`` in ``aiding``, or None when that measurement is off."""
+        return next((a for a in self.aiding if isinstance(a, kind)), None)
 
     def with_(self, **kw) -> EkfConfig:
         """Copy with some fields replaced (lever arm as any 3-sequence)."""

@@ -40,33 +40,40 @@ the non-zeros of Φ only.
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
 from imunoise.errors import DataError, ModelError
 from imunoise.nav.defaults import EkfConfig, default_axis_models
-from imunoise.nav.earth import OMEGA_E, dcm_to_euler
-from imunoise.nav.ekf_kernels import (
-    ACC_LEN,
-    gnss_innovation,
-    kf_update,
-    nav_step,
-    propagate_cov,
-    run_batch,
-    sensor_errors_of,
-)
+from imunoise.nav.ekf_kernels import kf_update, nav_step, propagate_cov, sensor_errors_of
 from imunoise.nav.error_states import AXES, ModelLayout, initial_covariance, scale_spec, swap_map
-from imunoise.nav.mechanization import (
+from imunoise.nav.filter_loop import (
+    FilterArrays,
+    Fixes,
+    ImuInput,
+    ModelArrays,
+    Outputs,
+    Settings,
+    gnss_position_update,
+    run_batch,
+    zupt_update,
+)
+from imunoise.nav.measurements.zupt import zaru
+from imunoise.nav.mechanization import make_nav, nav_euler
+from imunoise.nav.solution import NavSolution
+from imunoise.nav.state import (
+    A_LAST_DT,
+    A_STEPS,
+    ACC_LEN,
     I_DTH,
     I_DV,
     I_PREV,
-    I_Q,
-    make_nav,
-    quat_to_dcm,
+    N_NAV,
+    NAV,
+    StateView,
 )
-from imunoise.nav.solution import NavSolution
 
 log = logging.getLogger(__name__)
 
@@ -196,6 +203,26 @@ class EkfResult(NavSolution):
     scale_factors: np.ndarray | None = None
 
 
+class Innovation(NamedTuple):
+    """One measurement update (filterpy's ``y``, ``S``, ``K``): its kind, time [s], innovation ``y`` = dz,
+    its covariance ``S`` = HPHᵀ + R before the update, the gain ``K`` (zeros when not used), the NIS and
+    whether the update was applied."""
+
+    kind: str
+    t: float
+    y: np.ndarray
+    S: np.ndarray
+    K: np.ndarray
+    nis: float
+    used: bool
+
+
+def new_outputs(n: int, *, store_cov: bool, has_sf: bool) -> Outputs:
+    """Empty per-sample outputs of :func:`~imunoise.nav.filter_loop.run_batch` for ``n`` samples."""
+    return Outputs(np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 6)), np.empty((n, N_NAV)),
+                   np.zeros((n if store_cov else 1, N_NAV, N_NAV)), np.zeros((n if has_sf else 1, 6)))
+
+
 class LooselyCoupledEKF:
     """Step-by-step loosely coupled EKF (SPEC §8) for online use; :func:`run_ekf` is the batch form.
 
@@ -220,6 +247,9 @@ class LooselyCoupledEKF:
         ``(t, ν, S, used)`` of the last GNSS fix: innovation ν (NED m), its predicted covariance
         S = HPHᵀ + R before the update, and whether the gate let it in; read-only (for
         :mod:`imunoise.nav.adaptive`).
+    last_update : Innovation or None
+        The last measurement of any kind (:class:`Innovation`: kind, t, y, S, K, NIS, used), as filterpy's
+        ``KalmanFilter`` keeps ``y``, ``S`` and ``K``.
     """
 
     def __init__(self, config: EkfConfig, axis_models, init: InitialState, *, imu_rate_hz: float = 100.0):
@@ -244,6 +274,30 @@ class LooselyCoupledEKF:
         self._consecutive_reject = 0
         # (t, ν, S = HPHᵀ + R, used) of the last GNSS fix, for innovation-based adaptation (read-only)
         self.last_innovation: tuple[float, np.ndarray, np.ndarray, bool] | None = None
+        self.last_update: Innovation | None = None
+
+    # -- named views and kernel arguments -------------------------------------------------------
+    @property
+    def view(self) -> StateView:
+        """Named views of the current state (``view.vel``, ``view.P_vel``, ...; :mod:`imunoise.nav.state`)."""
+        return StateView(self.nav, self.P, self.xm)
+
+    def arrays(self) -> FilterArrays:
+        """The state arrays as the kernels take them (the filter's own arrays, not copies)."""
+        return FilterArrays(self.nav, self.xm, self.P, self.acc)
+
+    def kernel_parts(self) -> tuple[ModelArrays, Settings]:
+        """The model layout and settings every kernel call takes, built in this one place."""
+        L, c = self.layout, self.config
+        model = ModelArrays(L.phi_pow, L.q_pow, L.hvec, L.axis_of, L.wpsd, self.wpsd_fb, L.scale_index)
+        settings = Settings(float(c.gate_q_scale), float(self.dt_nom), int(c.cov_every), float(c.chi2_gate),
+                            int(c.gate_max_reject), float(c.gate_abs_m), int(c.zupt_every), float(c.zupt_sigma))
+        return model, settings
+
+    def _record(self, kind: str, t: float, out: tuple) -> bool:
+        nis, ok, dz, S, K = out
+        self.last_update = Innovation(kind, float(t), dz, S, K, float(nis), bool(ok))
+        return bool(ok)
 
     # -- propagation ------------------------------------------------------------------------------
     def propagate(self, dtheta: np.ndarray, dv: np.ndarray, t: float) -> None:
@@ -267,7 +321,7 @@ class LooselyCoupledEKF:
         L = self.layout
         nav_step(self.nav, self.xm, self.acc, dth, dvv, dt, L.hvec, L.axis_of, self.gate_open, L.scale_index)
         self.t = float(t)
-        if self.acc[13] >= self.config.cov_every or dt > 1.5 * self.dt_nom * self.config.cov_every:
+        if self.acc[A_STEPS] >= self.config.cov_every or dt > 1.5 * self.dt_nom * self.config.cov_every:
             self.flush()
 
     def prime(self, dtheta: np.ndarray, dv: np.ndarray) -> None:
@@ -330,15 +384,10 @@ class LooselyCoupledEKF:
         bad = ~np.isfinite(sig)
         sig[bad] = self.config.gnss_sigma_nan
         sig = np.maximum(sig, self.config.gnss_sigma_floor)
-        self.flush()
-        n = self.P.shape[0]
-        dz, H = gnss_innovation(self.nav, n, llh, self.lever, self.t - float(t))
         force = self._consecutive_reject >= self.config.gate_max_reject
-        R = np.diag(sig**2)
-        S = H @ self.P @ H.T + R  # before the update: kf_update overwrites P in place
-        nis, ok = kf_update(
-            self.P, self.nav, self.xm, dz, H, R, self.config.chi2_gate, force, self.config.gate_abs_m
-        )
+        out = gnss_position_update(self.arrays(), *self.kernel_parts(), llh, sig, self.lever, self.t - float(t), force)
+        nis, ok, dz, S, _ = out
+        self._record("gnss_position", t, out)
         self.last_innovation = (float(t), dz.copy(), S, bool(ok))
         if ok:
             self._consecutive_reject = 0
@@ -348,26 +397,23 @@ class LooselyCoupledEKF:
             log.info("GNSS fix at t=%.3f rejected (NIS %.1f > %.1f)", t, nis, self.config.chi2_gate)
         return bool(ok)
 
-    def zupt_update(self, sigma_v: float) -> bool:
-        """Zero-velocity update: v^n = 0 with 1σ ``sigma_v`` (m/s).
+    def zupt_update(self, sigma_v: float, chi2: float = 0.0) -> bool:
+        """Zero-velocity update: v^n = 0 with 1σ ``sigma_v`` (m/s) (:mod:`imunoise.nav.measurements.zupt`).
 
         Parameters
         ----------
         sigma_v : float
             1σ of the zero velocity [m/s].
+        chi2 : float
+            Skip the update when its NIS vᵀ(P_vv + σ²I)⁻¹v exceeds this (3 dof); 0 = always apply.
 
         Returns
         -------
         bool
             Whether the update was applied.
         """
-        self.flush()
-        n = self.P.shape[0]
-        H = np.zeros((3, n))
-        H[:, 3:6] = np.eye(3)
-        dz = self.nav[3:6].copy()
-        _, ok = kf_update(self.P, self.nav, self.xm, dz, H, np.eye(3) * sigma_v**2, 0.0, True, 0.0)
-        return bool(ok)
+        return self._record("zupt", self.t, zupt_update(self.arrays(), *self.kernel_parts(), float(sigma_v),
+                                                        float(chi2)))
 
     def zaru_update(self, sigma_w: float) -> bool:
         """Zero angular-rate update: corrected ω_ib^b equals the Earth rate in body, 1σ ``sigma_w`` (rad/s).
@@ -383,21 +429,11 @@ class LooselyCoupledEKF:
             Whether the update was applied.
         """
         self.flush()
-        dt = self.acc[15] if self.acc[15] > 0 else self.dt_nom
-        w_meas = self.nav[I_DTH : I_DTH + 3] / dt  # last corrected increment
-        C = quat_to_dcm(self.nav[I_Q : I_Q + 4])
-        lat = self.nav[0]
-        wie_b = C.T @ np.array([OMEGA_E * math.cos(lat), 0.0, -OMEGA_E * math.sin(lat)])
-        n = self.P.shape[0]
-        H = np.zeros((3, n))
+        dt = self.acc[A_LAST_DT] if self.acc[A_LAST_DT] > 0 else self.dt_nom
         L = self.layout
-        for s in range(L.nm):
-            if L.axis_of[s] < 3:
-                H[L.axis_of[s], 9 + s] = L.hvec[s]
-        H[:, 6:9] = 0.0
-        dz = w_meas - wie_b
-        _, ok = kf_update(self.P, self.nav, self.xm, dz, H, np.eye(3) * sigma_w**2, 0.0, True, 0.0)
-        return bool(ok)
+        dz, H, R = zaru(self.nav, self.P.shape[0], dt, L.hvec, L.axis_of, float(sigma_w))
+        nis, ok, S, K = kf_update(self.P, self.nav, self.xm, dz, H, R, 0.0, True, 0.0)
+        return self._record("zaru", self.t, (nis, ok, dz, S, K))
 
     # -- model swap -------------------------------------------------------------------------------
     def swap_model(self, axis_models, *, preserve: bool = False, imu_rate_hz: float | None = None) -> dict[str, int]:
@@ -470,36 +506,24 @@ class LooselyCoupledEKF:
         if t.size < 2 or abs(t[0] - self.t) > 1e-9 or np.any(np.diff(t) <= 0):
             raise DataError(f"rehearse: t must start at the filter time {self.t:.3f} s and increase")
         self.flush()
-        L = self.layout
         n = t.size
-        out_pos, out_vel, out_att = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-        out_pos[0], out_vel[0] = self.nav[0:3], self.nav[3:6]
-        out_att[0] = dcm_to_euler(quat_to_dcm(self.nav[I_Q : I_Q + 4]))
+        sv = self.view
+        out = new_outputs(n, store_cov=False, has_sf=False)
+        out.pos[0], out.vel[0], out.att[0] = sv.llh, sv.vel, nav_euler(self.nav)
+        out.std[0] = sv.std_nav
         gt = np.ascontiguousarray(gnss_t, dtype=float)
         gsig = np.maximum(np.ascontiguousarray(gnss_sigma, dtype=float).reshape(-1, 3), self.config.gnss_sigma_floor)
-        nis = np.full(gt.size, np.nan)
-        out_std = np.empty((n, 9))
-        out_std[0] = np.sqrt(np.abs(np.diag(self.P)[:9]))
-        run_batch(
-            t, np.ascontiguousarray(dtheta, dtype=float), np.ascontiguousarray(dv, dtype=float),
-            *((self.nav, self.xm, self.P, self.acc) if in_place else
-              (self.nav.copy(), self.xm.copy(), self.P.copy(), self.acc.copy())), gt,
-            np.ascontiguousarray(gnss_llh, dtype=float).reshape(-1, 3), gsig, self.lever,
-            np.zeros(n, dtype=np.bool_) if gate is None else np.ascontiguousarray(gate, dtype=np.bool_),
-            *self._kernel_constants(),
-            out_pos, out_vel, out_att, np.empty((n, 6)), out_std, np.full(gt.size, -1, dtype=np.int64),
-            nis, np.zeros((1, 9, 9)), np.zeros(n, dtype=np.bool_), 1, 0.0, L.scale_index, np.zeros((1, 6)),
-        )  # fmt: skip
+        fixes = Fixes(gt, np.ascontiguousarray(gnss_llh, dtype=float).reshape(-1, 3), gsig, self.lever,
+                      np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan))
+        imu = ImuInput(t, np.ascontiguousarray(dtheta, dtype=float), np.ascontiguousarray(dv, dtype=float),
+                       np.zeros(n, dtype=np.bool_) if gate is None else np.ascontiguousarray(gate, dtype=np.bool_),
+                       np.zeros(n, dtype=np.bool_))
+        f = self.arrays() if in_place else FilterArrays(self.nav.copy(), self.xm.copy(), self.P.copy(),
+                                                          self.acc.copy())
+        run_batch(imu, f, *self.kernel_parts(), fixes, out)
         if in_place:
             self.t = float(t[-1])
-        return (out_pos, out_att, *((nis,) if with_nis else ()), *((out_std,) if with_std else ()))
-
-    def _kernel_constants(self) -> tuple:
-        """The model layout and filter settings :func:`~imunoise.nav.ekf_kernels.run_batch` takes between the
-        fixes and the outputs (arguments 12–23), the same for a rehearsal and a batch run."""
-        L, c = self.layout, self.config
-        return (L.phi_pow, L.q_pow, L.hvec, L.axis_of, L.wpsd, self.wpsd_fb, float(c.gate_q_scale), self.dt_nom,
-                int(c.cov_every), float(c.chi2_gate), int(c.gate_max_reject), float(c.gate_abs_m))
+        return (out.pos, out.att, *((fixes.nis,) if with_nis else ()), *((out.std,) if with_std else ()))
 
     # -- output -----------------------------------------------------------------------------------
     def sensor_errors(self) -> np.ndarray:
@@ -515,14 +539,15 @@ class LooselyCoupledEKF:
         """Current solution: t, llh, vel_ned, euler, gyro/accel error estimates, 1σ of δr/δv/φ, the
         scale-factor estimates (None when off) and every model state by label."""
         e = self.sensor_errors()
+        sv = self.view
         return {
             "t": self.t,
-            "llh": self.nav[0:3].copy(),
-            "vel_ned": self.nav[3:6].copy(),
-            "euler": dcm_to_euler(quat_to_dcm(self.nav[I_Q : I_Q + 4])),
+            "llh": sv.llh.copy(),
+            "vel_ned": sv.vel.copy(),
+            "euler": nav_euler(self.nav),
             "gyro_error": e[:3],
             "accel_error": e[3:],
-            "std": np.sqrt(np.abs(np.diag(self.P)[:9])),
+            "std": sv.std_nav,
             "model_states": dict(zip(self.layout.labels, self.xm.tolist())),
             "scale_factors": self.scale_factors(),
         }
@@ -676,55 +701,44 @@ def run_ekf(
     zupt_arr = _mask_for(zupt, t_all, t, "zupt")
 
     n = t.size
-    out_pos, out_vel, out_att = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-    out_err, out_std = np.empty((n, 6)), np.empty((n, 9))
-    out_pos[0], out_vel[0], out_att[0] = init.llh, init.vel_ned, init.euler
     L = ekf.layout
-    out_err[0] = ekf.sensor_errors()
-    out_std[0] = np.sqrt(np.diag(ekf.P)[:9])
-    out_cov = np.zeros((n if store_cov else 1, 9, 9))
-    out_cov[0] = ekf.P[:9, :9]
     has_sf = bool(np.all(L.scale_index >= 0))
-    out_sf = np.zeros((n if has_sf else 1, 6))
+    out = new_outputs(n, store_cov=store_cov, has_sf=has_sf)
+    out.pos[0], out.vel[0], out.att[0] = init.llh, init.vel_ned, init.euler
+    out.err[0] = ekf.sensor_errors()
+    out.std[0] = np.sqrt(np.diag(ekf.P)[NAV])
+    out.cov[0] = ekf.view.P_nav
     if has_sf:
-        out_sf[0] = ekf.xm[L.scale_index]
-    g_status = np.full(gt.size, -1, dtype=np.int64)
-    g_nis = np.full(gt.size, np.nan)
-    args = [
-        t, dth, dv, ekf.nav, ekf.xm, ekf.P, ekf.acc, gt, gllh, gsig, ekf.lever, gate_arr,
-        *ekf._kernel_constants(),
-        out_pos, out_vel, out_att, out_err, out_std, g_status, g_nis, out_cov,
-        zupt_arr, int(config.zupt_every), float(config.zupt_sigma), L.scale_index, out_sf,
-    ]  # fmt: skip
+        out.sf[0] = ekf.xm[L.scale_index]
+    fixes = Fixes(gt, gllh, gsig, ekf.lever, np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan))
+    imu_in = ImuInput(t, dth, dv, gate_arr, zupt_arr)
+    args = (imu_in, ekf.arrays(), *ekf.kernel_parts(), fixes, out)
     if not run_batch.signatures:
         # load (or compile) the kernel on a 2-sample copy so elapsed_s measures the filter only
-        per_sample = (0, 1, 2, 11, 24, 25, 26, 27, 28, 31, 32, 36)
-        warm = [
-            a[:2].copy() if i in per_sample else (a.copy() if isinstance(a, np.ndarray) else a)
-            for i, a in enumerate(args)
-        ]
-        run_batch(*warm)
+        run_batch(ImuInput(*(a[:2].copy() for a in imu_in)), FilterArrays(*(a.copy() for a in ekf.arrays())),
+                  *args[2:4], Fixes(*(a.copy() for a in fixes)), Outputs(*(a[:2].copy() for a in out)))
     t0 = time.perf_counter()
     run_batch(*args)
     elapsed = time.perf_counter() - t0
+    g_status = fixes.status
     n_rej = int(np.sum(g_status == 0))
     if n_rej:
         log.info("%d GNSS fixes rejected by the χ² gate (%d forced)", n_rej, int(np.sum(g_status == 2)))
     res = EkfResult(
         t,
-        out_pos,
-        out_vel,
-        out_att,
-        out_err[:, :3],
-        out_err[:, 3:],
-        out_std,
+        out.pos,
+        out.vel,
+        out.att,
+        out.err[:, :3],
+        out.err[:, 3:],
+        out.std,
         gt,
         g_status,
-        g_nis,
+        fixes.nis,
         elapsed,
         list(L.labels),
-        out_cov if store_cov else None,
-        out_sf if has_sf else None,
+        out.cov if store_cov else None,
+        out.sf if has_sf else None,
     )
     for name in ("llh", "vel_ned", "euler"):
         if not np.all(np.isfinite(getattr(res, name))):
