@@ -13,6 +13,7 @@ import pytest
 from imunoise.experiments.common import simulate_scenario
 from imunoise.nav.defaults import EkfConfig
 from imunoise.nav.ekf import LooselyCoupledEKF, run_ekf
+from imunoise.nav.measurements.nhc import NhcConfig
 from imunoise.nav.mechanization import nav_euler
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "imunoise"
@@ -47,11 +48,12 @@ def _step_run(sc, init, config, t_end, zupt):
     return np.array(rows)
 
 
-def test_batch_and_step_paths_are_identical(short_drive):
+@pytest.mark.parametrize("aiding", [(), (NhcConfig(),)], ids=["plain", "nhc"])
+def test_batch_and_step_paths_are_identical(short_drive, aiding):
     sc = short_drive
     i0 = int(np.searchsorted(sc.imu.t, sc.init.t))
     init = replace(sc.init, t=float(sc.imu.t[i0]))  # on an IMU epoch: no split first increment
-    config = sc.ekf_config()
+    config = sc.ekf_config().with_(aiding=aiding)
     t_end = init.t + 120.0
     zupt = np.asarray(sc.static_truth, dtype=bool)
     batch = run_ekf(sc.imu, sc.gnss.without(sc.windows), init, config, t_end=t_end, zupt=zupt)

@@ -8,6 +8,7 @@ import pytest
 
 from imunoise.nav.ekf_kernels import feedback
 from imunoise.nav.measurements.gnss_position import gnss_position
+from imunoise.nav.measurements.nhc import nhc
 from imunoise.nav.measurements.zupt import zaru, zupt
 from imunoise.nav.mechanization import make_nav
 from imunoise.nav.state import I_DTH, N_NAV
@@ -46,6 +47,7 @@ MEASUREMENTS = {
     "gnss_position": lambda nav, xm: gnss_position(nav, N_NAV + NM, np.array([0.7, -1.8, 1600.5]),
                                                    np.array([0.3, -0.5, -1.2]), 0.0, np.ones(3)),
     "zupt": lambda nav, xm: zupt(nav, N_NAV + NM, 0.02),
+    "nhc": lambda nav, xm: nhc(nav, N_NAV + NM, 0.1, 0.1),
 }
 
 
@@ -79,3 +81,12 @@ def test_zaru_jacobian_is_the_gyro_model_coupling():
     expect[[0, 1, 2], [N_NAV, N_NAV + 1, N_NAV + 2]] = 1.0
     assert np.array_equal(H, expect)
     assert np.all(np.abs(dz - nav[I_DTH : I_DTH + 3] / 0.01) < 1e-4)  # minus the Earth rate (7.3e-5 rad/s)
+
+
+def test_nhc_innovation_is_the_body_velocity():
+    nav, xm = _state(3)
+    from imunoise.nav.mechanization import nav_dcm
+
+    dz, _, _ = nhc(nav, N_NAV + NM, 0.1, 0.1)
+    vb = nav_dcm(nav).T @ nav[3:6]
+    np.testing.assert_allclose(dz, vb[1:], atol=1e-12)

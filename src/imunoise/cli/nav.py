@@ -70,6 +70,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="zero-velocity updates at stops found by the SPEC §7 static detector (λ0 learned from the static window)",
     )
+    p.add_argument("--nhc", action="store_true",
+                   help="non-holonomic constraints: zero lateral and vertical body velocity while driving (gated in "
+                        "turns and skids; imunoise.nav.measurements.nhc)")
     p.add_argument("--no-gate", action="store_true", help="disable the χ² innovation gate")
     p.add_argument("--scale-factors", action="store_true",
                    help="add gyro and accel scale-factor states (KF-GINS' 21-state filter; 1000 ppm, GM 1 h)")
@@ -103,6 +106,10 @@ def run(args: argparse.Namespace) -> int:
         kw["chi2_gate"] = 0.0
     if args.scale_factors:
         kw["scale_factors"] = True
+    if args.nhc:
+        from imunoise.nav.measurements.nhc import NhcConfig
+
+        kw["aiding"] = (NhcConfig(),)
     config = EkfConfig(**kw)
 
     t0 = args.start if args.start is not None else max(float(imu.t[0]), float(gnss.t[0]))
@@ -127,7 +134,8 @@ def run(args: argparse.Namespace) -> int:
     res = run_ekf(imu, base_gnss, init, config, models, t_end=args.end, zupt=zupt)
     duration = float(res.t[-1] - res.t[0])
     write_trajectory(out / "trajectory.nav", res, ref)
-    metrics: dict = {"model": model_name, "start": float(res.t[0]), "duration_s": duration, "zupt": bool(args.zupt)}
+    metrics: dict = {"model": model_name, "start": float(res.t[0]), "duration_s": duration, "zupt": bool(args.zupt),
+                     "nhc": bool(args.nhc)}
     run, err = run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)
     metrics.update(run)
     metrics["warnings"] = notes

@@ -31,6 +31,10 @@ H = [I, 0, (C_b^n l)×, 0], applied at the first IMU epoch t_k ≥ t_gnss (the v
 to t_k, exact to ½·a·δt² < 1 mm at 100 Hz). The χ² gate tests the NIS against ``chi2_gate`` with
 ``gate_abs_m``² added to S, and accepts a fix after ``gate_max_reject`` consecutive rejections.
 
+Optional measurements (``EkfConfig.aiding``): non-holonomic constraints (:mod:`imunoise.nav.measurements.nhc`),
+applied every ``every`` samples right after the propagation and before that sample's GNSS fixes, in the batch
+loop and in :meth:`LooselyCoupledEKF.propagate` alike.
+
 Cost (SPEC §13): with ``cov_every = 5`` (the default; 1 is KF-GINS' per-sample propagation, and on the
 shared drive both agree to 0.1 mm RMS and < 1 m outage drift) the 548 s drive at 100 Hz takes ≈ 0.2 s
 with the 21-state default and ≈ 0.3 s with 4×AR1+DR+RW on six axes (45 states); ΦPΦᵀ is formed through
@@ -57,9 +61,12 @@ from imunoise.nav.filter_loop import (
     Outputs,
     Settings,
     gnss_position_update,
+    nhc_due,
+    nhc_update,
     run_batch,
     zupt_update,
 )
+from imunoise.nav.measurements.nhc import NHC_OFF, NhcConfig
 from imunoise.nav.measurements.zupt import zaru
 from imunoise.nav.mechanization import make_nav, nav_euler
 from imunoise.nav.solution import NavSolution
@@ -275,6 +282,8 @@ class LooselyCoupledEKF:
         # (t, ν, S = HPHᵀ + R, used) of the last GNSS fix, for innovation-based adaptation (read-only)
         self.last_innovation: tuple[float, np.ndarray, np.ndarray, bool] | None = None
         self.last_update: Innovation | None = None
+        self._k = 0  # samples propagated (the NHC schedule counts them as the batch loop does)
+        self._nhc_on = config.aid(NhcConfig) is not None
 
     # -- named views and kernel arguments -------------------------------------------------------
     @property
@@ -285,6 +294,10 @@ class LooselyCoupledEKF:
     def arrays(self) -> FilterArrays:
         """The state arrays as the kernels take them (the filter's own arrays, not copies)."""
         return FilterArrays(self.nav, self.xm, self.P, self.acc)
+
+    def _nhc(self):
+        c = self.config.aid(NhcConfig)
+        return NHC_OFF if c is None else c.kernel()
 
     def kernel_parts(self) -> tuple[ModelArrays, Settings]:
         """The model layout and settings every kernel call takes, built in this one place."""
@@ -321,8 +334,13 @@ class LooselyCoupledEKF:
         L = self.layout
         nav_step(self.nav, self.xm, self.acc, dth, dvv, dt, L.hvec, L.axis_of, self.gate_open, L.scale_index)
         self.t = float(t)
+        self._k += 1
         if self.acc[A_STEPS] >= self.config.cov_every or dt > 1.5 * self.dt_nom * self.config.cov_every:
             self.flush()
+        if self._nhc_on:  # the batch loop's order: NHC after the propagation, before the fixes
+            f, nh = self.arrays(), self._nhc()
+            if nhc_due(f, nh, self._k):
+                self._record("nhc", self.t, nhc_update(f, *self.kernel_parts(), nh))
 
     def prime(self, dtheta: np.ndarray, dv: np.ndarray) -> None:
         """Give the strapdown the increment before the first one (Δθ rad, Δv m/s) for its two-sample
@@ -520,7 +538,7 @@ class LooselyCoupledEKF:
                        np.zeros(n, dtype=np.bool_))
         f = self.arrays() if in_place else FilterArrays(self.nav.copy(), self.xm.copy(), self.P.copy(),
                                                           self.acc.copy())
-        run_batch(imu, f, *self.kernel_parts(), fixes, out)
+        run_batch(imu, f, *self.kernel_parts(), self._nhc(), fixes, out)
         if in_place:
             self.t = float(t[-1])
         return (out.pos, out.att, *((fixes.nis,) if with_nis else ()), *((out.std,) if with_std else ()))
@@ -712,11 +730,11 @@ def run_ekf(
         out.sf[0] = ekf.xm[L.scale_index]
     fixes = Fixes(gt, gllh, gsig, ekf.lever, np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan))
     imu_in = ImuInput(t, dth, dv, gate_arr, zupt_arr)
-    args = (imu_in, ekf.arrays(), *ekf.kernel_parts(), fixes, out)
+    args = (imu_in, ekf.arrays(), *ekf.kernel_parts(), ekf._nhc(), fixes, out)
     if not run_batch.signatures:
         # load (or compile) the kernel on a 2-sample copy so elapsed_s measures the filter only
         run_batch(ImuInput(*(a[:2].copy() for a in imu_in)), FilterArrays(*(a.copy() for a in ekf.arrays())),
-                  *args[2:4], Fixes(*(a.copy() for a in fixes)), Outputs(*(a[:2].copy() for a in out)))
+                  *args[2:5], Fixes(*(a.copy() for a in fixes)), Outputs(*(a[:2].copy() for a in out)))
     t0 = time.perf_counter()
     run_batch(*args)
     elapsed = time.perf_counter() - t0

@@ -24,13 +24,14 @@ from numba import njit
 from imunoise.nav.earth import dcm_to_euler
 from imunoise.nav.ekf_kernels import kf_update, nav_step, propagate_cov, sensor_errors_of, std_nav
 from imunoise.nav.measurements.gnss_position import gnss_position
+from imunoise.nav.measurements.nhc import nhc, nhc_gate
 from imunoise.nav.measurements.zupt import zupt
 from imunoise.nav.mechanization import quat_to_dcm
-from imunoise.nav.state import A_STEPS, I_POS, I_Q, I_VEL, N_NAV
+from imunoise.nav.state import A_LAST_DT, A_STEPS, I_POS, I_Q, I_VEL, N_NAV
 
 __all__ = [
     "FilterArrays", "ModelArrays", "Settings", "ImuInput", "Fixes", "Outputs",
-    "flush", "gnss_position_update", "zupt_update", "fix_status", "run_batch",
+    "flush", "gnss_position_update", "zupt_update", "nhc_due", "nhc_update", "fix_status", "run_batch",
 ]
 
 
@@ -131,6 +132,22 @@ def zupt_update(f, m, s, sigma_v, chi2):
 
 
 @njit(cache=True)
+def nhc_due(f, nh, k):
+    """Whether sample ``k`` of a run gets a non-holonomic constraint (every ``nh.every`` samples, gated)."""
+    return nh.every > 0 and k % nh.every == 0 and nhc_gate(f.nav, f.acc[A_LAST_DT], nh.min_speed,
+                                                           nh.max_yaw_rate, nh.max_lat_acc)
+
+
+@njit(cache=True)
+def nhc_update(f, m, s, nh):
+    """Zero lateral and vertical body velocity (:mod:`imunoise.nav.measurements.nhc`); ``(nis, used, dz, S, K)``."""
+    flush(f, m, s)
+    dz, H, R = nhc(f.nav, f.P.shape[0], nh.sigma_lat, nh.sigma_vert)
+    nis, ok, S, K = kf_update(f.P, f.nav, f.xm, dz, H, R, nh.chi2, False, 0.0)
+    return nis, ok, dz, S, K
+
+
+@njit(cache=True)
 def fix_status(ok, force, chi2, nis):
     """Status of a GNSS fix: 1 used, 0 rejected by the gate, 2 forced in after too many rejections."""
     if not ok:
@@ -139,8 +156,9 @@ def fix_status(ok, force, chi2, nis):
 
 
 @njit(cache=True, nogil=True)  # nogil: rehearsals run in a worker thread beside the filter
-def run_batch(imu, f, m, s, fx, out):
-    """Batch loop: mechanization + covariance propagation + GNSS (and optional ZUPT) updates."""
+def run_batch(imu, f, m, s, nh, fx, out):
+    """Batch loop: mechanization + covariance propagation (+ NHC, :class:`~imunoise.nav.measurements.nhc.NhcSettings`
+    ``nh``) + GNSS (and optional ZUPT) updates."""
     t = imu.t
     nimu = t.shape[0]
     gt = fx.t
@@ -157,6 +175,9 @@ def run_batch(imu, f, m, s, fx, out):
         nav_step(f.nav, f.xm, f.acc, imu.dth[k], imu.dv[k], dt, m.hvec, m.axis_of, imu.gate[k], m.sf_idx)
         if f.acc[A_STEPS] >= s.cov_every or dt > 1.5 * s.dt_nom * s.cov_every:
             flush(f, m, s)
+            std_nav(f.P, std)
+        if nhc_due(f, nh, k):
+            nhc_update(f, m, s, nh)
             std_nav(f.P, std)
         while gi < ng and gt[gi] <= t[k]:
             force = n_reject >= s.max_reject
