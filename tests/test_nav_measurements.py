@@ -8,6 +8,7 @@ import pytest
 
 from imunoise.nav.ekf_kernels import feedback
 from imunoise.nav.measurements.gnss_position import gnss_position
+from imunoise.nav.measurements.gnss_velocity import as_gnss_velocity, gnss_velocity
 from imunoise.nav.measurements.nhc import nhc
 from imunoise.nav.measurements.zupt import zaru, zupt
 from imunoise.nav.mechanization import make_nav
@@ -47,6 +48,8 @@ MEASUREMENTS = {
     "gnss_position": lambda nav, xm: gnss_position(nav, N_NAV + NM, np.array([0.7, -1.8, 1600.5]),
                                                    np.array([0.3, -0.5, -1.2]), 0.0, np.ones(3)),
     "zupt": lambda nav, xm: zupt(nav, N_NAV + NM, 0.02),
+    "gnss_velocity": lambda nav, xm: gnss_velocity(nav, N_NAV + NM, np.array([9.1, -3.9, 0.2]),
+                                                   np.array([0.8, -0.5, -1.2]), 0.01, np.full(3, 0.05)),
     "nhc": lambda nav, xm: nhc(nav, N_NAV + NM, 0.1, 0.1),
 }
 
@@ -90,3 +93,24 @@ def test_nhc_innovation_is_the_body_velocity():
     dz, _, _ = nhc(nav, N_NAV + NM, 0.1, 0.1)
     vb = nav_dcm(nav).T @ nav[3:6]
     np.testing.assert_allclose(dz, vb[1:], atol=1e-12)
+
+
+def test_gnss_velocity_lever_term():
+    # a turning car: the antenna 1 m left of the IMU moves at ω × l on top of v
+    nav, xm = _state()
+    nav[I_DTH : I_DTH + 3] = [0.0, 0.0, 0.005]  # 0.5 rad/s yaw rate over 10 ms
+    from imunoise.nav.mechanization import nav_dcm
+
+    dz, _, _ = gnss_velocity(nav, N_NAV + NM, np.zeros(3), np.array([0.0, -1.0, 0.0]), 0.01, np.ones(3))
+    expect = nav[3:6] + nav_dcm(nav) @ np.cross([0.0, 0.0, 0.5], [0.0, -1.0, 0.0])
+    np.testing.assert_allclose(dz, expect, atol=1e-12)
+
+
+def test_as_gnss_velocity_checks_and_floors():
+    v = as_gnss_velocity([2.0, 1.0, np.nan], [[1, 2, 3], [4, 5, 6], [7, 8, 9]], [0.0, 0.1, 0.1])
+    assert np.array_equal(v.t, [1.0, 2.0]) and np.array_equal(v.vel_ned[0], [4, 5, 6])
+    assert np.all(v.sigma_ned[:, 0] == 0.005) and np.all(v.sigma_ned[:, 1] == 0.1)
+    from imunoise.errors import DataError
+
+    with pytest.raises(DataError, match="GNSS velocity: 2 times, 3 velocities"):
+        as_gnss_velocity([1.0, 2.0], np.zeros((3, 3)), 0.1)

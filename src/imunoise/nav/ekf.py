@@ -60,12 +60,15 @@ from imunoise.nav.filter_loop import (
     ModelArrays,
     Outputs,
     Settings,
+    VelocityFixes,
     gnss_position_update,
+    gnss_velocity_update,
     nhc_due,
     nhc_update,
     run_batch,
     zupt_update,
 )
+from imunoise.nav.measurements.gnss_velocity import GnssVelocity, as_gnss_velocity
 from imunoise.nav.measurements.nhc import NHC_OFF, NhcConfig
 from imunoise.nav.measurements.zupt import zaru
 from imunoise.nav.mechanization import make_nav, nav_euler
@@ -199,6 +202,8 @@ class EkfResult(NavSolution):
     scale_factors : numpy.ndarray or None
         Estimated scale factors ŝ (gyro x, y, z, accel x, y, z; dimensionless), shape (N, 6), when
         ``EkfConfig.scale_factors``; else None.
+    gnss_vel_status : numpy.ndarray or None
+        Per GNSS velocity fix (``run_ekf(gnss_vel=...)``): 1 used, 0 rejected by the χ² gate, −1 outside.
     """
 
     gnss_t: np.ndarray
@@ -208,6 +213,7 @@ class EkfResult(NavSolution):
     labels: list[str] = field(default_factory=list)
     cov: np.ndarray | None = None
     scale_factors: np.ndarray | None = None
+    gnss_vel_status: np.ndarray | None = None
 
 
 class Innovation(NamedTuple):
@@ -222,6 +228,13 @@ class Innovation(NamedTuple):
     K: np.ndarray
     nis: float
     used: bool
+
+
+def _velocity_fixes(vel: GnssVelocity | None, lever: np.ndarray) -> VelocityFixes:
+    """The kernel's velocity fixes (none: empty arrays)."""
+    vel = vel if vel is not None else as_gnss_velocity(np.zeros(0), np.zeros((0, 3)), np.ones(3))
+    return VelocityFixes(vel.t, vel.vel_ned, vel.sigma_ned, lever, np.full(vel.t.size, -1, dtype=np.int64),
+                         np.full(vel.t.size, np.nan))
 
 
 def new_outputs(n: int, *, store_cov: bool, has_sf: bool) -> Outputs:
@@ -415,6 +428,16 @@ class LooselyCoupledEKF:
             log.info("GNSS fix at t=%.3f rejected (NIS %.1f > %.1f)", t, nis, self.config.chi2_gate)
         return bool(ok)
 
+    def update_gnss_velocity(self, t: float, vel_ned: np.ndarray, sigma_ned: np.ndarray) -> bool:
+        """GNSS antenna velocity fix (NED m/s, 1σ NED m/s) at time t ≤ the filter time
+        (:mod:`imunoise.nav.measurements.gnss_velocity`); returns whether the χ² gate let it in."""
+        fix = as_gnss_velocity([t], vel_ned, sigma_ned)
+        if fix.t.size == 0:
+            log.warning("GNSS velocity at t=%.3f is not finite: ignored", t)
+            return False
+        out = gnss_velocity_update(self.arrays(), *self.kernel_parts(), fix.vel_ned[0], fix.sigma_ned[0], self.lever)
+        return self._record("gnss_velocity", t, out)
+
     def zupt_update(self, sigma_v: float, chi2: float = 0.0) -> bool:
         """Zero-velocity update: v^n = 0 with 1σ ``sigma_v`` (m/s) (:mod:`imunoise.nav.measurements.zupt`).
 
@@ -538,7 +561,7 @@ class LooselyCoupledEKF:
                        np.zeros(n, dtype=np.bool_))
         f = self.arrays() if in_place else FilterArrays(self.nav.copy(), self.xm.copy(), self.P.copy(),
                                                           self.acc.copy())
-        run_batch(imu, f, *self.kernel_parts(), self._nhc(), fixes, out)
+        run_batch(imu, f, *self.kernel_parts(), self._nhc(), fixes, _velocity_fixes(None, self.lever), out)
         if in_place:
             self.t = float(t[-1])
         return (out.pos, out.att, *((fixes.nis,) if with_nis else ()), *((out.std,) if with_std else ()))
@@ -626,6 +649,7 @@ def run_ekf(
     gate: np.ndarray | None = None,
     store_cov: bool = False,
     zupt: np.ndarray | None = None,
+    gnss_vel: GnssVelocity | None = None,
 ) -> EkfResult:
     """Batch loosely coupled EKF over ``imu`` (ImuData, increments) from ``init.t`` with GNSS fixes.
 
@@ -635,6 +659,8 @@ def run_ekf(
     ``zupt`` (bool per IMU sample, e.g. the static epochs of :func:`imunoise.detect.detect_static`) applies
     a zero-velocity update (σ ``config.zupt_sigma``) every ``config.zupt_every`` samples while true.
     ``store_cov`` keeps the 9×9 navigation block of P at every epoch in ``result.cov`` (for NEES).
+    ``gnss_vel``: antenna velocity fixes (:class:`~imunoise.nav.measurements.gnss_velocity.GnssVelocity`, e.g.
+    from :func:`~imunoise.nav.measurements.gnss_velocity.as_gnss_velocity`), applied like the position fixes.
 
     Parameters
     ----------
@@ -730,11 +756,13 @@ def run_ekf(
         out.sf[0] = ekf.xm[L.scale_index]
     fixes = Fixes(gt, gllh, gsig, ekf.lever, np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan))
     imu_in = ImuInput(t, dth, dv, gate_arr, zupt_arr)
-    args = (imu_in, ekf.arrays(), *ekf.kernel_parts(), ekf._nhc(), fixes, out)
+    vfixes = _velocity_fixes(gnss_vel, ekf.lever)
+    args = (imu_in, ekf.arrays(), *ekf.kernel_parts(), ekf._nhc(), fixes, vfixes, out)
     if not run_batch.signatures:
         # load (or compile) the kernel on a 2-sample copy so elapsed_s measures the filter only
         run_batch(ImuInput(*(a[:2].copy() for a in imu_in)), FilterArrays(*(a.copy() for a in ekf.arrays())),
-                  *args[2:5], Fixes(*(a.copy() for a in fixes)), Outputs(*(a[:2].copy() for a in out)))
+                  *args[2:5], Fixes(*(a.copy() for a in fixes)), VelocityFixes(*(a.copy() for a in vfixes)),
+                  Outputs(*(a[:2].copy() for a in out)))
     t0 = time.perf_counter()
     run_batch(*args)
     elapsed = time.perf_counter() - t0
@@ -757,6 +785,7 @@ def run_ekf(
         list(L.labels),
         out.cov if store_cov else None,
         out.sf if has_sf else None,
+        vfixes.status if gnss_vel is not None else None,
     )
     for name in ("llh", "vel_ned", "euler"):
         if not np.all(np.isfinite(getattr(res, name))):

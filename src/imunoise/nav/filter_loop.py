@@ -24,14 +24,16 @@ from numba import njit
 from imunoise.nav.earth import dcm_to_euler
 from imunoise.nav.ekf_kernels import kf_update, nav_step, propagate_cov, sensor_errors_of, std_nav
 from imunoise.nav.measurements.gnss_position import gnss_position
+from imunoise.nav.measurements.gnss_velocity import gnss_velocity
 from imunoise.nav.measurements.nhc import nhc, nhc_gate
 from imunoise.nav.measurements.zupt import zupt
 from imunoise.nav.mechanization import quat_to_dcm
 from imunoise.nav.state import A_LAST_DT, A_STEPS, I_POS, I_Q, I_VEL, N_NAV
 
 __all__ = [
-    "FilterArrays", "ModelArrays", "Settings", "ImuInput", "Fixes", "Outputs",
-    "flush", "gnss_position_update", "zupt_update", "nhc_due", "nhc_update", "fix_status", "run_batch",
+    "FilterArrays", "ModelArrays", "Settings", "ImuInput", "Fixes", "VelocityFixes", "Outputs",
+    "flush", "gnss_position_update", "gnss_velocity_update", "zupt_update", "nhc_due", "nhc_update", "fix_status",
+    "run_batch",
 ]
 
 
@@ -93,6 +95,18 @@ class Fixes(NamedTuple):
     nis: np.ndarray
 
 
+class VelocityFixes(NamedTuple):
+    """GNSS antenna velocity fixes (sorted): times, NED velocity (m/s), 1σ NED (m/s), the lever arm (body FRD,
+    m); the loop writes ``status`` (1 used, 0 rejected, −1 outside the run) and ``nis``."""
+
+    t: np.ndarray
+    vel: np.ndarray
+    sigma: np.ndarray
+    lever: np.ndarray
+    status: np.ndarray
+    nis: np.ndarray
+
+
 class Outputs(NamedTuple):
     """Per IMU sample (rows); ``cov`` and ``sf`` have one row when not kept."""
 
@@ -118,6 +132,15 @@ def gnss_position_update(f, m, s, z_llh, sigma, lever, dt_back, force):
     flush(f, m, s)
     dz, H, R = gnss_position(f.nav, f.P.shape[0], z_llh, lever, dt_back, sigma)
     nis, ok, S, K = kf_update(f.P, f.nav, f.xm, dz, H, R, s.chi2, force, s.gate_abs)
+    return nis, ok, dz, S, K
+
+
+@njit(cache=True)
+def gnss_velocity_update(f, m, s, z_vel, sigma, lever):
+    """A GNSS antenna velocity (:mod:`imunoise.nav.measurements.gnss_velocity`); ``(nis, used, dz, S, K)``."""
+    flush(f, m, s)
+    dz, H, R = gnss_velocity(f.nav, f.P.shape[0], z_vel, lever, f.acc[A_LAST_DT], sigma)
+    nis, ok, S, K = kf_update(f.P, f.nav, f.xm, dz, H, R, s.chi2, False, 0.0)
     return nis, ok, dz, S, K
 
 
@@ -156,9 +179,9 @@ def fix_status(ok, force, chi2, nis):
 
 
 @njit(cache=True, nogil=True)  # nogil: rehearsals run in a worker thread beside the filter
-def run_batch(imu, f, m, s, nh, fx, out):
+def run_batch(imu, f, m, s, nh, fx, vfx, out):
     """Batch loop: mechanization + covariance propagation (+ NHC, :class:`~imunoise.nav.measurements.nhc.NhcSettings`
-    ``nh``) + GNSS (and optional ZUPT) updates."""
+    ``nh``) + GNSS position ``fx`` and velocity ``vfx`` (and optional ZUPT) updates."""
     t = imu.t
     nimu = t.shape[0]
     gt = fx.t
@@ -167,6 +190,9 @@ def run_batch(imu, f, m, s, nh, fx, out):
     while gi < ng and gt[gi] <= t[0]:
         fx.status[gi] = -1
         gi += 1
+    vi = 0
+    while vi < vfx.t.shape[0] and vfx.t[vi] <= t[0]:
+        vi += 1
     n_reject = 0
     std = np.empty(N_NAV)
     std_nav(f.P, std)
@@ -187,6 +213,12 @@ def run_batch(imu, f, m, s, nh, fx, out):
             n_reject = 0 if ok else n_reject + 1
             std_nav(f.P, std)
             gi += 1
+        while vi < vfx.t.shape[0] and vfx.t[vi] <= t[k]:
+            nis, ok, _, _, _ = gnss_velocity_update(f, m, s, vfx.vel[vi], vfx.sigma[vi], vfx.lever)
+            vfx.nis[vi] = nis
+            vfx.status[vi] = 1 if ok else 0
+            std_nav(f.P, std)
+            vi += 1
         if imu.zupt[k] and k % s.zupt_every == 0:
             zupt_update(f, m, s, s.zupt_sigma, 0.0)
             std_nav(f.P, std)

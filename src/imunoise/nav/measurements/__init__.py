@@ -12,6 +12,7 @@ the gain K as filterpy's ``KalmanFilter.update`` keeps them).
 :mod:`.gnss_position`     antenna position fix (lever arm, referred to the filter epoch with v̂)
 :mod:`.zupt`              zero velocity (ZUPT) and zero angular rate (ZARU) at stops
 :mod:`.nhc`               non-holonomic constraints: zero lateral and vertical body velocity while driving
+:mod:`.gnss_velocity`     antenna velocity (v + C_b^n (ω × l))
 ========================  ==========================================================================
 
 Adding one (an odometer, say): a module here with its ``dz, H, R`` function (and gate), a call in the batch
