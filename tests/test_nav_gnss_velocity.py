@@ -33,7 +33,7 @@ def test_gnss_velocity_reduces_velocity_error(drive):
     pos_only = run_ekf(sc.imu, sc.gnss, sc.init, sc.ekf_config())
     with_vel = run_ekf(sc.imu, sc.gnss, sc.init, sc.ekf_config(), gnss_vel=vel)
     e0, e1 = _vel_rms(pos_only, sc), _vel_rms(with_vel, sc)
-    assert e1 < 0.5 * e0, (e0, e1)
+    assert e1 < 0.5 * e0, (e0, e1)  # measured: 0.349 → 0.065 m/s
     assert e1 < 0.1  # of the order of the fixes' 5 cm/s
     assert np.sum(with_vel.gnss_vel_status == 1) > 0.95 * np.sum(vel.t > sc.init.t)
 

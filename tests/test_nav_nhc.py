@@ -9,6 +9,7 @@ import pytest
 from imunoise.errors import ModelError
 from imunoise.experiments.common import simulate_scenario
 from imunoise.nav.earth import llh_to_ned
+from imunoise.nav.defaults import EkfConfig
 from imunoise.nav.ekf import run_ekf
 from imunoise.nav.measurements.nhc import NhcConfig
 
@@ -49,3 +50,22 @@ def test_nhc_config_is_checked():
     with pytest.raises(ModelError, match="sigma_lat and sigma_vert must be > 0"):
         NhcConfig(sigma_lat=0.0)
     assert NhcConfig().kernel().every == 10
+
+
+def test_nhc_gate_cannot_lock_the_constraint_out():
+    # a filter sure of a 3 m/s sideways velocity (as after an outage): the χ² gate rejects the constraint
+    # max_reject times in a row, then it is applied anyway
+    from imunoise.nav.ekf import InitialState, LooselyCoupledEKF
+
+    init = InitialState(0.0, np.array([0.7, -1.8, 100.0]), np.array([10.0, 3.0, 0.0]), np.zeros(3))
+    cfg = EkfConfig(sigma_vel0=(0.05, 0.05, 0.05), sigma_att0=(0.01, 0.01, 0.01), aiding=(NhcConfig(),))
+    ekf = LooselyCoupledEKF(cfg, None, init)
+    g = 9.80
+    used = []
+    for k in range(1, 121):
+        ekf.propagate(np.zeros(3), np.array([0.0, 0.0, -g * 0.01]), 0.01 * k)
+        if k % 10 == 0:
+            assert ekf.last_update.kind == "nhc" and ekf.last_update.t == pytest.approx(0.01 * k)
+            used.append(ekf.last_update.used)
+    assert used[:10] == [False] * 10 and used[10] is True
+    assert ekf.last_update.nis > NhcConfig().chi2

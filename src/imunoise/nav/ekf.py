@@ -297,6 +297,7 @@ class LooselyCoupledEKF:
         self.last_update: Innovation | None = None
         self._k = 0  # samples propagated (the NHC schedule counts them as the batch loop does)
         self._nhc_on = config.aid(NhcConfig) is not None
+        self._nhc_reject = 0  # consecutive NHC rejections (the batch loop keeps the same count)
 
     # -- named views and kernel arguments -------------------------------------------------------
     @property
@@ -353,7 +354,8 @@ class LooselyCoupledEKF:
         if self._nhc_on:  # the batch loop's order: NHC after the propagation, before the fixes
             f, nh = self.arrays(), self._nhc()
             if nhc_due(f, nh, self._k):
-                self._record("nhc", self.t, nhc_update(f, *self.kernel_parts(), nh))
+                ok = self._record("nhc", self.t, nhc_update(f, *self.kernel_parts(), nh, self._nhc_reject))
+                self._nhc_reject = 0 if ok else self._nhc_reject + 1
 
     def prime(self, dtheta: np.ndarray, dv: np.ndarray) -> None:
         """Give the strapdown the increment before the first one (Δθ rad, Δv m/s) for its two-sample
@@ -757,14 +759,15 @@ def run_ekf(
     fixes = Fixes(gt, gllh, gsig, ekf.lever, np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan))
     imu_in = ImuInput(t, dth, dv, gate_arr, zupt_arr)
     vfixes = _velocity_fixes(gnss_vel, ekf.lever)
-    args = (imu_in, ekf.arrays(), *ekf.kernel_parts(), ekf._nhc(), fixes, vfixes, out)
+    model, settings = ekf.kernel_parts()
+    nhc = ekf._nhc()
     if not run_batch.signatures:
         # load (or compile) the kernel on a 2-sample copy so elapsed_s measures the filter only
         run_batch(ImuInput(*(a[:2].copy() for a in imu_in)), FilterArrays(*(a.copy() for a in ekf.arrays())),
-                  *args[2:5], Fixes(*(a.copy() for a in fixes)), VelocityFixes(*(a.copy() for a in vfixes)),
+                  model, settings, nhc, Fixes(*(a.copy() for a in fixes)), VelocityFixes(*(a.copy() for a in vfixes)),
                   Outputs(*(a[:2].copy() for a in out)))
     t0 = time.perf_counter()
-    run_batch(*args)
+    run_batch(imu_in, ekf.arrays(), model, settings, nhc, fixes, vfixes, out)
     elapsed = time.perf_counter() - t0
     g_status = fixes.status
     n_rej = int(np.sum(g_status == 0))

@@ -162,11 +162,12 @@ def nhc_due(f, nh, k):
 
 
 @njit(cache=True)
-def nhc_update(f, m, s, nh):
-    """Zero lateral and vertical body velocity (:mod:`imunoise.nav.measurements.nhc`); ``(nis, used, dz, S, K)``."""
+def nhc_update(f, m, s, nh, n_reject):
+    """Zero lateral and vertical body velocity (:mod:`imunoise.nav.measurements.nhc`), forced through the χ² gate
+    after ``nh.max_reject`` consecutive rejections ``n_reject``; ``(nis, used, dz, S, K)``."""
     flush(f, m, s)
     dz, H, R = nhc(f.nav, f.P.shape[0], nh.sigma_lat, nh.sigma_vert)
-    nis, ok, S, K = kf_update(f.P, f.nav, f.xm, dz, H, R, nh.chi2, False, 0.0)
+    nis, ok, S, K = kf_update(f.P, f.nav, f.xm, dz, H, R, nh.chi2, n_reject >= nh.max_reject, 0.0)
     return nis, ok, dz, S, K
 
 
@@ -194,6 +195,7 @@ def run_batch(imu, f, m, s, nh, fx, vfx, out):
     while vi < vfx.t.shape[0] and vfx.t[vi] <= t[0]:
         vi += 1
     n_reject = 0
+    nhc_reject = 0
     std = np.empty(N_NAV)
     std_nav(f.P, std)
     for k in range(1, nimu):
@@ -203,7 +205,8 @@ def run_batch(imu, f, m, s, nh, fx, vfx, out):
             flush(f, m, s)
             std_nav(f.P, std)
         if nhc_due(f, nh, k):
-            nhc_update(f, m, s, nh)
+            ok = nhc_update(f, m, s, nh, nhc_reject)[1]
+            nhc_reject = 0 if ok else nhc_reject + 1
             std_nav(f.P, std)
         while gi < ng and gt[gi] <= t[k]:
             force = n_reject >= s.max_reject
