@@ -8,8 +8,8 @@ import pytest
 
 from imunoise.errors import ModelError
 from imunoise.experiments.common import simulate_scenario
-from imunoise.nav.earth import llh_to_ned
 from imunoise.nav.defaults import EkfConfig
+from imunoise.nav.earth import llh_to_ned
 from imunoise.nav.ekf import run_ekf
 from imunoise.nav.measurements.nhc import NhcConfig
 
