@@ -20,6 +20,7 @@ filter through :class:`StateView` (``ekf.view.vel``, ``ekf.view.P_vel``) instead
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,7 +28,7 @@ __all__ = [
     "POS", "VEL", "ATT", "NAV", "N_NAV", "X_POS", "X_VEL", "X_ATT", "X_MODEL",
     "NAV_LEN", "I_POS", "I_VEL", "I_Q", "I_DTH", "I_DV", "I_PREV",
     "ACC_LEN", "A_DVN", "A_CDT", "A_T", "A_STEPS", "A_GATE", "A_LAST_DT", "A_CDTH", "A_CDV",
-    "StateView",
+    "StateView", "InitialState",
 ]
 
 # -- error state δx ------------------------------------------------------------------------------------
@@ -113,3 +114,31 @@ class StateView:
     def std_nav(self) -> np.ndarray:
         """1σ of [δr (NED m), δv (m/s), φ (rad)], a new (9,) array."""
         return np.sqrt(np.abs(np.diag(self.P)[NAV]))
+
+
+@dataclass(frozen=True)
+class InitialState:
+    """Initial navigation state and sensor biases (IMU point, not the antenna).
+
+    Attributes
+    ----------
+    t : float
+        Time of the state [s].
+    llh : numpy.ndarray
+        Latitude, longitude [rad], height [m].
+    vel_ned : numpy.ndarray
+        Velocity NED [m/s].
+    euler : numpy.ndarray
+        Roll, pitch, yaw [rad].
+    gyro_bias : numpy.ndarray
+        Initial gyro bias estimate [rad/s] (default zero).
+    accel_bias : numpy.ndarray
+        Initial accelerometer bias estimate [m/s²] (default zero).
+    """
+
+    t: float
+    llh: np.ndarray
+    vel_ned: np.ndarray
+    euler: np.ndarray
+    gyro_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    accel_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
