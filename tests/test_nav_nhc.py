@@ -69,3 +69,21 @@ def test_nhc_gate_cannot_lock_the_constraint_out():
             used.append(ekf.last_update.used)
     assert used[:10] == [False] * 10 and used[10] is True
     assert ekf.last_update.nis > NhcConfig().chi2
+
+
+def test_nav_cli_nhc_flag(tmp_path):
+    import json
+
+    from imunoise.cli import main
+    from imunoise.sim.drive import DriveConfig, simulate_drive
+
+    cfg = DriveConfig(duration_s=120.0, n_stops=0, static_s=30.0, outages=[(60.0, 30.0)], seed=3)
+    data = simulate_drive(cfg, "mems", seed=3).write(tmp_path / "sim")
+    drift = {}
+    for flag in ([], ["--nhc"]):
+        out = tmp_path / ("nhc" if flag else "plain")
+        assert main(["nav", "--data", str(data), "--outage-runs", "--no-plots", "--out", str(out), *flag]) == 0
+        m = json.loads((out / "metrics.json").read_text())
+        assert m["nhc"] is bool(flag)
+        drift[bool(flag)] = m["outages"][0]["end_horizontal_m"]
+    assert drift[True] < drift[False]
