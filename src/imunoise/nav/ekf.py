@@ -282,7 +282,7 @@ def run_ekf(
     imu_in = ImuInput(t, dth, dv, gate_arr, zupt_arr)
     vfixes = velocity_fixes(gnss_vel, ekf.lever)
     model, settings = ekf.kernel_parts()
-    nhc = ekf._nhc()
+    nhc = ekf.nhc_settings()
     if not run_batch.signatures:
         # load (or compile) the kernel on a 2-sample copy so elapsed_s measures the filter only
         run_batch(ImuInput(*(a[:2].copy() for a in imu_in)), FilterArrays(*(a.copy() for a in ekf.arrays())),

@@ -31,7 +31,7 @@ from imunoise.nav.filter_loop import (
     zupt_update,
 )
 from imunoise.nav.measurements.gnss_velocity import GnssVelocity, as_gnss_velocity
-from imunoise.nav.measurements.nhc import NHC_OFF, NhcConfig
+from imunoise.nav.measurements.nhc import NHC_OFF, NhcConfig, NhcSettings
 from imunoise.nav.measurements.zupt import zaru
 from imunoise.nav.mechanization import make_nav, nav_euler
 from imunoise.nav.state import A_LAST_DT, A_STEPS, ACC_LEN, I_DTH, I_DV, I_PREV, N_NAV, InitialState, StateView
@@ -134,7 +134,8 @@ class LooselyCoupledEKF:
         """The state arrays as the kernels take them (the filter's own arrays, not copies)."""
         return FilterArrays(self.nav, self.xm, self.P, self.acc)
 
-    def _nhc(self):
+    def nhc_settings(self) -> NhcSettings:
+        """The kernel's NHC settings (``EkfConfig.aiding``; every = 0 when off)."""
         c = self.config.aid(NhcConfig)
         return NHC_OFF if c is None else c.kernel()
 
@@ -177,7 +178,7 @@ class LooselyCoupledEKF:
         if self.acc[A_STEPS] >= self.config.cov_every or dt > 1.5 * self.dt_nom * self.config.cov_every:
             self.flush()
         if self._nhc_on:  # the batch loop's order: NHC after the propagation, before the fixes
-            f, nh = self.arrays(), self._nhc()
+            f, nh = self.arrays(), self.nhc_settings()
             if nhc_due(f, nh, self._k):
                 ok = self._record("nhc", self.t, nhc_update(f, *self.kernel_parts(), nh, self._nhc_reject))
                 self._nhc_reject = 0 if ok else self._nhc_reject + 1
@@ -389,7 +390,7 @@ class LooselyCoupledEKF:
                        np.zeros(n, dtype=np.bool_))
         f = self.arrays() if in_place else FilterArrays(self.nav.copy(), self.xm.copy(), self.P.copy(),
                                                           self.acc.copy())
-        run_batch(imu, f, *self.kernel_parts(), self._nhc(), fixes, velocity_fixes(None, self.lever), out)
+        run_batch(imu, f, *self.kernel_parts(), self.nhc_settings(), fixes, velocity_fixes(None, self.lever), out)
         if in_place:
             self.t = float(t[-1])
         return (out.pos, out.att, *((fixes.nis,) if with_nis else ()), *((out.std,) if with_std else ()))
