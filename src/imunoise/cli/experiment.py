@@ -64,6 +64,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--noise-seeds", type=positive_int, default=5, help="noise regimes: GNSS noise seeds (default 5)")
     p.add_argument("--noise-seed0", type=int, default=1, help="first GNSS noise seed (default 1)")
     p.add_argument("--pairs", help="extra paired comparisons method/baseline,... (e.g. gmwm/av,gmwm/em)")
+    p.add_argument("--nhc", action="store_true",
+                   help="non-holonomic constraints (dense-window evidence: every method also run with them as "
+                        "NAME+nhc, paired with its twin and with plain+nhc)")
     p.add_argument("--bootstrap", type=positive_int, default=2000,
                    help="bootstrap replicates of the CIs (default 2000)")
     p.add_argument("--boot-seed", type=int, default=0, help="bootstrap seed (default 0)")
@@ -118,6 +121,7 @@ def select_methods(which: str, sim: bool, methods: str | None, evidence: bool = 
     chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else default
     if evidence:  # any evidence method with the scale-factor states: NAME+sf
         allowed = (*allowed, *(m + dense.SF_SUFFIX for m in allowed))
+        allowed = (*allowed, *(m + dense.NHC_SUFFIX for m in allowed))
     bad = [m for m in chosen if m not in allowed]
     if bad or not chosen:
         raise ModelError(f"unknown method(s) {bad or [methods]}; choose from {', '.join(allowed)}")
@@ -151,10 +155,10 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.experiments.dense import parse_outages
 
     kind, outages = parse_outages(args.outages)
-    evidence = kind == "dense" or bool(args.gnss_regime) or bool(args.pairs)
+    evidence = kind == "dense" or bool(args.gnss_regime) or bool(args.pairs) or args.nhc
     if evidence:
         if args.which != "online":
-            raise ModelError("--outages dense:..., --gnss-regime and --pairs belong to the online experiment")
+            raise ModelError("--outages dense:..., --gnss-regime, --pairs and --nhc belong to the online experiment")
         return _run_evidence(args, out, outages, t0)
     methods = select_methods(args.which, args.sim, args.methods)
     if args.imu_noise:
@@ -279,6 +283,9 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
         raise ModelError(f"--noise-seeds must be ≥ 1, got {args.noise_seeds}")
     noise_seeds = list(range(args.noise_seed0, args.noise_seed0 + args.noise_seeds))
     pairs = dense.parse_pairs(args.pairs)
+    if args.nhc:
+        methods, nhc_pairs = dense.with_nhc(methods)
+        pairs += [p for p in nhc_pairs if p not in pairs]
     for a, b in pairs:
         if a not in methods or b not in methods:
             raise ModelError(f"--pairs {a}/{b}: both must be among the methods ({', '.join(methods)})")

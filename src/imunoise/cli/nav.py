@@ -85,6 +85,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="zero-velocity updates at detected stops (the SPEC §7 static detector, λ0 learned from the static "
         "window)",
     )
+    p.add_argument("--nhc", action="store_true",
+                   help="non-holonomic constraints: zero lateral and vertical body velocity while driving (gated in "
+                        "turns and skids; imunoise.nav.measurements.nhc)")
     p.add_argument("--no-chi2-gate", action="store_true", help="disable the χ² innovation gate of the GNSS updates")
     add_deprecated_alias(p, "--no-gate", "--no-chi2-gate")
     add_deprecated_alias(p, "--model", "--imu-model")
@@ -120,6 +123,10 @@ def run(args: argparse.Namespace) -> int:
         kw["chi2_gate"] = 0.0
     if args.scale_factors:
         kw["scale_factors"] = True
+    if args.nhc:
+        from imunoise.nav.measurements.nhc import NhcConfig
+
+        kw["aiding"] = (NhcConfig(),)
     config = EkfConfig(**kw)
 
     t0, start_from = nav_start(args, inp)
@@ -174,7 +181,8 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
     res = run_ekf(imu, base_gnss, init, config, models, t_end=args.end, zupt=zupt)
     duration = float(res.t[-1] - res.t[0])
     write_trajectory(out / "trajectory.nav", res, ref)
-    metrics: dict = {"model": model_name, "start": float(res.t[0]), "duration_s": duration, "zupt": bool(args.zupt)}
+    metrics: dict = {"model": model_name, "start": float(res.t[0]), "duration_s": duration, "zupt": bool(args.zupt),
+                     "nhc": bool(args.nhc)}
     run, err = run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)
     metrics.update(run)
     metrics["warnings"] = notes

@@ -42,7 +42,10 @@ first sample and every stop of this drive refits on the pool; ``gmwm_dyn_warm3_s
 the stops of ``gmwm_warm3`` pooled too (the learner's carried evidence as ``gmwm_dyn_warm3``'s).
 Any method with the suffix ``+sf`` (e.g. ``gmwm+sf``) is the same
 method in the filter with the six scale-factor states (``EkfConfig.scale_factors``, the 21-state filter of
-KF-GINS), so ``--pairs gmwm+sf/gmwm`` pairs scale factors on against off window by window.
+KF-GINS), so ``--pairs gmwm+sf/gmwm`` pairs scale factors on against off window by window. The suffix ``+nhc``
+(e.g. ``gmwm+nhc``) adds the non-holonomic constraints (:mod:`imunoise.nav.measurements.nhc`) to the method's
+filter; :func:`with_nhc` (``--nhc``) runs every method with and without them and pairs each with its twin and
+with ``plain+nhc``.
 
 Noise seeds. The GNSS regimes with noise (:mod:`imunoise.experiments.gnss_regimes`) are run for several
 noise seeds. The seeds are realisations of the aiding on the *same* IMU data, not independent drives, so
@@ -70,7 +73,8 @@ from imunoise.online import MotionNoisePrior, OnlineConfig, OnlineNavigator
 
 log = logging.getLogger(__name__)
 
-__all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "SF_SUFFIX", "method_setup",
+__all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "SF_SUFFIX", "NHC_SUFFIX",
+           "base_method", "with_nhc", "method_setup",
            "run_windows", "learn_prior", "earlier_prior", "earlier_stops", "WARM_METHODS", "STATIC_WARM_METHODS",
            "PRIOR_SEED_OFFSET",
            "run_real", "run_sim", "paired_list", "METRICS"]
@@ -79,6 +83,7 @@ EVIDENCE_METHODS = ("plain", "static_var", "av", "em", "av_online", "em_online",
 SIM_EXTRA = ("oracle",)
 ONLINE_BASELINES = {"static_var": "static_var", "av_online": "av", "em_online": "em"}
 SF_SUFFIX = "+sf"  # a method with the scale-factor states in the filter
+NHC_SUFFIX = "+nhc"  # a method with the non-holonomic constraints in the filter
 METRICS = ("drift", "rms", "aided_rms")
 MAX_GAP_S = 2.0
 BRANCH_MARGIN_S = 1.0
@@ -102,6 +107,26 @@ WARM_METHODS: dict[str, int] = {"gmwm_dyn_warm": 1, "gmwm_dyn_warm3": 3, "gmwm_d
 STATIC_WARM_METHODS: dict[str, tuple[str, int]] = {"gmwm_warm": ("gmwm", 1), "gmwm_warm3": ("gmwm", 3),
                                                    "gmwm_dyn_warm3_stops": ("gmwm_dyn_warm3", 3)}
 PRIOR_SEED_OFFSET = 7_000_000  # the k-th drive before drive seed on the simulator: seed + k · this
+
+
+def base_method(name: str) -> str:
+    """The method without its filter suffixes (``gmwm+sf+nhc`` → ``gmwm``)."""
+    while name.endswith((SF_SUFFIX, NHC_SUFFIX)):
+        name = name.removesuffix(SF_SUFFIX).removesuffix(NHC_SUFFIX)
+    return name
+
+
+def with_nhc(methods: Sequence[str]) -> tuple[tuple[str, ...], list[tuple[str, str]]]:
+    """Every method and its ``+nhc`` twin, with the pairs twin/method and twin/``plain+nhc``,
+    twin/``static_var+nhc`` where run (the ranking of the noise methods with the constraints on, as
+    :func:`paired_list` ranks them without)."""
+    twins = tuple(m + NHC_SUFFIX for m in methods if not m.endswith(NHC_SUFFIX))
+    all_ = tuple(dict.fromkeys((*methods, *twins)))
+    pairs = [(t, t.removesuffix(NHC_SUFFIX)) for t in twins]
+    for b in ("plain" + NHC_SUFFIX, "static_var" + NHC_SUFFIX):
+        if b in all_:
+            pairs += [(t, b) for t in twins if t != b and (t, b) != ("plain+nhc", "static_var+nhc")]
+    return all_, pairs
 
 
 @dataclass(frozen=True)
@@ -272,6 +297,11 @@ def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None, cach
     from imunoise.experiments.online_exp import method_config
 
     cache = cache if cache is not None else {}
+    if name.endswith(NHC_SUFFIX):
+        from imunoise.nav.measurements.nhc import NhcConfig
+
+        cfg, models, upd = method_setup(name[: -len(NHC_SUFFIX)], sc, base, cache, prior=prior)
+        return cfg.with_(ekf=cfg.ekf.with_(aiding=(*cfg.ekf.aiding, NhcConfig()))), models, upd
     if name.endswith(SF_SUFFIX):
         # the noise model is the method's own; only the filter's state vector gains the scale factors
         cfg, models, upd = method_setup(name[: -len(SF_SUFFIX)], sc, base, cache, prior=prior)
@@ -399,7 +429,7 @@ def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfi
                     earlier_static: Sequence[np.ndarray] | None = None) -> dict:
     """:func:`run_windows` for one method (:func:`method_setup`); ``earlier_static`` the earlier drives' stops
     a ``gmwm_warm`` method pools (:func:`earlier_stops`)."""
-    if (name.removesuffix(SF_SUFFIX) in STATIC_WARM_METHODS) != (earlier_static is not None):
+    if (base_method(name) in STATIC_WARM_METHODS) != (earlier_static is not None):
         raise ModelError(f"{name}: earlier drives' stops are for {', '.join(STATIC_WARM_METHODS)} only, and those "
                          "need them (the simulator makes them: run_sim)")
     cfg, models, upd = method_setup(name, sc, base, cache, prior=prior)
@@ -448,8 +478,8 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = DenseSpec(), regimes: Se
     paper = list(sc.windows) if paper_windows else []
     _REAL.update(sc=sc, regimes=list(regimes), windows=dense + paper, base=base, cache={})
     for m in methods:  # fixed fits once, before forking: the workers inherit them
-        if m.removesuffix(SF_SUFFIX) in ("av", "em", "gmwm_hindsight", "static_var_hindsight"):
-            hindsight_fits(sc, m.removesuffix(SF_SUFFIX), _REAL["cache"])
+        if base_method(m) in ("av", "em", "gmwm_hindsight", "static_var_hindsight"):
+            hindsight_fits(sc, base_method(m), _REAL["cache"])
     jobs = [(m, ri, s) for ri, rg in enumerate(regimes) for s in (noise_seeds if rg.random else [0])
             for m in methods]
     jobs.sort(key=lambda j: not j[0].startswith(("gmwm", "em")))  # long jobs first
@@ -528,9 +558,8 @@ def _sim_job(args: tuple) -> dict:
     windows = dense_windows(sc, spec)
     # the earlier drive of the same vehicle (same IMU, same motion law, another trajectory and noise) that the
     # warm methods learn from
-    n_warm = {m: WARM_METHODS[m.removesuffix(SF_SUFFIX)] for m in methods if m.removesuffix(SF_SUFFIX) in WARM_METHODS}
-    n_stops = {m: STATIC_WARM_METHODS[m.removesuffix(SF_SUFFIX)][1] for m in methods
-               if m.removesuffix(SF_SUFFIX) in STATIC_WARM_METHODS}
+    n_warm = {m: WARM_METHODS[base_method(m)] for m in methods if base_method(m) in WARM_METHODS}
+    n_stops = {m: STATIC_WARM_METHODS[base_method(m)][1] for m in methods if base_method(m) in STATIC_WARM_METHODS}
     earlier = [simulate_scenario(seed + k * PRIOR_SEED_OFFSET, n_outages=0, **kw)
                for k in range(1, max((*n_warm.values(), *n_stops.values()), default=0) + 1)]
     cache: dict = {}

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from imunoise.errors import ModelError
 from imunoise.model import Model
 from imunoise.processes import AR1, RW, WN
 
@@ -36,6 +37,7 @@ __all__ = [
     "kfgins_loose",
     "default_axis_models",
     "load_axis_models",
+    "normalize_axis_models",
     "DEG",
     "DEG_PER_H",
     "ARW_UNIT",
@@ -116,6 +118,10 @@ class EkfConfig:
     ``zupt_sigma`` (m/s) and ``zupt_every`` (samples) set the zero-velocity updates of the batch run when
     a static mask is given.
 
+    ``aiding``: the optional measurements beside GNSS position and ZUPT, one settings object each (e.g.
+    :class:`~imunoise.nav.measurements.nhc.NhcConfig`); the filter runs every one listed, in the batch and
+    the step path alike. Empty (the default): the filter is the one without them.
+
     ``scale_factors`` adds six scale-factor error states (gyro x,y,z, accel x,y,z; dimensionless, the
     21-state filter of KF-GINS): the sensor model is ω̃ = (1 + s_g)ω + b_g, f̃ = (1 + s_a)f + b_a, the
     increments are compensated as (Δθ − b̂_g Δt)/(1 + ŝ_g). Each s is a first-order Gauss–Markov process
@@ -147,6 +153,11 @@ class EkfConfig:
     gyro_scale_std: float = 1000e-6
     accel_scale_std: float = 1000e-6
     scale_tau_s: float = 3600.0
+    aiding: tuple = ()
+
+    def aid(self, kind: type):
+        """The settings of ``kind`` in ``aiding``, or None when that measurement is off."""
+        return next((a for a in self.aiding if isinstance(a, kind)), None)
 
     def with_(self, **kw) -> EkfConfig:
         """Copy with some fields replaced (lever arm as any 3-sequence)."""
@@ -159,7 +170,7 @@ _SI_UNITS = {"gyro": ("rad/s", "rad s^-1", "rad/s/sample"), "accel": ("m/s^2", "
 
 
 def _model_from_entry(entry: dict, sensor: str, where: str, freq_default: float) -> tuple[Model, float]:
-    from imunoise.errors import ModelError, UnitError
+    from imunoise.errors import UnitError
 
     if not isinstance(entry, dict) or "model" not in entry:
         raise ModelError(f"{where}: expected a fit object with 'model' and 'params', got {type(entry).__name__}")
@@ -205,3 +216,39 @@ def load_axis_models(src, freq_default: float) -> list[tuple[Model, float]]:
             logging.getLogger(__name__).warning("%s: no model for axis %d: using the plain default", where, a)
             out[a] = default[a]
     return out  # type: ignore[return-value]
+
+
+def normalize_axis_models(axis_models, freq: float) -> list[tuple[object, float]]:
+    """Six (model, freq) pairs (gyro x,y,z, accel x,y,z) from the accepted spellings.
+
+    Accepted: ``None`` (the plain default); a sequence of 6 models or (model, freq) pairs; a dict
+    ``{"gyro": m | [mx, my, mz], "accel": ...}``. A model is anything with ``state_space(dt, freq)``;
+    without an explicit freq the IMU rate ``freq`` is used (parameters per sample at the fitted rate).
+    """
+    if axis_models is None:
+        return default_axis_models(freq)
+
+    def pair(m):
+        if isinstance(m, tuple) and len(m) == 2:
+            return m[0], float(m[1] if m[1] else freq)
+        return m, float(getattr(m, "freq", None) or freq)
+
+    if isinstance(axis_models, dict):
+        out = []
+        for sensor in ("gyro", "accel"):
+            if sensor not in axis_models:
+                raise ModelError(f"axis models need a '{sensor}' entry (one model or three)")
+            m = axis_models[sensor]
+            ms = list(m) if isinstance(m, list | np.ndarray) else [m] * 3
+            if len(ms) != 3:
+                raise ModelError(f"'{sensor}' needs one model or three (x, y, z), got {len(ms)}")
+            out += [pair(x) for x in ms]
+        models = out
+    else:
+        models = [pair(m) for m in axis_models]
+    if len(models) != 6:
+        raise ModelError(f"need 6 axis models (gyro x,y,z, accel x,y,z), got {len(models)}")
+    for m, _ in models:
+        if not hasattr(m, "state_space"):
+            raise ModelError(f"axis model {m!r} has no state_space(dt, freq); pass an imunoise Model")
+    return models

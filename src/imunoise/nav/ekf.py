@@ -31,6 +31,10 @@ H = [I, 0, (C_b^n l)×, 0], applied at the first IMU epoch t_k ≥ t_gnss (the v
 to t_k, exact to ½·a·δt² < 1 mm at 100 Hz). The χ² gate tests the NIS against ``chi2_gate`` with
 ``gate_abs_m``² added to S, and accepts a fix after ``gate_max_reject`` consecutive rejections.
 
+Optional measurements (``EkfConfig.aiding``): non-holonomic constraints (:mod:`imunoise.nav.measurements.nhc`),
+applied every ``every`` samples right after the propagation and before that sample's GNSS fixes, in the batch
+loop and in :meth:`LooselyCoupledEKF.propagate` alike.
+
 Cost (SPEC §13): with ``cov_every = 5`` (the default; 1 is KF-GINS' per-sample propagation, and on the
 shared drive both agree to 0.1 mm RMS and < 1 m outage drift) the 548 s drive at 100 Hz takes ≈ 0.2 s
 with the 21-state default and ≈ 0.3 s with 4×AR1+DR+RW on six axes (45 states); ΦPΦᵀ is formed through
@@ -40,112 +44,27 @@ the non-zeros of Φ only.
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from imunoise.errors import DataError, ModelError
-from imunoise.nav.defaults import EkfConfig, default_axis_models
-from imunoise.nav.earth import OMEGA_E, dcm_to_euler
-from imunoise.nav.ekf_kernels import (
-    ACC_LEN,
-    gnss_innovation,
-    kf_update,
-    nav_step,
-    propagate_cov,
-    run_batch,
-    sensor_errors_of,
-)
-from imunoise.nav.error_states import AXES, ModelLayout, initial_covariance, scale_spec, swap_map
-from imunoise.nav.mechanization import (
-    I_DTH,
-    I_DV,
-    I_PREV,
-    I_Q,
-    make_nav,
-    quat_to_dcm,
-)
+from imunoise.errors import DataError
+from imunoise.nav.defaults import EkfConfig, normalize_axis_models
+from imunoise.nav.error_states import AXES, ModelLayout
+from imunoise.nav.filter_loop import FilterArrays, Fixes, ImuInput, Outputs, VelocityFixes, run_batch
+from imunoise.nav.measurements.gnss_velocity import GnssVelocity
 from imunoise.nav.solution import NavSolution
+from imunoise.nav.state import NAV, InitialState
+from imunoise.nav.step_filter import Innovation, LooselyCoupledEKF, new_outputs, velocity_fixes
 
 log = logging.getLogger(__name__)
 
 __all__ = [
-    "AXES", "InitialState", "ModelLayout", "LooselyCoupledEKF", "EkfResult", "run_ekf", "normalize_axis_models",
+    "AXES", "InitialState", "ModelLayout", "LooselyCoupledEKF", "Innovation", "EkfResult", "run_ekf",
+    "normalize_axis_models",
 ]
 
 
-
-# ----------------------------------------------------------------------------------------------------
-# model layout
-# ----------------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class InitialState:
-    """Initial navigation state and sensor biases (IMU point, not the antenna).
-
-    Attributes
-    ----------
-    t : float
-        Time of the state [s].
-    llh : numpy.ndarray
-        Latitude, longitude [rad], height [m].
-    vel_ned : numpy.ndarray
-        Velocity NED [m/s].
-    euler : numpy.ndarray
-        Roll, pitch, yaw [rad].
-    gyro_bias : numpy.ndarray
-        Initial gyro bias estimate [rad/s] (default zero).
-    accel_bias : numpy.ndarray
-        Initial accelerometer bias estimate [m/s²] (default zero).
-    """
-
-    t: float
-    llh: np.ndarray
-    vel_ned: np.ndarray
-    euler: np.ndarray
-    gyro_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    accel_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
-
-
-def normalize_axis_models(axis_models, freq: float) -> list[tuple[object, float]]:
-    """Six (model, freq) pairs (gyro x,y,z, accel x,y,z) from the accepted spellings.
-
-    Accepted: ``None`` (the plain default); a sequence of 6 models or (model, freq) pairs; a dict
-    ``{"gyro": m | [mx, my, mz], "accel": ...}``. A model is anything with ``state_space(dt, freq)``;
-    without an explicit freq the IMU rate ``freq`` is used (parameters per sample at the fitted rate).
-    """
-    if axis_models is None:
-        return default_axis_models(freq)
-
-    def pair(m):
-        if isinstance(m, tuple) and len(m) == 2:
-            return m[0], float(m[1] if m[1] else freq)
-        return m, float(getattr(m, "freq", None) or freq)
-
-    if isinstance(axis_models, dict):
-        out = []
-        for sensor in ("gyro", "accel"):
-            if sensor not in axis_models:
-                raise ModelError(f"axis models need a '{sensor}' entry (one model or three)")
-            m = axis_models[sensor]
-            ms = list(m) if isinstance(m, list | np.ndarray) else [m] * 3
-            if len(ms) != 3:
-                raise ModelError(f"'{sensor}' needs one model or three (x, y, z), got {len(ms)}")
-            out += [pair(x) for x in ms]
-        models = out
-    else:
-        models = [pair(m) for m in axis_models]
-    if len(models) != 6:
-        raise ModelError(f"need 6 axis models (gyro x,y,z, accel x,y,z), got {len(models)}")
-    for m, _ in models:
-        if not hasattr(m, "state_space"):
-            raise ModelError(f"axis model {m!r} has no state_space(dt, freq); pass an imunoise Model")
-    return models
-
-
-# ----------------------------------------------------------------------------------------------------
-# Python API
-# ----------------------------------------------------------------------------------------------------
 @dataclass
 class EkfResult(NavSolution):
     """Filter output at every IMU epoch (IMU point): llh [rad, rad, m], vel NED, euler, sensor errors.
@@ -185,6 +104,8 @@ class EkfResult(NavSolution):
     scale_factors : numpy.ndarray or None
         Estimated scale factors ŝ (gyro x, y, z, accel x, y, z; dimensionless), shape (N, 6), when
         ``EkfConfig.scale_factors``; else None.
+    gnss_vel_status : numpy.ndarray or None
+        Per GNSS velocity fix (``run_ekf(gnss_vel=...)``): 1 used, 0 rejected by the χ² gate, −1 outside.
     """
 
     gnss_t: np.ndarray
@@ -194,338 +115,7 @@ class EkfResult(NavSolution):
     labels: list[str] = field(default_factory=list)
     cov: np.ndarray | None = None
     scale_factors: np.ndarray | None = None
-
-
-class LooselyCoupledEKF:
-    """Step-by-step loosely coupled EKF (SPEC §8) for online use; :func:`run_ekf` is the batch form.
-
-    ``propagate(dtheta, dv, t)`` takes one IMU increment over (t_prev, t]; ``update_gnss(t, llh, sigma)``
-    a fix at time t ≤ the current filter time (it is referred to the filter epoch with the velocity).
-
-    Parameters
-    ----------
-    config : EkfConfig
-        Noise, gating and update settings.
-    axis_models
-        Error model of each sensor axis (:func:`normalize_axis_models`): ``None`` for the defaults,
-        six models or (model, freq) pairs, or ``{"gyro": ..., "accel": ...}``.
-    init : InitialState
-        State at the start.
-    imu_rate_hz : float
-        Nominal IMU rate [Hz]; default rate of models given without one.
-
-    Attributes
-    ----------
-    last_innovation : tuple or None
-        ``(t, ν, S, used)`` of the last GNSS fix: innovation ν (NED m), its predicted covariance
-        S = HPHᵀ + R before the update, and whether the gate let it in; read-only (for
-        :mod:`imunoise.nav.adaptive`).
-    """
-
-    def __init__(self, config: EkfConfig, axis_models, init: InitialState, *, imu_rate_hz: float = 100.0):
-        self.config = config
-        self.dt_nom = 1.0 / float(imu_rate_hz)
-        self.layout = ModelLayout.build(
-            normalize_axis_models(axis_models, imu_rate_hz), self.dt_nom, scale_spec(config)
-        )
-        fb = ModelLayout.build(default_axis_models(imu_rate_hz, config.fallback), self.dt_nom)
-        self.wpsd_fb = fb.wpsd
-        self.t = float(init.t)
-        self.nav = make_nav(init.llh, init.vel_ned, init.euler)
-        self.xm = np.zeros(self.layout.nm)
-        for a in range(6):
-            b = self.layout.index(a)[0]
-            self.xm[b] = (init.gyro_bias if a < 3 else init.accel_bias)[a % 3]
-        self.P = initial_covariance(config, self.layout)
-        self.acc = np.zeros(ACC_LEN)
-        self.lever = np.asarray(config.lever_arm, dtype=float)
-        self.gate_open = False
-        self.n_rejected = 0
-        self._consecutive_reject = 0
-        # (t, ν, S = HPHᵀ + R, used) of the last GNSS fix, for innovation-based adaptation (read-only)
-        self.last_innovation: tuple[float, np.ndarray, np.ndarray, bool] | None = None
-
-    # -- propagation ------------------------------------------------------------------------------
-    def propagate(self, dtheta: np.ndarray, dv: np.ndarray, t: float) -> None:
-        """One IMU increment (Δθ rad, Δv m/s over (t_prev, t]); covariance every ``cov_every`` samples.
-
-        Parameters
-        ----------
-        dtheta, dv : numpy.ndarray
-            Angle [rad] and velocity [m/s] increments over (t_prev, t], body FRD, shape (3,).
-        t : float
-            End of the increment [s]; must exceed the filter time.
-        """
-        dt = float(t) - self.t
-        if not dt > 0:
-            raise DataError(f"IMU time must increase: got t={t} after t={self.t}")
-        dth = np.asarray(dtheta, dtype=float)
-        dvv = np.asarray(dv, dtype=float)
-        if not (np.all(np.isfinite(dth)) and np.all(np.isfinite(dvv))):
-            log.warning("non-finite IMU sample at t=%.3f skipped (propagated as zero motion)", t)
-            dth, dvv = np.zeros(3), np.zeros(3)
-        L = self.layout
-        nav_step(self.nav, self.xm, self.acc, dth, dvv, dt, L.hvec, L.axis_of, self.gate_open, L.scale_index)
-        self.t = float(t)
-        if self.acc[13] >= self.config.cov_every or dt > 1.5 * self.dt_nom * self.config.cov_every:
-            self.flush()
-
-    def prime(self, dtheta: np.ndarray, dv: np.ndarray) -> None:
-        """Give the strapdown the increment before the first one (Δθ rad, Δv m/s) for its two-sample
-        coning/sculling terms; without it the first :meth:`propagate` assumes its own (bias-corrected)
-        increment repeats. Call once, before the first :meth:`propagate`."""
-        if self.nav[I_PREV] != 0.0:
-            raise DataError("prime() must come before the first propagate(); the filter has already started")
-        self.nav[I_DTH : I_DTH + 3] = dtheta
-        self.nav[I_DV : I_DV + 3] = dv
-        self.nav[I_PREV] = 1.0
-
-    def flush(self) -> None:
-        """Propagate the covariance (and the model-state estimates) over the increments accumulated since
-        the last propagation, so P refers to the current epoch. Updates and swaps call it themselves."""
-        L = self.layout
-        propagate_cov(
-            self.P,
-            self.nav,
-            self.xm,
-            self.acc,
-            L.phi_pow,
-            L.q_pow,
-            L.hvec,
-            L.axis_of,
-            L.wpsd,
-            self.wpsd_fb,
-            self.config.gate_q_scale,
-            self.dt_nom,
-            L.scale_index,
-        )
-
-    def set_gate(self, open_: bool) -> None:
-        """SPEC §7 angular-rate gate: while open the stochastic states use the conservative noise."""
-        self.gate_open = bool(open_)
-
-    # -- measurements -----------------------------------------------------------------------------
-    def update_gnss(self, t: float, llh: np.ndarray, sigma_ned: np.ndarray) -> bool:
-        """GNSS antenna position fix (rad, rad, m) with 1σ NED (m). Returns whether it was used.
-
-        Parameters
-        ----------
-        t : float
-            Time of the fix [s], ≤ the filter time.
-        llh : numpy.ndarray
-            Antenna latitude, longitude [rad], height [m].
-        sigma_ned : numpy.ndarray
-            1σ North, East, Down [m]; non-finite values are replaced by ``config.gnss_sigma_nan``.
-
-        Returns
-        -------
-        bool
-            False when the χ² gate rejected it or the position is not finite.
-        """
-        llh = np.asarray(llh, dtype=float)
-        sig = np.asarray(sigma_ned, dtype=float).copy()
-        if not np.all(np.isfinite(llh)):
-            log.warning("GNSS fix at t=%.3f has non-finite position: ignored", t)
-            return False
-        bad = ~np.isfinite(sig)
-        sig[bad] = self.config.gnss_sigma_nan
-        sig = np.maximum(sig, self.config.gnss_sigma_floor)
-        self.flush()
-        n = self.P.shape[0]
-        dz, H = gnss_innovation(self.nav, n, llh, self.lever, self.t - float(t))
-        force = self._consecutive_reject >= self.config.gate_max_reject
-        R = np.diag(sig**2)
-        S = H @ self.P @ H.T + R  # before the update: kf_update overwrites P in place
-        nis, ok = kf_update(
-            self.P, self.nav, self.xm, dz, H, R, self.config.chi2_gate, force, self.config.gate_abs_m
-        )
-        self.last_innovation = (float(t), dz.copy(), S, bool(ok))
-        if ok:
-            self._consecutive_reject = 0
-        else:
-            self._consecutive_reject += 1
-            self.n_rejected += 1
-            log.info("GNSS fix at t=%.3f rejected (NIS %.1f > %.1f)", t, nis, self.config.chi2_gate)
-        return bool(ok)
-
-    def zupt_update(self, sigma_v: float) -> bool:
-        """Zero-velocity update: v^n = 0 with 1σ ``sigma_v`` (m/s).
-
-        Parameters
-        ----------
-        sigma_v : float
-            1σ of the zero velocity [m/s].
-
-        Returns
-        -------
-        bool
-            Whether the update was applied.
-        """
-        self.flush()
-        n = self.P.shape[0]
-        H = np.zeros((3, n))
-        H[:, 3:6] = np.eye(3)
-        dz = self.nav[3:6].copy()
-        _, ok = kf_update(self.P, self.nav, self.xm, dz, H, np.eye(3) * sigma_v**2, 0.0, True, 0.0)
-        return bool(ok)
-
-    def zaru_update(self, sigma_w: float) -> bool:
-        """Zero angular-rate update: corrected ω_ib^b equals the Earth rate in body, 1σ ``sigma_w`` (rad/s).
-
-        Parameters
-        ----------
-        sigma_w : float
-            1σ of the angular rate [rad/s].
-
-        Returns
-        -------
-        bool
-            Whether the update was applied.
-        """
-        self.flush()
-        dt = self.acc[15] if self.acc[15] > 0 else self.dt_nom
-        w_meas = self.nav[I_DTH : I_DTH + 3] / dt  # last corrected increment
-        C = quat_to_dcm(self.nav[I_Q : I_Q + 4])
-        lat = self.nav[0]
-        wie_b = C.T @ np.array([OMEGA_E * math.cos(lat), 0.0, -OMEGA_E * math.sin(lat)])
-        n = self.P.shape[0]
-        H = np.zeros((3, n))
-        L = self.layout
-        for s in range(L.nm):
-            if L.axis_of[s] < 3:
-                H[L.axis_of[s], 9 + s] = L.hvec[s]
-        H[:, 6:9] = 0.0
-        dz = w_meas - wie_b
-        _, ok = kf_update(self.P, self.nav, self.xm, dz, H, np.eye(3) * sigma_w**2, 0.0, True, 0.0)
-        return bool(ok)
-
-    # -- model swap -------------------------------------------------------------------------------
-    def swap_model(self, axis_models, *, preserve: bool = False, imu_rate_hz: float | None = None) -> dict[str, int]:
-        """Replace the error models (SPEC §8 hot-swap); returns ``{"kept": k, "reset": r}``.
-
-        Navigation states and their covariance are kept; the new bias state of each axis takes the
-        current total error estimate h·x̂ of the old states with variance h P hᵀ and cross-covariances
-        P[:, old] hᵀ (an exact linear map); new AR1 states start at 0 with their stationary variance,
-        new DR states at 0 with the configured σ. With ``preserve`` an old AR1/DR state that has a
-        counterpart in the new model (same structure: by position; else an AR1 with the same φ) is carried
-        over 1:1 instead (:func:`~imunoise.nav.error_states.swap_map`); ``kept`` counts those, ``reset``
-        the states that start fresh. ``axis_models``: as for the constructor (:func:`normalize_axis_models`,
-        with ``imu_rate_hz`` as the default rate).
-
-        Parameters
-        ----------
-        axis_models
-            The new error model of each axis.
-        preserve : bool
-            Carry matching AR1/DR states over instead of resetting them.
-        imu_rate_hz : float, optional
-            Rate of models given without one (default: the filter's nominal rate).
-
-        Returns
-        -------
-        dict
-            ``{"kept": k, "reset": r}``, numbers of model states.
-        """
-        self.flush()
-        rate = imu_rate_hz or 1.0 / self.dt_nom
-        new = ModelLayout.build(normalize_axis_models(axis_models, rate), self.dt_nom, scale_spec(self.config))
-        res = swap_map(self.layout, new, self.xm, self.P, initial_covariance(self.config, new), preserve=preserve)
-        self.xm, self.P, self.layout = res.x, res.P, new
-        return {"kept": res.kept, "reset": res.reset}
-
-    # -- what-if runs -------------------------------------------------------------------------------
-    def rehearse(self, t: np.ndarray, dtheta: np.ndarray, dv: np.ndarray, gnss_t: np.ndarray, gnss_llh: np.ndarray,
-                 gnss_sigma: np.ndarray, *, gate: np.ndarray | None = None, with_nis: bool = False,
-                 with_std: bool = False, in_place: bool = False) -> tuple:
-        """Run a copy of the filter on from its current state (the filter itself is not changed, unless
-        ``in_place``): the batch kernel of :func:`run_ekf` over IMU samples ``t[1:]`` (``t[0]`` must be the
-        filter time) with the fixes ``gnss_*`` (sorted; σ as given). Used to rehearse a GNSS outage on data
-        already seen and to run shadow filters (:mod:`imunoise.online.motion_noise`); the result equals
-        :meth:`propagate`/:meth:`update_gnss` called sample by sample.
-
-        Parameters
-        ----------
-        t : numpy.ndarray
-            Sample times [s], ``t[0]`` = the filter time, increasing.
-        dtheta, dv : numpy.ndarray
-            (n, 3) increments [rad, m/s]; row k covers (t[k−1], t[k]] (row 0 is not used).
-        gnss_t, gnss_llh, gnss_sigma : numpy.ndarray
-            Fixes to apply (times [s], (m, 3) lat/lon rad, h m, (m, 3) 1σ NED m); may be empty.
-        gate : numpy.ndarray, optional
-            Angular-rate gate per sample (default closed).
-        with_nis : bool
-            Also return the NIS of every fix (NaN where the fix was not reached).
-        with_std : bool
-            Also return the 1σ of δr, δv, φ at every sample, (n, 9) (NED m, m/s, rad).
-        in_place : bool
-            Advance this filter itself to ``t[-1]`` (``last_innovation`` is not updated).
-
-        Returns
-        -------
-        tuple of numpy.ndarray
-            ``(llh, euler)`` of the IMU point at every sample, (n, 3) each, followed by ``nis`` with
-            ``with_nis`` and ``std`` with ``with_std``.
-        """
-        t = np.ascontiguousarray(t, dtype=float)
-        if t.size < 2 or abs(t[0] - self.t) > 1e-9 or np.any(np.diff(t) <= 0):
-            raise DataError(f"rehearse: t must start at the filter time {self.t:.3f} s and increase")
-        self.flush()
-        L = self.layout
-        n = t.size
-        out_pos, out_vel, out_att = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-        out_pos[0], out_vel[0] = self.nav[0:3], self.nav[3:6]
-        out_att[0] = dcm_to_euler(quat_to_dcm(self.nav[I_Q : I_Q + 4]))
-        gt = np.ascontiguousarray(gnss_t, dtype=float)
-        gsig = np.maximum(np.ascontiguousarray(gnss_sigma, dtype=float).reshape(-1, 3), self.config.gnss_sigma_floor)
-        nis = np.full(gt.size, np.nan)
-        out_std = np.empty((n, 9))
-        out_std[0] = np.sqrt(np.abs(np.diag(self.P)[:9]))
-        run_batch(
-            t, np.ascontiguousarray(dtheta, dtype=float), np.ascontiguousarray(dv, dtype=float),
-            *((self.nav, self.xm, self.P, self.acc) if in_place else
-              (self.nav.copy(), self.xm.copy(), self.P.copy(), self.acc.copy())), gt,
-            np.ascontiguousarray(gnss_llh, dtype=float).reshape(-1, 3), gsig, self.lever,
-            np.zeros(n, dtype=np.bool_) if gate is None else np.ascontiguousarray(gate, dtype=np.bool_),
-            *self._kernel_constants(),
-            out_pos, out_vel, out_att, np.empty((n, 6)), out_std, np.full(gt.size, -1, dtype=np.int64),
-            nis, np.zeros((1, 9, 9)), np.zeros(n, dtype=np.bool_), 1, 0.0, L.scale_index, np.zeros((1, 6)),
-        )  # fmt: skip
-        if in_place:
-            self.t = float(t[-1])
-        return (out_pos, out_att, *((nis,) if with_nis else ()), *((out_std,) if with_std else ()))
-
-    def _kernel_constants(self) -> tuple:
-        """The model layout and filter settings :func:`~imunoise.nav.ekf_kernels.run_batch` takes between the
-        fixes and the outputs (arguments 12–23), the same for a rehearsal and a batch run."""
-        L, c = self.layout, self.config
-        return (L.phi_pow, L.q_pow, L.hvec, L.axis_of, L.wpsd, self.wpsd_fb, float(c.gate_q_scale), self.dt_nom,
-                int(c.cov_every), float(c.chi2_gate), int(c.gate_max_reject), float(c.gate_abs_m))
-
-    # -- output -----------------------------------------------------------------------------------
-    def sensor_errors(self) -> np.ndarray:
-        """Current total error estimate of the six axes (gyro x,y,z rad/s, accel x,y,z m/s²): Σ h·x̂ per axis."""
-        return sensor_errors_of(self.xm, self.layout.hvec, self.layout.axis_of)
-
-    def scale_factors(self) -> np.ndarray | None:
-        """Current scale-factor estimates ŝ (gyro x,y,z, accel x,y,z; dimensionless), None when they are off."""
-        idx = self.layout.scale_index
-        return None if np.any(idx < 0) else self.xm[idx].copy()
-
-    def state(self) -> dict:
-        """Current solution: t, llh, vel_ned, euler, gyro/accel error estimates, 1σ of δr/δv/φ, the
-        scale-factor estimates (None when off) and every model state by label."""
-        e = self.sensor_errors()
-        return {
-            "t": self.t,
-            "llh": self.nav[0:3].copy(),
-            "vel_ned": self.nav[3:6].copy(),
-            "euler": dcm_to_euler(quat_to_dcm(self.nav[I_Q : I_Q + 4])),
-            "gyro_error": e[:3],
-            "accel_error": e[3:],
-            "std": np.sqrt(np.abs(np.diag(self.P)[:9])),
-            "model_states": dict(zip(self.layout.labels, self.xm.tolist())),
-            "scale_factors": self.scale_factors(),
-        }
+    gnss_vel_status: np.ndarray | None = None
 
 
 def _check_imu(t: np.ndarray, dth: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -583,6 +173,7 @@ def run_ekf(
     gate: np.ndarray | None = None,
     store_cov: bool = False,
     zupt: np.ndarray | None = None,
+    gnss_vel: GnssVelocity | None = None,
 ) -> EkfResult:
     """Batch loosely coupled EKF over ``imu`` (ImuData, increments) from ``init.t`` with GNSS fixes.
 
@@ -592,6 +183,8 @@ def run_ekf(
     ``zupt`` (bool per IMU sample, e.g. the static epochs of :func:`imunoise.detect.detect_static`) applies
     a zero-velocity update (σ ``config.zupt_sigma``) every ``config.zupt_every`` samples while true.
     ``store_cov`` keeps the 9×9 navigation block of P at every epoch in ``result.cov`` (for NEES).
+    ``gnss_vel``: antenna velocity fixes (:class:`~imunoise.nav.measurements.gnss_velocity.GnssVelocity`, e.g.
+    from :func:`~imunoise.nav.measurements.gnss_velocity.as_gnss_velocity`), applied like the position fixes.
 
     Parameters
     ----------
@@ -604,8 +197,8 @@ def run_ekf(
     config : EkfConfig, optional
         Filter settings (default ``EkfConfig()``).
     axis_models : optional
-        Error model of each sensor axis (:func:`normalize_axis_models`): ``None`` for the defaults,
-        six models or (model, freq) pairs, or ``{"gyro": ..., "accel": ...}``.
+        Error model of each sensor axis (:func:`~imunoise.nav.defaults.normalize_axis_models`): ``None`` for the
+        defaults, six models or (model, freq) pairs, or ``{"gyro": ..., "accel": ...}``.
     t_end : float, optional
         Last epoch [s] (default: the end of the IMU data).
     gate, zupt : numpy.ndarray, optional
@@ -676,55 +269,48 @@ def run_ekf(
     zupt_arr = _mask_for(zupt, t_all, t, "zupt")
 
     n = t.size
-    out_pos, out_vel, out_att = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-    out_err, out_std = np.empty((n, 6)), np.empty((n, 9))
-    out_pos[0], out_vel[0], out_att[0] = init.llh, init.vel_ned, init.euler
     L = ekf.layout
-    out_err[0] = ekf.sensor_errors()
-    out_std[0] = np.sqrt(np.diag(ekf.P)[:9])
-    out_cov = np.zeros((n if store_cov else 1, 9, 9))
-    out_cov[0] = ekf.P[:9, :9]
     has_sf = bool(np.all(L.scale_index >= 0))
-    out_sf = np.zeros((n if has_sf else 1, 6))
+    out = new_outputs(n, store_cov=store_cov, has_sf=has_sf)
+    out.pos[0], out.vel[0], out.att[0] = init.llh, init.vel_ned, init.euler
+    out.err[0] = ekf.sensor_errors()
+    out.std[0] = np.sqrt(np.diag(ekf.P)[NAV])
+    out.cov[0] = ekf.view.P_nav
     if has_sf:
-        out_sf[0] = ekf.xm[L.scale_index]
-    g_status = np.full(gt.size, -1, dtype=np.int64)
-    g_nis = np.full(gt.size, np.nan)
-    args = [
-        t, dth, dv, ekf.nav, ekf.xm, ekf.P, ekf.acc, gt, gllh, gsig, ekf.lever, gate_arr,
-        *ekf._kernel_constants(),
-        out_pos, out_vel, out_att, out_err, out_std, g_status, g_nis, out_cov,
-        zupt_arr, int(config.zupt_every), float(config.zupt_sigma), L.scale_index, out_sf,
-    ]  # fmt: skip
+        out.sf[0] = ekf.xm[L.scale_index]
+    fixes = Fixes(gt, gllh, gsig, ekf.lever, np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan))
+    imu_in = ImuInput(t, dth, dv, gate_arr, zupt_arr)
+    vfixes = velocity_fixes(gnss_vel, ekf.lever)
+    model, settings = ekf.kernel_parts()
+    nhc = ekf.nhc_settings()
     if not run_batch.signatures:
         # load (or compile) the kernel on a 2-sample copy so elapsed_s measures the filter only
-        per_sample = (0, 1, 2, 11, 24, 25, 26, 27, 28, 31, 32, 36)
-        warm = [
-            a[:2].copy() if i in per_sample else (a.copy() if isinstance(a, np.ndarray) else a)
-            for i, a in enumerate(args)
-        ]
-        run_batch(*warm)
+        run_batch(ImuInput(*(a[:2].copy() for a in imu_in)), FilterArrays(*(a.copy() for a in ekf.arrays())),
+                  model, settings, nhc, Fixes(*(a.copy() for a in fixes)), VelocityFixes(*(a.copy() for a in vfixes)),
+                  Outputs(*(a[:2].copy() for a in out)))
     t0 = time.perf_counter()
-    run_batch(*args)
+    run_batch(imu_in, ekf.arrays(), model, settings, nhc, fixes, vfixes, out)
     elapsed = time.perf_counter() - t0
+    g_status = fixes.status
     n_rej = int(np.sum(g_status == 0))
     if n_rej:
         log.info("%d GNSS fixes rejected by the χ² gate (%d forced)", n_rej, int(np.sum(g_status == 2)))
     res = EkfResult(
         t,
-        out_pos,
-        out_vel,
-        out_att,
-        out_err[:, :3],
-        out_err[:, 3:],
-        out_std,
+        out.pos,
+        out.vel,
+        out.att,
+        out.err[:, :3],
+        out.err[:, 3:],
+        out.std,
         gt,
         g_status,
-        g_nis,
+        fixes.nis,
         elapsed,
         list(L.labels),
-        out_cov if store_cov else None,
-        out_sf if has_sf else None,
+        out.cov if store_cov else None,
+        out.sf if has_sf else None,
+        vfixes.status if gnss_vel is not None else None,
     )
     for name in ("llh", "vel_ned", "euler"):
         if not np.all(np.isfinite(getattr(res, name))):

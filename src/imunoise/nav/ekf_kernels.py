@@ -1,8 +1,8 @@
-"""The filter's numba kernels (SPEC §8): strapdown step with compensation, covariance propagation, Joseph
-update, GNSS innovation and the batch loop (:func:`run_batch`) that :func:`imunoise.nav.ekf.run_ekf` and
-:meth:`~imunoise.nav.ekf.LooselyCoupledEKF.rehearse` call. The equations are in :mod:`imunoise.nav.ekf`;
+"""The filter's numba kernels (SPEC §8): strapdown step with compensation, covariance propagation and the one
+Joseph update with χ² gate (:func:`kf_update`) every measurement goes through (:mod:`imunoise.nav.measurements`).
+The batch loop is :func:`imunoise.nav.filter_loop.run_batch`. The equations are in :mod:`imunoise.nav.ekf`;
 here they are plain loops over small arrays, kept apart from the stateful filter as KF-GINS keeps its
-mechanization apart from its engine.
+mechanization apart from its engine. Array layouts: :mod:`imunoise.nav.state`.
 
 Plain-loop linear algebra: the matrices are small and sparse-ish, and loops keep the JIT compile short
 (numba's generic `@`/LAPACK paths cost tens of seconds of compilation for no speed gain here).
@@ -15,14 +15,26 @@ import math
 import numpy as np
 from numba import njit
 
-from imunoise.nav.earth import OMEGA_E, dcm_to_euler, gravity, radii
-from imunoise.nav.mechanization import I_Q, quat_mul, quat_to_dcm, rotvec_to_quat, strapdown_step
+from imunoise.nav.earth import OMEGA_E, gravity, radii
+from imunoise.nav.mechanization import quat_mul, quat_to_dcm, rotvec_to_quat, strapdown_step
+from imunoise.nav.state import (
+    A_CDT,
+    A_CDTH,
+    A_CDV,
+    A_DVN,
+    A_GATE,
+    A_LAST_DT,
+    A_STEPS,
+    A_T,
+    ACC_LEN,
+    I_Q,
+    I_VEL,
+    N_NAV,
+    X_ATT,
+    X_VEL,
+)
 
-__all__ = ["ACC_LEN", "run_batch", "nav_step", "propagate_cov", "kf_update", "gnss_innovation", "sensor_errors_of"]
-
-ACC_LEN = 34  # accumulator: Σ Δv_f^n (3), Σ C dt (9), T, steps, gate, last dt, Σ C diag(Δθ) (9), Σ C diag(Δv) (9)
-I_CDTH = 16  # Σ C̄[i, a] Δθ̂_a at 16 + 3i + a (gyro scale-factor coupling)
-I_CDV = 25  # Σ C̄[i, a] Δv̂_a at 25 + 3i + a (accel scale-factor coupling)
+__all__ = ["ACC_LEN", "nav_step", "propagate_cov", "kf_update", "feedback", "sensor_errors_of", "std_nav"]
 
 
 @njit(cache=True)
@@ -132,29 +144,29 @@ def nav_step(nav, xm, acc, dth, dv, dt, hvec, axis_of, gate, sf_idx):
     dvn = strapdown_step(nav, dthc, dvc, dt)
     C1 = quat_to_dcm(nav[I_Q : I_Q + 4])
     for i in range(3):
-        acc[i] += dvn[i]
+        acc[A_DVN + i] += dvn[i]
     for i in range(3):
         for j in range(3):
-            acc[3 + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dt
+            acc[A_CDT + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dt
     for j in range(3):
         if sf_idx[j] >= 0:
             for i in range(3):
-                acc[I_CDTH + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dthc[j]
+                acc[A_CDTH + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dthc[j]
         if sf_idx[3 + j] >= 0:
             for i in range(3):
-                acc[I_CDV + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dvc[j]
-    acc[12] += dt
-    acc[13] += 1.0
+                acc[A_CDV + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dvc[j]
+    acc[A_T] += dt
+    acc[A_STEPS] += 1.0
     if gate:
-        acc[14] = 1.0
-    acc[15] = dt
+        acc[A_GATE] = 1.0
+    acc[A_LAST_DT] = dt
 
 
 @njit(cache=True)
 def _nav_F(nav, fn):
     """Continuous 9×9 navigation error dynamics F (KF-GINS ``insPropagation``; Shin 2001 Eq. 3.29)."""
     lat, h = nav[0], nav[2]
-    vn, ve, vd = nav[3], nav[4], nav[5]
+    vn, ve, vd = nav[I_VEL], nav[I_VEL + 1], nav[I_VEL + 2]
     rm, rn = radii(lat)
     rmh, rnh = rm + h, rn + h
     sl, cl = math.sin(lat), math.cos(lat)
@@ -215,23 +227,23 @@ def _nav_F(nav, fn):
 @njit(cache=True)
 def propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom, sf_idx):
     """Propagate P and the model-state estimates over the accumulated interval; reset the accumulator."""
-    T = acc[12]
+    T = acc[A_T]
     if T <= 0.0:
         return
     n = P.shape[0]
-    nm = n - 9
-    gate = acc[14] > 0.0
+    nm = n - N_NAV
+    gate = acc[A_GATE] > 0.0
     # nominal steps of the model block (handles clock jitter and gaps alike)
     k = int(T / dt_nom + 0.5)
     if k < 1:
         k = 1
     fn = np.empty(3)
     for i in range(3):
-        fn[i] = acc[i] / T
+        fn[i] = acc[A_DVN + i] / T
     Cint = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
-            Cint[i, j] = acc[3 + 3 * i + j]
+            Cint[i, j] = acc[A_CDT + 3 * i + j]
     FT = _nav_F(nav, fn)
     for i in range(9):
         for j in range(9):
@@ -248,10 +260,10 @@ def propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb,
         a = axis_of[s]
         if a < 3:
             for i in range(3):
-                B[6 + i, s] = -Cint[i, a] * hvec[s]
+                B[X_ATT + i, s] = -Cint[i, a] * hvec[s]
         else:
             for i in range(3):
-                B[3 + i, s] = Cint[i, a - 3] * hvec[s]
+                B[X_VEL + i, s] = Cint[i, a - 3] * hvec[s]
     # scale factors: φ ← −∫C diag(ω̂) dt δs_g, δv ← +∫C diag(f̂) dt δs_a (module docstring)
     is_sf = np.zeros(nm, dtype=np.bool_)
     for a in range(3):
@@ -259,16 +271,16 @@ def propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb,
         if s >= 0:
             is_sf[s] = True
             for i in range(3):
-                B[6 + i, s] = -acc[I_CDTH + 3 * i + a]
+                B[X_ATT + i, s] = -acc[A_CDTH + 3 * i + a]
         s = sf_idx[3 + a]
         if s >= 0:
             is_sf[s] = True
             for i in range(3):
-                B[3 + i, s] = acc[I_CDV + 3 * i + a]
+                B[X_VEL + i, s] = acc[A_CDV + 3 * i + a]
     FB = _mm(FT, B)
     for i in range(9):
         for s in range(nm):
-            Phi[i, 9 + s] = B[i, s] + 0.5 * FB[i, s]
+            Phi[i, N_NAV + s] = B[i, s] + 0.5 * FB[i, s]
     # model block Φ_m^k, Q_m^(k) (repeated for gaps longer than the table)
     kmax = phi_pow.shape[0] - 1
     step = min(k, kmax)
@@ -285,7 +297,7 @@ def propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb,
         kk -= step
     for i in range(nm):
         for j in range(nm):
-            Phi[9 + i, 9 + j] = PhiM[i, j]
+            Phi[N_NAV + i, N_NAV + j] = PhiM[i, j]
     # process noise: white sensor noise through C_b^n, model block
     C = np.empty((3, 3))
     for i in range(3):
@@ -293,7 +305,7 @@ def propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb,
             C[i, j] = Cint[i, j] / T
     Qd = np.zeros((n, n))
     for sens in range(2):
-        off = 6 if sens == 0 else 3
+        off = X_ATT if sens == 0 else X_VEL
         for i in range(3):
             for j in range(3):
                 acc_ij = 0.0
@@ -307,7 +319,7 @@ def propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb,
     for i in range(nm):
         for j in range(nm):
             # the gate's conservative noise is for the sensor noise model, not the scale factors
-            Qd[9 + i, 9 + j] = QM[i, j] * (1.0 if is_sf[i] or is_sf[j] else qs)
+            Qd[N_NAV + i, N_NAV + j] = QM[i, j] * (1.0 if is_sf[i] or is_sf[j] else qs)
     # P ← Φ (P + Q/2) Φᵀ + Q/2, with Φ applied through its non-zeros only
     Ph = np.empty((n, n))
     for i in range(n):
@@ -345,12 +357,12 @@ def propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb,
     for i in range(nm):
         xm[i] = xnew[i]
     for i in range(ACC_LEN):
-        if i != 15:  # the last dt survives (ZARU)
+        if i != A_LAST_DT:  # the last dt survives (ZARU)
             acc[i] = 0.0
 
 
 @njit(cache=True)
-def _feedback(nav, xm, dx):
+def feedback(nav, xm, dx):
     """Closed-loop correction with δx = K·dz; resets the error state (KF-GINS ``stateFeedback``)."""
     lat, h = nav[0], nav[2]
     rm, rn = radii(lat)
@@ -358,18 +370,22 @@ def _feedback(nav, xm, dx):
     nav[1] = nav[1] - dx[1] / ((rn + h) * math.cos(lat))
     nav[2] = h + dx[2]
     for i in range(3):
-        nav[3 + i] -= dx[3 + i]
-    q = quat_mul(rotvec_to_quat(dx[6:9]), nav[I_Q : I_Q + 4])
+        nav[I_VEL + i] -= dx[X_VEL + i]
+    q = quat_mul(rotvec_to_quat(dx[X_ATT : X_ATT + 3]), nav[I_Q : I_Q + 4])
     q = q / np.sqrt(np.sum(q * q))
     for i in range(4):
         nav[I_Q + i] = q[i]
     for i in range(xm.shape[0]):
-        xm[i] += dx[9 + i]
+        xm[i] += dx[N_NAV + i]
 
 
 @njit(cache=True)
 def kf_update(P, nav, xm, dz, H, R, chi2, force, gate_abs):
-    """Joseph-form update with χ² gating; returns the gating NIS and whether the update was applied.
+    """Joseph-form update with χ² gating and closed-loop feedback, the one update of every measurement.
+
+    Returns ``(nis, used, S, K)``: the gating NIS, whether the update was applied, the innovation covariance
+    S = HPHᵀ + R before the update and the gain K (n×m; zeros when not applied), as filterpy's
+    ``KalmanFilter.update`` keeps ``S`` and ``K`` (the innovation is ``dz`` itself).
 
     The gate tests dzᵀ(S + gate_abs²·I)⁻¹dz against ``chi2``: innovations of the order of ``gate_abs``
     (m) are never outliers, whatever σ the receiver claims (cm-level RTK σ vs. an IMU with timing jitter).
@@ -388,9 +404,9 @@ def kf_update(P, nav, xm, dz, H, R, chi2, force, gate_abs):
         Sg[i, i] += gate_abs * gate_abs
     nis = dz @ _mv(_spd_inv(Sg), dz)
     if not np.isfinite(nis):
-        return nis, False
+        return nis, False, S, np.zeros((n, m))
     if chi2 > 0.0 and nis > chi2 and not force:
-        return nis, False
+        return nis, False, S, np.zeros((n, m))
     K = _mm(np.ascontiguousarray(HP.T), Si)
     M = P - _mm(K, HP)
     MH = _mmt(M, H)
@@ -405,135 +421,12 @@ def kf_update(P, nav, xm, dz, H, R, chi2, force, gate_abs):
         for j in range(i + 1, n):
             P[j, i] = P[i, j]
     dx = _mv(K, dz)
-    _feedback(nav, xm, dx)
-    return nis, True
+    feedback(nav, xm, dx)
+    return nis, True, S, K
 
 
 @njit(cache=True)
-def gnss_innovation(nav, n, z_llh, lever, dt_back):
-    """dz = D_R (r̂_ant − r_gnss) − v̂·δt (NED m) and H (3×n) for a fix δt before the filter epoch."""
-    lat, h = nav[0], nav[2]
-    rm, rn = radii(lat)
-    C = quat_to_dcm(nav[I_Q : I_Q + 4])
-    lC = _mv(C, lever)
-    dz = np.empty(3)
-    dz[0] = (lat - z_llh[0]) * (rm + h) + lC[0] - nav[3] * dt_back
-    dz[1] = (nav[1] - z_llh[1]) * (rn + h) * math.cos(lat) + lC[1] - nav[4] * dt_back
-    dz[2] = -(h - z_llh[2]) + lC[2] - nav[5] * dt_back
-    H = np.zeros((3, n))
-    for i in range(3):
-        H[i, i] = 1.0
-    H[0, 7] = -lC[2]
-    H[0, 8] = lC[1]
-    H[1, 6] = lC[2]
-    H[1, 8] = -lC[0]
-    H[2, 6] = -lC[1]
-    H[2, 7] = lC[0]
-    return dz, H
-
-
-@njit(cache=True)
-def _std9(P, out):
-    for i in range(9):
+def std_nav(P, out):
+    """1σ of δr, δv, φ into ``out`` (9,)."""
+    for i in range(N_NAV):
         out[i] = math.sqrt(abs(P[i, i]))
-
-
-@njit(cache=True, nogil=True)  # nogil: rehearsals run in a worker thread beside the filter
-def run_batch(
-    t,
-    dth,
-    dv,
-    nav,
-    xm,
-    P,
-    acc,
-    gt,
-    gllh,
-    gsig,
-    lever,
-    gate_arr,
-    phi_pow,
-    q_pow,
-    hvec,
-    axis_of,
-    wpsd,
-    wpsd_fb,
-    q_scale_gate,
-    dt_nom,
-    cov_every,
-    chi2,
-    max_reject,
-    gate_abs,
-    out_pos,
-    out_vel,
-    out_att,
-    out_err,
-    out_std,
-    g_status,
-    g_nis,
-    out_cov,
-    zupt,
-    zupt_every,
-    zupt_sigma,
-    sf_idx,
-    out_sf,
-):
-    """Batch loop: mechanization + covariance propagation + GNSS (and optional ZUPT) updates."""
-    nimu = t.shape[0]
-    ng = gt.shape[0]
-    gi = 0
-    while gi < ng and gt[gi] <= t[0]:
-        g_status[gi] = -1
-        gi += 1
-    n_reject = 0
-    std = np.empty(9)
-    _std9(P, std)
-    for k in range(1, nimu):
-        dt = t[k] - t[k - 1]
-        nav_step(nav, xm, acc, dth[k], dv[k], dt, hvec, axis_of, gate_arr[k], sf_idx)
-        if acc[13] >= cov_every or dt > 1.5 * dt_nom * cov_every:
-            propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom, sf_idx)
-            _std9(P, std)
-        while gi < ng and gt[gi] <= t[k]:
-            propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom, sf_idx)
-            dz, H = gnss_innovation(nav, P.shape[0], gllh[gi], lever, t[k] - gt[gi])
-            R = np.zeros((3, 3))
-            for i in range(3):
-                R[i, i] = gsig[gi, i] * gsig[gi, i]
-            force = n_reject >= max_reject
-            nis, ok = kf_update(P, nav, xm, dz, H, R, chi2, force, gate_abs)
-            g_nis[gi] = nis
-            if ok:
-                g_status[gi] = 2 if force and chi2 > 0.0 and nis > chi2 else 1
-                n_reject = 0
-            else:
-                g_status[gi] = 0
-                n_reject += 1
-            _std9(P, std)
-            gi += 1
-        if zupt[k] and k % zupt_every == 0:
-            propagate_cov(P, nav, xm, acc, phi_pow, q_pow, hvec, axis_of, wpsd, wpsd_fb, q_scale_gate, dt_nom, sf_idx)
-            Hz = np.zeros((3, P.shape[0]))
-            for i in range(3):
-                Hz[i, 3 + i] = 1.0
-            Rz = np.zeros((3, 3))
-            dzv = np.empty(3)
-            for i in range(3):
-                Rz[i, i] = zupt_sigma * zupt_sigma
-                dzv[i] = nav[3 + i]
-            kf_update(P, nav, xm, dzv, Hz, Rz, 0.0, True, 0.0)
-            _std9(P, std)
-        for i in range(3):
-            out_pos[k, i] = nav[i]
-            out_vel[k, i] = nav[3 + i]
-        out_att[k] = dcm_to_euler(quat_to_dcm(nav[I_Q : I_Q + 4]))
-        out_err[k] = sensor_errors_of(xm, hvec, axis_of)
-        out_std[k] = std
-        if out_cov.shape[0] == nimu:
-            out_cov[k] = P[0:9, 0:9]
-        if out_sf.shape[0] == nimu:
-            for a in range(6):
-                out_sf[k, a] = xm[sf_idx[a]]
-    while gi < ng:
-        g_status[gi] = -1
-        gi += 1

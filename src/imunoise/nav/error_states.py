@@ -22,13 +22,13 @@ import numpy as np
 from imunoise.errors import ModelError
 from imunoise.imu import AXES
 from imunoise.nav.defaults import EkfConfig
+from imunoise.nav.state import ATT, N_NAV, POS, VEL
 
 __all__ = [
     "AXES", "ModelLayout", "SwapResult", "carried_states", "initial_covariance", "scale_spec", "swap_map",
 ]
 
 POW_MAX = 64
-N_NAV = 9  # δr, δv, φ
 KIND_SCALE = 3
 
 
@@ -161,16 +161,16 @@ def initial_covariance(config: EkfConfig, layout: ModelLayout) -> np.ndarray:
     """
     n = N_NAV + layout.nm
     P = np.zeros((n, n))
-    P[0:3, 0:3] = np.diag(np.square(config.sigma_pos0))
-    P[3:6, 3:6] = np.diag(np.square(config.sigma_vel0))
-    P[6:9, 6:9] = np.diag(np.square(config.sigma_att0))
-    P[9:, 9:] = layout.P0
+    P[POS, POS] = np.diag(np.square(config.sigma_pos0))
+    P[VEL, VEL] = np.diag(np.square(config.sigma_vel0))
+    P[ATT, ATT] = np.diag(np.square(config.sigma_att0))
+    P[N_NAV:, N_NAV:] = layout.P0
     for s in range(layout.nm):
         gyro = layout.axis_of[s] < 3
         if layout.kind[s] == 0:
-            P[9 + s, 9 + s] = (config.sigma_gyro_bias0 if gyro else config.sigma_accel_bias0) ** 2
+            P[N_NAV + s, N_NAV + s] = (config.sigma_gyro_bias0 if gyro else config.sigma_accel_bias0) ** 2
         elif layout.kind[s] == 2:
-            P[9 + s, 9 + s] = (config.sigma_gyro_drift0 if gyro else config.sigma_accel_drift0) ** 2
+            P[N_NAV + s, N_NAV + s] = (config.sigma_gyro_drift0 if gyro else config.sigma_accel_drift0) ** 2
     return P
 
 

@@ -20,9 +20,7 @@ import numpy as np
 from numba import njit
 
 from imunoise.nav.earth import OMEGA_E, dcm_to_euler, euler_to_dcm, gravity, radii
-
-NAV_LEN = 17
-I_POS, I_VEL, I_Q, I_DTH, I_DV, I_PREV = 0, 3, 6, 10, 13, 16
+from imunoise.nav.state import I_DTH, I_DV, I_POS, I_PREV, I_Q, I_VEL, NAV_LEN
 
 __all__ = [
     "NAV_LEN",

@@ -364,7 +364,7 @@ class MotionNoiseLearner:
         c = self.config
         if self._shadows is None or self._stale:
             # start (or, after a stretch without GNSS, restart) the shadows from the live filter
-            moving = math.hypot(nav.ekf.nav[3], nav.ekf.nav[4]) >= c.min_speed_mps
+            moving = nav.ekf.view.speed_h >= c.min_speed_mps
             if fixes and moving and self._future is None:
                 self._start(nav, t)
             return
@@ -470,7 +470,7 @@ class MotionNoiseLearner:
         ks = np.minimum(np.searchsorted(t, ot, side="left"), t.size - 1)
         no_fix = (np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)))
         sh0 = job["shadows"][0]  # one speed test per round (nothing added), so every candidate is scored alike
-        rehearse = ot.size > 0 and math.hypot(sh0.nav[3], sh0.nav[4]) >= self.config.min_speed_mps
+        rehearse = ot.size > 0 and sh0.view.speed_h >= self.config.min_speed_mps
 
         def advance(e: Any, j0: int, j1: int) -> np.ndarray:
             """Shadow ``e`` in place over samples j0..j1−1 with the round's fixes there; (ΣNIS, #fixes)."""

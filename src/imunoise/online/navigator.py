@@ -90,7 +90,6 @@ from imunoise.estimator import GMWMFit
 from imunoise.model import Model
 from imunoise.nav.defaults import default_axis_models
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, normalize_axis_models
-from imunoise.nav.mechanization import I_Q
 from imunoise.online.config import OnlineConfig, config_summary
 from imunoise.online.modeller import StopModeller
 from imunoise.online.motion_noise import MotionNoiseLearner
@@ -492,13 +491,15 @@ class OnlineNavigator:
             if is_static and cfg.stop_guard == "nav":
                 self._record_nav(t)
             if cfg.zupt and self._static_run >= cfg.zupt_after and self._static_run % cfg.zupt_every == 0 \
-                    and not gate and math.hypot(self.ekf.nav[3], self.ekf.nav[4]) < cfg.zupt_max_speed:
-                if self._zupt_consistent(cfg.zupt_sigma_v):
-                    self.ekf.zupt_update(cfg.zupt_sigma_v)
+                    and not gate and self.ekf.view.speed_h < cfg.zupt_max_speed:
+                # the χ² test of the zero-velocity pseudo-measurement (NIS = vᵀ(P_vv + σ²I)⁻¹v ≤ zupt_chi2, 3 dof;
+                # 0 = off): a detector false positive on a moving car (a noisy IMU's learned λ0 lets smooth
+                # cruising pass Eq. 9) would otherwise be forced into the filter
+                if self.ekf.zupt_update(cfg.zupt_sigma_v, chi2=cfg.zupt_chi2):
                     self.ekf.zaru_update(self._zaru_sigma())
                 elif not self._zupt_rejected:
                     self._zupt_rejected = True
-                    self._event("zupt_rejected", t, speed_mps=float(np.linalg.norm(self.ekf.nav[3:6])))
+                    self._event("zupt_rejected", t, speed_mps=float(np.linalg.norm(self.ekf.view.vel)))
             if self._motion is not None:
                 fixes, self._motion_fixes = self._motion_fixes, []
                 n_hist = len(self._motion.history)
@@ -516,10 +517,11 @@ class OnlineNavigator:
             e = self.ekf.sensor_errors()
             row = np.empty(EpochStore.COLS)
             row[0] = t
-            row[1:7] = self.ekf.nav[0:6]
-            row[7:11] = self.ekf.nav[I_Q:I_Q + 4]
+            sv = self.ekf.view
+            row[1:7] = sv.pos_vel
+            row[7:11] = sv.quat
             row[11:17] = e
-            row[17:26] = np.sqrt(np.abs(np.diag(self.ekf.P)[:9]))
+            row[17:26] = sv.std_nav
             self._store.add(row)
         # raw samples are needed only back to the start of a possible segment
         if not is_static and len(self._rows) > 4096:
@@ -533,15 +535,15 @@ class OnlineNavigator:
         used within ``stop_aided_s``, and with ``stop_chi2`` > 0 the zero-velocity NIS (3 dof). P is read as
         is, never flushed here, so the guard does not change the filter's numbers."""
         cfg = self.config
-        v = self.ekf.nav[3:6]
-        P = self.ekf.P
+        sv = self.ekf.view
+        v, P_vel = sv.vel, sv.P_vel
         nis = math.nan
         if cfg.stop_chi2 > 0:
             try:
-                nis = float(v @ np.linalg.solve(P[3:6, 3:6] + cfg.zupt_sigma_v**2 * np.eye(3), v))
+                nis = float(v @ np.linalg.solve(P_vel + cfg.zupt_sigma_v**2 * np.eye(3), v))
             except np.linalg.LinAlgError:
                 nis = math.inf
-        self._run_row(math.hypot(v[0], v[1]), math.sqrt(max(P[3, 3] + P[4, 4], 0.0)),
+        self._run_row(math.hypot(v[0], v[1]), math.sqrt(max(P_vel[0, 0] + P_vel[1, 1], 0.0)),
                       float(t - self._t_aided <= cfg.stop_aided_s), nis)
 
     def _run_row(self, speed: float, sigma: float, aided: float, nis: float) -> None:
@@ -580,21 +582,6 @@ class OnlineNavigator:
                     rejected_s=float(sum(d.i1 - d.i0 for d in dropped) / self.rate),
                     kept=[(k.t0, k.t1) for k in kept])
         return kept
-
-    def _zupt_consistent(self, sigma_v: float) -> bool:
-        """χ² test of the zero-velocity pseudo-measurement, NIS = vᵀ(P_vv + σ²I)⁻¹v ≤ ``zupt_chi2`` (3 dof):
-        a detector false positive on a moving car (a noisy IMU's learned λ0 lets smooth cruising pass
-        Eq. 9) would otherwise be forced into the filter."""
-        if not self.config.zupt_chi2 > 0:
-            return True
-        self.ekf.flush()
-        v = self.ekf.nav[3:6]
-        S = self.ekf.P[3:6, 3:6] + sigma_v**2 * np.eye(3)
-        try:
-            nis = float(v @ np.linalg.solve(S, v))
-        except np.linalg.LinAlgError:
-            return False
-        return math.isfinite(nis) and nis <= self.config.zupt_chi2
 
     def _zaru_sigma(self) -> float:
         """σ of one ZARU sample: the larger of the configured σ, the current gyro model's per-sample white σ
