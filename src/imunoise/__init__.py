@@ -58,11 +58,11 @@ __all__ = [
 # Everything that needs numpy/scipy is imported on first use: `import imunoise` (and so `imunoise --help`,
 # which imports the package before its CLI) loads only the error classes.
 _LAZY = {
-    "AR1": "imunoise.processes",
-    "DR": "imunoise.processes",
-    "QN": "imunoise.processes",
-    "RW": "imunoise.processes",
-    "WN": "imunoise.processes",
+    "AR1": "imunoise.model",  # via the model, which registers the algebra
+    "DR": "imunoise.model",  # via the model, which registers the algebra
+    "QN": "imunoise.model",  # via the model, which registers the algebra
+    "RW": "imunoise.model",  # via the model, which registers the algebra
+    "WN": "imunoise.model",  # via the model, which registers the algebra
     "Model": "imunoise.model",
     "StateSpace": "imunoise.model",
     "as_model": "imunoise.model",

@@ -180,7 +180,7 @@ def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "", *, horizon_s: f
     notes = []
     s2, g2 = eq.sigma2, eq.gamma2
     if not s2 > NOT_IDENTIFIED * eq.sigma2_cap:
-        tcs = [-1.0 / (f * math.log(c.values[0])) for c in fit.model.components if c.kind == "AR1"]
+        tcs = [tc for c in fit.model.components if (tc := c.correlation_time(f)) is not None]
         if any(tc < h for tc in tcs) and eq.sigma2_cap > 0:
             s2 = eq.sigma2_cap
             notes.append(f"{name}: no white noise identified; N = the largest white line under the model's AV "

@@ -8,7 +8,6 @@ canonical names ``AR1_1.phi``, ``AR1_1.sigma2``, ..., ``WN.sigma2``, ``QN.q2``, 
 
 from __future__ import annotations
 
-import math
 import re
 from collections import Counter
 from dataclasses import dataclass
@@ -17,12 +16,11 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import ModelError
-from imunoise.processes import AR1, DR, PROCESS_TYPES, QN, RW, WN, Process
+from imunoise.processes import AR1, DR, ORDER, PROCESS_TYPES, QN, ROLE_BIAS, RW, WN, Process
 
 __all__ = ["Model", "StateSpace", "ORDER", "ModelLike", "as_model"]
 
-ORDER = ("AR1", "WN", "QN", "RW", "DR")
-_SINGLETONS = ("WN", "QN", "RW", "DR")
+_SINGLETONS = tuple(k for k, cls in PROCESS_TYPES.items() if cls.singleton)
 
 
 @dataclass(frozen=True)
@@ -60,6 +58,7 @@ class StateSpace:
     P0: np.ndarray
     white_psd: float
     white_var: float
+    roles: tuple[int, ...] = ()  # per state: imunoise.processes.ROLE_BIAS / ROLE_STATIONARY / ROLE_RAMP
 
     @property
     def n(self) -> int:
@@ -89,7 +88,7 @@ class Model:
             raise ModelError("a model needs at least one process, e.g. WN() + RW()")
         for c in comps:
             if not isinstance(c, Process):
-                raise ModelError(f"models are sums of WN, QN, RW, DR, AR1 processes, got {c!r}")
+                raise ModelError(f"models are sums of {', '.join(ORDER)} processes, got {c!r}")
         counts = Counter(c.kind for c in comps)
         for kind in _SINGLETONS:
             if counts[kind] > 1:
@@ -337,10 +336,9 @@ class Model:
         """Per-sample variance of the white part: σ²_WN + 2Q² (QN x_t = u_t − u_{t−1} treated as white)."""
         total = 0.0
         for c in self.components:
-            if c.kind == "WN":
-                total += c.values[0]
-            elif c.kind == "QN":
-                total += 2.0 * c.values[0]
+            w = c.white_variance()
+            if w:
+                total += w
         return total
 
     def scaled(self, white: float = 1.0, bias: float = 1.0) -> Model:
@@ -348,16 +346,7 @@ class Model:
         processes (RW γ², AR1 σ²; φ and so T_c kept) × ``bias``; QN and DR unchanged. The one scaling of the
         motion law's moving regime (:func:`imunoise.sim.motion.scaled_models`) and of the adaptive baseline
         (:func:`imunoise.nav.adaptive.scale_bias_noise`)."""
-        out: list[Process] = []
-        for c in self.components:
-            if isinstance(c, WN):
-                out.append(WN(sigma2=c.values[0] * white))
-            elif isinstance(c, RW):
-                out.append(RW(gamma2=c.values[0] * bias))
-            elif isinstance(c, AR1):
-                out.append(AR1(phi=c.values[0], sigma2=c.values[1] * bias))
-            else:
-                out.append(c)
+        out = [c.scaled(white, bias) for c in self.components]
         return Model(out)
 
     def state_space(self, dt: float, freq: float | None = None) -> StateSpace:
@@ -384,32 +373,42 @@ class Model:
             raise ModelError(f"sampling frequency must be > 0 Hz, got {freq}")
         steps = dt * f
         labels = ["bias"]
-        ar1 = [c for c in self.components if c.kind == "AR1"]
-        labels += [f"AR1_{i + 1}" for i in range(len(ar1))]
-        has_dr = self.has("DR")
-        if has_dr:
-            labels.append("DR")
+        states = []
+        bias_q = 0.0
+        for name, c in zip(self.component_names(), self.components):
+            q_add, own = c.filter_block(steps, dt)
+            if q_add:
+                bias_q += q_add
+            for k, st in enumerate(own):
+                labels.append(name if len(own) == 1 else f"{name}.{k + 1}")
+                states.append(st)
         n = len(labels)
         Phi = np.eye(n)
         Q = np.zeros((n, n))
         P0 = np.zeros((n, n))
         H = np.zeros(n)
         H[0] = 1.0
-        for c in self.components:
-            if c.kind == "RW":
-                Q[0, 0] += c.values[0] * steps
-        for i, c in enumerate(ar1, start=1):
-            phi, s2 = c.values
-            var_gm = s2 / (1.0 - phi * phi)
-            phi_dt = math.exp(steps * math.log(phi))
-            Phi[i, i] = phi_dt
-            Q[i, i] = var_gm * (1.0 - phi_dt * phi_dt)
-            P0[i, i] = var_gm
-            H[i] = 1.0
-        if has_dr:
-            Phi[0, n - 1] = dt
+        if bias_q:
+            Q[0, 0] += bias_q
+        for i, st in enumerate(states, start=1):
+            Phi[i, i] = st.phi
+            Q[i, i] = st.q
+            P0[i, i] = st.p0
+            H[i] = st.h
+            if st.bias_link:
+                Phi[0, i] = st.bias_link
         white_psd = self.white_variance() / f
-        return StateSpace(tuple(labels), Phi, Q, H, P0, white_psd, white_psd / dt)
+        roles = (ROLE_BIAS,) + tuple(st.role for st in states)
+        return StateSpace(tuple(labels), Phi, Q, H, P0, white_psd, white_psd / dt, roles)
+
+    def at_rate(self, freq_from: float, freq_to: float) -> Model:
+        """The same continuous-time model with parameters per sample at ``freq_to`` instead of ``freq_from``
+        (N, K, R, Q_IEEE, T_c and σ_GM kept; SPEC §2 last column). Unchanged when the rates are equal."""
+        if not (freq_from > 0 and freq_to > 0):
+            raise ModelError(f"sample rates must be > 0 Hz, got {freq_from} and {freq_to}")
+        if freq_from == freq_to:
+            return self
+        return Model([c.at_rate(float(freq_from), float(freq_to)) for c in self.components])
 
     # -- serialisation -----------------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
@@ -427,6 +426,8 @@ class Model:
         params = d.get("params")
         return model.with_params(params) if params else model
 
+
+Process.sum_type = Model  # the processes' algebra (``WN() + RW()``) builds this type
 
 ModelLike = Process | Model | str
 """What every estimator accepts as a model: ``WN()``, ``2 * AR1() + WN()`` or ``"2*AR1+WN"``."""

@@ -11,6 +11,13 @@ DR     ω           ω²τ²/16
 AR1    φ, σ²       σ²[τ/2 − 3φ − (τ/2)φ² + 4φ^{τ/2+1} − φ^{τ+1}] / [2(τ/2)²(1−φ)²(1−φ²)]
 =====  ==========  ==========================================================================
 
+A process owns its math (issue: one class per process): its parameters and their bounds in the estimator's
+unconstrained vector u (:meth:`Process.u_bounds`, :meth:`Process.theta_from_u`, :meth:`Process.u_from_theta`),
+its Haar WV in numpy (:meth:`Process.wv`) and in numba (``nb_wv_u``/``nb_wv_theta``, registered on the class next to
+it; tests check both equal), its state-space block (:meth:`Process.filter_block`), its (N, K) route
+(:meth:`Process.equivalent_part`), its parameters at another sample rate (:meth:`Process.at_rate`). Everything
+else iterates over :data:`PROCESS_TYPES` (the one kind vocabulary; ``cls.code`` is its compiled kind code).
+
 A process either has all its parameters (a "known" process, e.g. ``AR1(phi=0.99, sigma2=1e-6)``) or
 none (``AR1()``, to be estimated). ``+`` and ``k *`` build a :class:`imunoise.model.Model`.
 """
@@ -18,97 +25,151 @@ none (``AR1()``, to be estimated). ``+`` and ``k *`` build a :class:`imunoise.mo
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 import numpy as np
+from numba import njit
 
+from imunoise.ar1_math import ar1_g, ar1_wv, ar1_wv_dphi
 from imunoise.errors import ModelError
 
-if TYPE_CHECKING:
-    from imunoise.model import Model
+if TYPE_CHECKING:  # the sum type is imunoise.model.Model, which imports this module (not the reverse)
+    Model = Any
 
-__all__ = ["Process", "WN", "QN", "RW", "DR", "AR1", "PROCESS_TYPES", "ar1_wv", "ar1_wv_dphi"]
+__all__ = [
+    "Process", "WN", "QN", "RW", "DR", "AR1", "PROCESS_TYPES", "ORDER", "N_PARAMS", "ar1_wv", "ar1_wv_dphi",
+    "ROLE_BIAS", "ROLE_STATIONARY", "ROLE_RAMP", "FilterState", "EquivalentPart", "dr_equivalent_rw",
+    "ar1_white_variance", "LOG_LO", "LOG_HI", "V_LO", "V_HI", "B_LO", "B_HI",
+]
+
+# Bounds of the estimator's unconstrained vector u (SPEC §4; imunoise.fitting.params describes u).
+LOG_LO, LOG_HI = -120.0, 40.0  # normalised log-variance bounds (e^-120: indistinguishable from 0)
+V_LO, V_HI = -32.0, 4.0  # log(−ln φ): φ from 1 − 1.3e-14 down to e^-55
+B_LO, B_HI = -30.0, 4.0  # log spacing between successive AR1 correlation scales
+
+# Role of a filter state (SPEC §8): what the filter's initial covariance and model swaps do with it.
+ROLE_BIAS, ROLE_STATIONARY, ROLE_RAMP = 0, 1, 2
 
 
-def _expm1_tail(x: np.ndarray, order: int) -> np.ndarray:
-    """exp(x) − Σ_{n<order} xⁿ/n!, accurate for small |x| (order 2: expm1 − x; order 3: − x²/2 too).
+class FilterState(NamedTuple):
+    """One state of a process' block over a filter step: x' = phi·x + q-noise, error += h·x (SPEC §8).
+    ``bias_link``: the coefficient with which the state drives the bias state (a ramp: dt)."""
 
-    The AR1 closed form is a difference of powers of φ whose constant, linear and quadratic terms in
-    log φ cancel exactly; writing it through these tails removes the catastrophic cancellation that the
-    textbook form suffers for φ → 1 (e.g. φ = 0.9999 at τ = 2 loses ~12 digits otherwise).
+    phi: float
+    q: float
+    p0: float
+    h: float
+    role: int
+    bias_link: float = 0.0
+
+
+class EquivalentPart(NamedTuple):
+    """A process' share of the equivalent (N, K) pair (:mod:`imunoise.equivalent_noise`): exact per-sample
+    variances added to the white (``sigma2``) and random-walk (``gamma2``) parts, or ``matched`` (its WV joins
+    the target the pair is matched to), with the route (``symbol``: N, K, N+K or -; ``text``)."""
+
+    sigma2: float
+    gamma2: float
+    matched: bool
+    symbol: str
+    text: str
+
+
+def dr_equivalent_rw(omega: float, horizon: float) -> float:
+    """γ² (per sample) of the random walk with the same Haar WV as a drift ω at scale τ = ``horizon`` samples:
+    ω²τ²/16 = γ²(τ² + 2)/(12τ) (SPEC §2), so γ² = 3ω²τ³/(4(τ² + 2)).
+
+    Over the scales a static record covers, a ramp and a random walk are two readings of the same rising
+    WV; a ramp state in the filter would extrapolate one fitted slope over the whole drive, while the
+    random walk lets the filter track a bias that keeps wandering at the rate the data showed.
     """
-    x = np.asarray(x, dtype=float)
-    out = np.empty_like(x)
-    small = np.abs(x) < 0.5
-    xs = x[small]
-    term = xs**order / math.factorial(order)
-    acc = term.copy()
-    for n in range(order + 1, order + 30):
-        term = term * xs / n
-        acc += term
-    out[small] = acc
-    xl = x[~small]
-    big = np.expm1(xl) - xl
-    if order == 3:
-        big = big - 0.5 * xl * xl
-    out[~small] = big
-    return out
+    tau = float(horizon)
+    return 3.0 * omega * omega * tau**3 / (4.0 * (tau * tau + 2.0))
 
 
-def ar1_wv(tau: np.ndarray, phi: float, sigma2: float) -> np.ndarray:
-    """Haar WV of a stationary AR1 with innovation variance σ² (SPEC §2 table, cancellation-free).
-
-    With m = τ/2, L = ln φ and F_k = e^{kL} − 1 − kL − (kL)²/2 the numerator equals
-    −3F_1 − mF_2 + 4F_{m+1} − F_{2m+1} exactly, and the denominator is 2m²(1−φ)²(1−φ²).
-    """
-    tau = np.asarray(tau, dtype=float)
-    m = tau / 2.0
-    L = math.log(phi)
-
-    # Tails where (2m+1)|L| is small (the cancelling regime), plain expm1 elsewhere: there the tails
-    # would subtract huge polynomial terms instead.
-    def num_with(order: int) -> np.ndarray:
-        def e(x: np.ndarray) -> np.ndarray:
-            return _expm1_tail(x, order) if order else np.expm1(x)
-
-        return (
-            -3.0 * e(np.full_like(m, L))
-            - m * e(np.full_like(m, 2 * L))
-            + 4.0 * e((m + 1) * L)
-            - e((2 * m + 1) * L)
-        )
-
-    small = np.abs((2 * m + 1) * L) < 1.0
-    num = np.where(small, num_with(3), num_with(0))
-    one_m_phi = -math.expm1(L)
-    one_m_phi2 = -math.expm1(2 * L)
-    den = 2.0 * m * m * one_m_phi**2 * one_m_phi2
-    return sigma2 * num / den
+def ar1_white_variance(phi: float, sigma2: float) -> float:
+    """Per-sample variance of the white noise with the same zero-frequency density as AR1(φ, σ²): σ²/(1−φ)²."""
+    return sigma2 / (1.0 - phi) ** 2
 
 
-def ar1_wv_dphi(tau: np.ndarray, phi: float, sigma2: float) -> np.ndarray:
-    """∂ν²/∂φ of the AR1 Haar WV (analytic; same cancellation-free tails as :func:`ar1_wv`).
+def _fmt_s(t: float) -> str:
+    return f"{t * 1e3:.3g} ms" if t < 1.0 else f"{t:.4g} s"
 
-    g = N/D, N' = −2mG_1 + 4(m+1)G_m − (2m+1)G_{2m} with G_k = e^{kL} − 1 − kL, and
-    D'/D = −2(1+2φ)/(1−φ²), so g' = N'/D + g·2(1+2φ)/(1−φ²).
-    """
-    tau = np.asarray(tau, dtype=float)
-    m = tau / 2.0
-    L = math.log(phi)
 
-    def dnum_with(order: int) -> np.ndarray:
-        def e(x: np.ndarray) -> np.ndarray:
-            return _expm1_tail(x, order) if order else np.expm1(x)
+# -- numba forms of the closed forms (the estimator's kernels call these; tests check them against wv) -----
+# nb_wv_u(u, p, tau, nu, jac): adds ν and ∂ν/∂u of the component whose u starts at index p (log-parametrised,
+# normalised scale); nb_wv_theta(theta, p, tau, nu): adds ν from natural parameters.
+@njit(cache=True)
+def _wn_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
+    val = math.exp(u[p])
+    for j in range(tau.shape[0]):
+        d = val / tau[j]
+        nu[j] += d
+        jac[j, p] += d
 
-        return -2.0 * m * e(np.full_like(m, L)) + 4.0 * (m + 1) * e(m * L) - (2 * m + 1) * e(2 * m * L)
 
-    small = np.abs(2 * m * L) < 1.0
-    dnum = np.where(small, dnum_with(2), dnum_with(0))
-    one_m_phi = -math.expm1(L)
-    one_m_phi2 = -math.expm1(2 * L)
-    den = 2.0 * m * m * one_m_phi**2 * one_m_phi2
-    g = ar1_wv(tau, phi, 1.0)
-    return sigma2 * (dnum / den + g * 2.0 * (1.0 + 2.0 * phi) / one_m_phi2)
+@njit(cache=True)
+def _wn_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
+    for j in range(tau.shape[0]):
+        nu[j] += theta[p] / tau[j]
+
+
+@njit(cache=True)
+def _qn_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
+    val = math.exp(u[p])
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        d = 6.0 * val / (t * t)
+        nu[j] += d
+        jac[j, p] += d
+
+
+@njit(cache=True)
+def _qn_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        nu[j] += 6.0 * theta[p] / (t * t)
+
+
+@njit(cache=True)
+def _rw_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
+    val = math.exp(u[p])
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        d = val * (t * t + 2.0) / (12.0 * t)
+        nu[j] += d
+        jac[j, p] += d
+
+
+@njit(cache=True)
+def _rw_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        nu[j] += theta[p] * (t * t + 2.0) / (12.0 * t)
+
+
+@njit(cache=True)
+def _dr_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
+    val = math.exp(u[p])  # |ω|/√c: the WV is quadratic in it, so ∂ν/∂u = 2ν
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        d = val * val * t * t / 16.0
+        jac[j, p] += 2.0 * d
+        nu[j] += d
+
+
+@njit(cache=True)
+def _dr_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        nu[j] += theta[p] * theta[p] * t * t / 16.0
+
+
+@njit(cache=True)
+def _ar1_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
+    for j in range(tau.shape[0]):
+        g, _ = ar1_g(tau[j] / 2.0, math.log(theta[p]))
+        nu[j] += theta[p + 1] * g
 
 
 class Process:
@@ -189,25 +250,86 @@ class Process:
         """Continuous-time equivalents (SPEC §2 last column) in SI-style units of the data."""
         raise NotImplementedError
 
-    # -- algebra ----------------------------------------------------------------------------------
-    def __add__(self, other: Process | Model) -> Model:
-        from imunoise.model import Model
+    # -- the estimator's unconstrained vector u (SPEC §4) ----------------------------------------------------
+    code: ClassVar[int] = -1  # compiled kind code: position in PROCESS_TYPES
+    singleton: ClassVar[bool] = True  # at most once per model (a sum of two is one of the same kind)
+    nb_wv_u: ClassVar[Any] = None  # numba form in u (module comment above the forms)
+    nb_wv_theta: ClassVar[Any] = None  # numba form in natural parameters
 
-        return Model([self]) + other
+    @classmethod
+    def u_bounds(cls, first: bool) -> tuple[list[float], list[float]]:
+        """Box bounds of this process' entries of u; ``first``: no AR1 came before it (AR1 ordering)."""
+        return [LOG_LO], [LOG_HI]
+
+    @classmethod
+    def theta_from_u(cls, u: np.ndarray, p: int, theta: np.ndarray, scale: float, chain: Any) -> Any:
+        """Write θ[p:p+k] from u[p:p+k] (c = ``scale``); ``chain`` carries the AR1 ordering state, returned."""
+        theta[p] = math.exp(u[p]) * scale
+        return chain
+
+    @classmethod
+    def u_from_theta(cls, theta: np.ndarray, p: int, u: np.ndarray, scale: float, chain: Any) -> Any:
+        """Inverse of :meth:`theta_from_u` (before clipping to the bounds)."""
+        u[p] = math.log(max(theta[p] / scale, 1e-300))
+        return chain
+
+    # -- rate, filter and equivalent forms --------------------------------------------------------------------
+    def at_rate(self, freq_from: float, freq_to: float) -> Process:
+        """The same continuous-time process with parameters per sample at ``freq_to`` instead of ``freq_from``."""
+        raise NotImplementedError
+
+    def white_variance(self) -> float:
+        """Per-sample variance this process adds to the filter's white part (SPEC §8)."""
+        return 0.0
+
+    def filter_block(self, steps: float, dt: float) -> tuple[float, list[FilterState]]:
+        """(variance added to the bias state per filter step, own states) over a step of ``steps`` samples."""
+        return 0.0, []
+
+    def scaled(self, white: float, bias: float) -> Process:
+        """This process with its white variance × ``white`` or its bias driving variance × ``bias``."""
+        return self
+
+    def equivalent_part(self, name: str, freq: float, white_below: float, horizon_s: float | None, qn: str,
+                        model_text: str) -> EquivalentPart:
+        """This process' share of the (N, K) pair (:func:`imunoise.equivalent_noise.equivalent_noise`)."""
+        raise NotImplementedError
+
+    def spectrum(self, f: np.ndarray, sin2: np.ndarray) -> np.ndarray | float:
+        """Two-sided (pseudo-)spectral density at f cycles/sample (``sin2`` = sin²(πf)); 0 for none."""
+        return 0.0
+
+    def identification_jacobian(self, tau: np.ndarray) -> np.ndarray:
+        """∂ν/∂θ in a parametrisation that never vanishes at 0 (the WVIC's rank count)."""
+        return self.wv_jacobian(tau)
+
+    def correlation_time(self, freq: float) -> float | None:
+        """T_c [s] of a Gauss–Markov-like process at ``freq``, None for the others."""
+        return None
+
+    # -- algebra ----------------------------------------------------------------------------------
+    # The sum type is registered by imunoise.model when it loads (Model.register below it): the algebra needs
+    # Model, and Model needs the processes, so the dependency points one way (model → processes).
+    sum_type: ClassVar[Any] = None
+
+    @staticmethod
+    def _sum(components: list[Process]) -> Model:
+        if Process.sum_type is None:
+            raise ModelError("the model algebra needs imunoise.model: import imunoise.model (or use imunoise.WN etc.)")
+        return Process.sum_type(components)
+
+    def __add__(self, other: Process | Model) -> Model:
+        return self._sum([self]) + other
 
     def __radd__(self, other: object) -> Model:
-        from imunoise.model import Model
-
         if other == 0:  # sum([...]) support
-            return Model([self])
+            return self._sum([self])
         return NotImplemented
 
     def __mul__(self, k: int) -> Model:
-        from imunoise.model import Model
-
         if not isinstance(k, int) or isinstance(k, bool) or k < 1:
             raise ModelError(f"a process can be repeated a positive whole number of times, got {k!r}")
-        return Model([self] * k)
+        return self._sum([self] * k)
 
     __rmul__ = __mul__
 
@@ -250,6 +372,21 @@ class WN(Process):
     def continuous(self, freq, prefix="WN"):
         return {f"{prefix}.noise_density": math.sqrt(self.values[0] / freq)}
 
+    def at_rate(self, freq_from, freq_to):
+        return WN(sigma2=self.values[0] * (freq_to / freq_from))  # N² = σ²/f
+
+    def white_variance(self):
+        return self.values[0]
+
+    def scaled(self, white, bias):
+        return WN(sigma2=self.values[0] * white)
+
+    def equivalent_part(self, name, freq, white_below, horizon_s, qn, model_text):
+        return EquivalentPart(self.values[0], 0.0, False, "N", "white, exact: N = sigma*sqrt(dt)")
+
+    def spectrum(self, f, sin2):
+        return self.values[0]
+
 
 class QN(Process):
     """Quantisation noise Q² (SPEC §2): x_t = u_t − u_{t−1}, Var(u) = Q²; ν² = 6Q²/τ²; Q_IEEE = QΔt.
@@ -279,6 +416,20 @@ class QN(Process):
     def continuous(self, freq, prefix="QN"):
         return {f"{prefix}.q_ieee": math.sqrt(self.values[0]) / freq}
 
+    def at_rate(self, freq_from, freq_to):
+        return QN(q2=self.values[0] * (freq_to / freq_from) ** 2)  # Q_IEEE = Q/f
+
+    def white_variance(self):
+        return 2.0 * self.values[0]  # x_t = u_t − u_{t−1} treated as white
+
+    def equivalent_part(self, name, freq, white_below, horizon_s, qn, model_text):
+        if qn == "white":
+            return EquivalentPart(2.0 * self.values[0], 0.0, False, "N", "white with its per-sample variance 2Q^2")
+        return EquivalentPart(0.0, 0.0, False, "-", "dropped (qn='drop')")
+
+    def spectrum(self, f, sin2):
+        return 4.0 * self.values[0] * sin2  # x_t = u_t − u_{t−1}
+
 
 class RW(Process):
     """Random walk with innovation variance γ²: ν² = γ²(τ² + 2)/(12τ); K = γ/√Δt.
@@ -307,6 +458,21 @@ class RW(Process):
 
     def continuous(self, freq, prefix="RW"):
         return {f"{prefix}.random_walk": math.sqrt(self.values[0] * freq)}
+
+    def at_rate(self, freq_from, freq_to):
+        return RW(gamma2=self.values[0] * (freq_from / freq_to))  # K² = γ²f
+
+    def filter_block(self, steps, dt):
+        return self.values[0] * steps, []
+
+    def scaled(self, white, bias):
+        return RW(gamma2=self.values[0] * bias)
+
+    def equivalent_part(self, name, freq, white_below, horizon_s, qn, model_text):
+        return EquivalentPart(0.0, self.values[0], False, "K", "random walk, exact: K = gamma/sqrt(dt)")
+
+    def spectrum(self, f, sin2):
+        return self.values[0] / (4.0 * sin2)  # pseudo-spectrum; the Haar gain removes the pole
 
 
 class DR(Process):
@@ -340,6 +506,38 @@ class DR(Process):
 
     def continuous(self, freq, prefix="DR"):
         return {f"{prefix}.rate_ramp": self.values[0] * freq}
+
+    @classmethod
+    def u_bounds(cls, first):
+        return [LOG_LO / 2], [LOG_HI / 2]
+
+    @classmethod
+    def theta_from_u(cls, u, p, theta, scale, chain):
+        theta[p] = math.exp(u[p]) * math.sqrt(scale)  # ω scales as √c (the WV is quadratic in ω)
+        return chain
+
+    @classmethod
+    def u_from_theta(cls, theta, p, u, scale, chain):
+        u[p] = math.log(max(abs(theta[p]) / math.sqrt(scale), 1e-150))
+        return chain
+
+    def at_rate(self, freq_from, freq_to):
+        return DR(omega=self.values[0] * (freq_from / freq_to))  # R = ωf
+
+    def filter_block(self, steps, dt):
+        # a constant ramp state r (unit/s): bias_{k+1} = bias_k + r·dt
+        return 0.0, [FilterState(1.0, 0.0, 0.0, 0.0, ROLE_RAMP, dt)]
+
+    def equivalent_part(self, name, freq, white_below, horizon_s, qn, model_text):
+        if horizon_s is None:
+            raise ModelError(f"{model_text}: a DR maps to the random walk with its AV at the horizon; give horizon_s")
+        return EquivalentPart(0.0, dr_equivalent_rw(self.values[0], 2.0 * float(horizon_s) * freq), False, "K",
+                              "ramp: the random walk with the same AV at the horizon (on the scales of "
+                              "the data a ramp and a random walk are two readings of one rising AV)")
+
+    def identification_jacobian(self, tau):
+        tau = np.asarray(tau, dtype=float)
+        return (tau**2 / 16.0)[:, None]  # ∂ν/∂ω² never vanishes, unlike ∂ν/∂ω at ω = 0
 
 
 class AR1(Process):
@@ -396,5 +594,80 @@ class AR1(Process):
             f"{prefix}.q_c": 2.0 * var_gm / tau_c,
         }
 
+    singleton = False
+
+    @classmethod
+    def u_bounds(cls, first):
+        return [V_LO if first else B_LO, LOG_LO], [V_HI if first else B_HI, LOG_HI]
+
+    @classmethod
+    def theta_from_u(cls, u, p, theta, scale, chain):
+        # log(−ln φ) ordered: v_1 = u, v_k = v_{k−1} + exp(u_k), so φ_1 > φ_2 > … (no label switching)
+        v = u[p] if chain is None else chain + math.exp(u[p])
+        phi = math.exp(-math.exp(min(v, V_HI + 1.0)))
+        theta[p] = min(max(phi, 1e-300), 1.0 - 1e-16)
+        theta[p + 1] = math.exp(u[p + 1]) * scale
+        return v
+
+    @classmethod
+    def u_from_theta(cls, theta, p, u, scale, chain):
+        phi = float(np.clip(theta[p], 1e-300, 1.0 - 1e-15))
+        v = math.log(-math.log(phi))
+        if chain is None:
+            u[p] = v
+        else:
+            u[p] = math.log(max(v - chain, 1e-9))
+            v = chain + math.exp(u[p])
+        u[p + 1] = math.log(max(theta[p + 1] / scale, 1e-300))
+        return v
+
+    def at_rate(self, freq_from, freq_to):
+        phi, s2 = self.values
+        phi_to = math.exp(math.log(phi) * (freq_from / freq_to))  # T_c = −1/(f ln φ) kept
+        var_gm = s2 / (1.0 - phi * phi)
+        return AR1(phi=phi_to, sigma2=var_gm * (1.0 - phi_to * phi_to))  # σ²_GM kept
+
+    def filter_block(self, steps, dt):
+        phi, s2 = self.values
+        var_gm = s2 / (1.0 - phi * phi)
+        phi_dt = math.exp(steps * math.log(phi))
+        return 0.0, [FilterState(phi_dt, var_gm * (1.0 - phi_dt * phi_dt), var_gm, 1.0, ROLE_STATIONARY)]
+
+    def scaled(self, white, bias):
+        return AR1(phi=self.values[0], sigma2=self.values[1] * bias)
+
+    def equivalent_part(self, name, freq, white_below, horizon_s, qn, model_text):
+        phi, s2 = self.values
+        tc = -(1.0 / freq) / math.log(phi)
+        if tc <= white_below:
+            return EquivalentPart(ar1_white_variance(phi, s2), 0.0, False, "N",
+                                  f"T_c = {_fmt_s(tc)} <= {_fmt_s(white_below)}: white, density "
+                                  "sigma/(1-phi)*sqrt(dt) (-> sigma_GM*sqrt(2*T_c) for T_c >> dt)")
+        if horizon_s is not None and tc >= horizon_s:
+            how = f"T_c = {_fmt_s(tc)} >= horizon: a random walk of its innovation over the range; matched"
+            return EquivalentPart(0.0, 0.0, True, "K", how)
+        how = (f"T_c = {_fmt_s(tc)} inside the range: white beyond T_c, random walk below; matched, "
+               "its AV bump is what a WN+RW pair cannot follow")
+        return EquivalentPart(0.0, 0.0, True, "N+K", how)
+
+    def spectrum(self, f, sin2):
+        phi, sig2 = self.values
+        # 1 − 2φcos(2πf) + φ² written without cancellation (near φ → 1, f → 0 it is tiny, not 0)
+        return sig2 / ((1.0 - phi) ** 2 + 4.0 * phi * sin2)
+
+    def correlation_time(self, freq):
+        return -1.0 / (freq * math.log(self.values[0]))
+
+
+for _cls, _u, _t in ((WN, _wn_wv_u, _wn_wv_theta), (QN, _qn_wv_u, _qn_wv_theta), (RW, _rw_wv_u, _rw_wv_theta),
+                     (DR, _dr_wv_u, _dr_wv_theta), (AR1, None, _ar1_wv_theta)):
+    _cls.nb_wv_u, _cls.nb_wv_theta = _u, _t  # AR1's u-form is chained (ordering), in the estimator's kernel
 
 PROCESS_TYPES: dict[str, type[Process]] = {cls.kind: cls for cls in (AR1, WN, QN, RW, DR)}
+"""The registry, the one kind vocabulary: canonical order (a model lists its components in it) and, by position,
+the compiled kind codes. A new process is one class above plus its entry here (and its branch in the kernels'
+dispatch, :mod:`imunoise.fitting.kernels`)."""
+for _code, _cls in enumerate(PROCESS_TYPES.values()):
+    _cls.code = _code
+ORDER: tuple[str, ...] = tuple(PROCESS_TYPES)
+N_PARAMS: tuple[int, ...] = tuple(len(c.param_names) for c in PROCESS_TYPES.values())

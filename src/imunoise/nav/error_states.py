@@ -90,9 +90,9 @@ class ModelLayout:
         blocks_phi, blocks_q, blocks_p0, wpsd = [], [], [], np.zeros(6)
         for a, (m, f) in enumerate(models):
             ss = m.state_space(dt, f)
-            for lab in ss.labels:
+            for lab, role in zip(ss.labels, ss.roles):  # roles: imunoise.processes.ROLE_* = kinds 0–2 here
                 labels.append(f"{AXES[a]}.{lab}")
-                kind.append(0 if lab == "bias" else 2 if lab == "DR" else 1)
+                kind.append(role)
             axis_of += [a] * ss.n
             h += list(np.asarray(ss.H, dtype=float))
             blocks_phi.append(np.asarray(ss.Phi, dtype=float))
