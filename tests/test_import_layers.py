@@ -17,7 +17,8 @@ SRC = Path(os.environ.get("IMUNOISE_LAYERS_SRC", Path(__file__).resolve().parent
 LAYERS: list[tuple[str, ...]] = [
     ("imunoise._version", "imunoise.errors", "imunoise.units", "imunoise.imu", "imunoise.report"),
     ("imunoise.io",),
-    ("imunoise.wv", "imunoise.wv_stream", "imunoise.wv_log", "imunoise.ar1_math", "imunoise.processes",
+    ("imunoise.wv", "imunoise.wv_stream", "imunoise.wv_log", "imunoise.ar1_math", "imunoise.process_base",
+     "imunoise.process_ma1", "imunoise.processes",
      "imunoise.model"),
     ("imunoise.fitting",),
     ("imunoise.estimator", "imunoise.selection"),
