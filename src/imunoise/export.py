@@ -202,8 +202,8 @@ def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "", *, horizon_s: f
     N, K = eq.N, eq.K
     if not (math.isfinite(N) and math.isfinite(K) and N > 0 and K > 0):
         raise ModelError(f"{name}: the equivalent densities are not positive and finite (N={N}, K={K})")
-    rw = [c.values[0] for c in fit.model.components if c.kind == "RW"]
-    ramp = next((c.values[0] * f for c in fit.model.components if c.kind == "DR"), None)
+    rw = [c.values[0] for c in fit.model.components if c.reading == "random_walk"]
+    ramp = next((c.values[0] * f for c in fit.model.components if c.reading == "ramp"), None)
     if ramp is not None:
         notes.append(f"{name}: drift (rate ramp {ramp:.4g} {fit.unit}/s) has no slot; matched from below by K")
     if fit.model.has("QN"):

@@ -211,6 +211,8 @@ class Process:
         """∂ν/∂θ in a parametrisation that never vanishes at 0 (the WVIC's rank count)."""
         return self.wv_jacobian(tau)
 
+    reading: ClassVar[str] = "white"  # how a calibration reads it within a horizon: white, random_walk (as K),
+    # gauss_markov (a value when T_c is inside the horizon), ramp (never a value)
     starts_fine: ClassVar[bool] = True  # the estimator's start reads the finest scale (else the coarsest)
 
     @classmethod
@@ -218,6 +220,16 @@ class Process:
         """A starting θ for the estimator: the process carrying ``frac`` of the normalised empirical WV ``nu`` at
         the finest (``starts_fine``) or the coarsest scale of ``tau`` (SPEC §4)."""
         raise NotImplementedError
+
+    @classmethod
+    def embedding(cls, frac: float, nu: np.ndarray, tau: np.ndarray) -> Process:
+        """The process added to a fitted sub-model by the model selection: :meth:`start_values` kept off zero."""
+        return cls(**dict(zip(cls.param_names, (max(v, 1e-300) for v in cls.start_values(frac, nu, tau)))))
+
+    @classmethod
+    def negligible(cls) -> Process:
+        """The process at zero amplitude (the selection's exact embedding of a sub-model; 1e-300: the bound)."""
+        return cls(**{name: 1e-300 for name in cls.param_names})
 
     def correlation_time(self, freq: float) -> float | None:
         """T_c [s] of a Gauss–Markov-like process at ``freq``, None for the others."""

@@ -206,6 +206,7 @@ class RW(Process):
     """
 
     kind = "RW"
+    reading = "random_walk"
     param_names = ("gamma2",)
     param_units = ("u^2",)
 
@@ -274,6 +275,7 @@ class DR(Process):
     """
 
     kind = "DR"
+    reading = "ramp"
     param_names = ("omega",)
     param_units = ("u",)
 
@@ -317,6 +319,10 @@ class DR(Process):
     def start_values(cls, frac, nu, tau):
         return [math.sqrt(frac * nu[-1] * 16.0) / tau[-1]]
 
+    @classmethod
+    def embedding(cls, frac, nu, tau):
+        return DR(omega=max(cls.start_values(frac, nu, tau)[0], 1e-150))
+
     def filter_block(self, steps, dt):
         # a constant ramp state r (unit/s): bias_{k+1} = bias_k + r·dt
         return 0.0, [FilterState(1.0, 0.0, 0.0, 0.0, ROLE_RAMP, dt)]
@@ -354,6 +360,7 @@ class AR1(Process):
     """
 
     kind = "AR1"
+    reading = "gauss_markov"
     param_names = ("phi", "sigma2")
     param_units = ("1", "u^2")
 
