@@ -9,6 +9,7 @@ QN     Q²          6Q²/τ²
 RW     γ²          γ²(τ² + 2)/(12τ)
 DR     ω           ω²τ²/16
 AR1    φ, σ²       σ²[τ/2 − 3φ − (τ/2)φ² + 4φ^{τ/2+1} − φ^{τ+1}] / [2(τ/2)²(1−φ)²(1−φ²)]
+MA1    θ, σ²       σ²[(1+θ)²τ − 6θ]/τ²  (:mod:`imunoise.process_ma1`)
 =====  ==========  ==========================================================================
 
 Each class owns its math (the protocol: :class:`imunoise.process_base.Process`); its numba forms, which the
@@ -45,9 +46,10 @@ from imunoise.process_base import (
     dr_equivalent_rw,
     fmt_seconds,
 )
+from imunoise.process_ma1 import MA1
 
 __all__ = [
-    "Process", "WN", "QN", "RW", "DR", "AR1", "PROCESS_TYPES", "ORDER", "N_PARAMS", "ar1_wv", "ar1_wv_dphi",
+    "Process", "WN", "QN", "RW", "DR", "AR1", "MA1", "PROCESS_TYPES", "ORDER", "N_PARAMS", "ar1_wv", "ar1_wv_dphi",
     "ROLE_BIAS", "ROLE_STATIONARY", "ROLE_RAMP", "FilterState", "EquivalentPart", "dr_equivalent_rw",
     "ar1_white_variance", "LOG_LO", "LOG_HI", "V_LO", "V_HI", "B_LO", "B_HI",
 ]
@@ -470,7 +472,7 @@ for _cls, _u, _t in ((WN, _wn_wv_u, _wn_wv_theta), (QN, _qn_wv_u, _qn_wv_theta),
                      (DR, _dr_wv_u, _dr_wv_theta), (AR1, None, _ar1_wv_theta)):
     _cls.nb_wv_u, _cls.nb_wv_theta = _u, _t  # AR1's u-form is chained (ordering), in the estimator's kernel
 
-PROCESS_TYPES: dict[str, type[Process]] = {cls.kind: cls for cls in (AR1, WN, QN, RW, DR)}
+PROCESS_TYPES: dict[str, type[Process]] = {cls.kind: cls for cls in (AR1, WN, QN, RW, DR, MA1)}
 """The registry, the one kind vocabulary: canonical order (a model lists its components in it) and, by position,
 the compiled kind codes. A new process is one class above plus its entry here (and its branch in the kernels'
 dispatch, :mod:`imunoise.fitting.kernels`)."""

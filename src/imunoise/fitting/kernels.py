@@ -15,12 +15,13 @@ import numpy as np
 from numba import njit
 
 from imunoise.ar1_math import ar1_g
-from imunoise.processes import AR1, DR, N_PARAMS, QN, RW, V_HI, WN
+from imunoise.processes import AR1, DR, MA1, N_PARAMS, QN, RW, V_HI, WN
 
 # kind codes and numba forms of the registry, frozen as compile-time constants of the kernels
 _AR1, _WN, _QN, _RW, _DR = AR1.code, WN.code, QN.code, RW.code, DR.code
 _WN_U, _QN_U, _RW_U, _DR_U = WN.nb_wv_u, QN.nb_wv_u, RW.nb_wv_u, DR.nb_wv_u
 _AR1_T, _WN_T, _QN_T, _RW_T, _DR_T = AR1.nb_wv_theta, WN.nb_wv_theta, QN.nb_wv_theta, RW.nb_wv_theta, DR.nb_wv_theta
+_MA1, _MA1_U, _MA1_T = MA1.code, MA1.nb_wv_u, MA1.nb_wv_theta
 _NP = N_PARAMS
 
 __all__ = ["ar1_g", "wv_and_jacobian", "objectives", "levenberg_marquardt", "wv_of_theta"]
@@ -85,6 +86,8 @@ def wv_and_jacobian(u, kinds, tau, nu, jac):
             _RW_U(u, p, tau, nu, jac)
         elif kind == _DR:
             _DR_U(u, p, tau, nu, jac)
+        elif kind == _MA1:
+            _MA1_U(u, p, tau, nu, jac)
         p += _NP[kind]
 
 
@@ -232,5 +235,7 @@ def wv_of_theta(theta, kinds, tau):  # pragma: no cover - compiled
             _RW_T(theta, p, tau, nu)
         elif k == _DR:
             _DR_T(theta, p, tau, nu)
+        elif k == _MA1:
+            _MA1_T(theta, p, tau, nu)
         p += _NP[k]
     return nu
