@@ -3,7 +3,10 @@
 Every ``import``/``from ... import`` of every module is read (top level, inside functions and under
 ``TYPE_CHECKING`` alike). The layers, lowest first, follow the data path IMU → detection → modelling → filter
 (a module may import its own layer and lower ones; the package ``__init__`` files re-export lazily and are
-left out of the layer rule, not of the cycle rule).
+left out of the layer rule, not of the cycle rule). Within modelling: the processes and the model, the
+estimator's machinery (``fitting``), the estimator and the model selection, then what is built on fits (the
+Allan and EM baselines, the equivalent (N, K), the IMU model and its exports). ``tests/test_docs.py`` checks the
+coarser stages the package docstrings state; this order refines it.
 """
 
 from __future__ import annotations
@@ -17,17 +20,17 @@ SRC = Path(os.environ.get("IMUNOISE_LAYERS_SRC", Path(__file__).resolve().parent
 LAYERS: list[tuple[str, ...]] = [
     ("imunoise._version", "imunoise.errors", "imunoise.units", "imunoise.imu", "imunoise.report"),
     ("imunoise.io",),
+    ("imunoise.detect",),
     ("imunoise.wv", "imunoise.wv_stream", "imunoise.wv_log", "imunoise.ar1_math", "imunoise.process_base",
-     "imunoise.process_ma1", "imunoise.processes",
-     "imunoise.model"),
+     "imunoise.process_ma1", "imunoise.processes", "imunoise.model"),
     ("imunoise.fitting",),
     ("imunoise.estimator", "imunoise.selection"),
-    ("imunoise.allan", "imunoise.plots", "imunoise.em", "imunoise.equivalent_noise", "imunoise.imu_model"),
-    ("imunoise.detect",),
+    ("imunoise.allan", "imunoise.plots", "imunoise.em", "imunoise.equivalent_noise", "imunoise.imu_model",
+     "imunoise.export"),
     ("imunoise.nav",),
     ("imunoise.online",),
     ("imunoise.sim",),
-    ("imunoise.export", "imunoise.calibrate", "imunoise.batch"),
+    ("imunoise.calibrate", "imunoise.batch"),
     ("imunoise.experiments",),
     ("imunoise.cli", "imunoise.__main__"),
 ]

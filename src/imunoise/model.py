@@ -1,9 +1,12 @@
 """Composite error models: sums of independent latent processes (SPEC §2, paper Eq. 7).
 
 ``2 * AR1() + WN() + RW()`` builds a :class:`Model`. Its canonical form lists the AR1s first, ordered
-by decreasing φ (slowest first, which removes label switching), then WN, QN, RW, DR; parameters carry
-canonical names ``AR1_1.phi``, ``AR1_1.sigma2``, ..., ``WN.sigma2``, ``QN.q2``, ``RW.gamma2``,
-``DR.omega``. All parameters are per sample at the rate of the data they describe.
+by decreasing φ (slowest first, which removes label switching), then the others in the registry's order
+(:data:`imunoise.processes.ORDER`: WN, QN, RW, DR, MA1); parameters carry canonical names ``AR1_1.phi``,
+``AR1_1.sigma2``, ..., ``WN.sigma2``, ``QN.q2``, ``RW.gamma2``, ``DR.omega``, ``MA1.theta``. All parameters are
+per sample at the rate of the data they describe. The model's forms (WV, state space, white part, rate change)
+are sums or stacks of its processes' own (:class:`imunoise.process_base.Process`); nothing here branches on a
+kind except the AR1 ordering.
 """
 
 from __future__ import annotations
@@ -28,10 +31,13 @@ class StateSpace:
     """Discrete state-space blocks of one sensor axis' error model over a step dt (SPEC §8).
 
     Sensor error = ``H @ x + w`` with ``x_{k+1} = Phi @ x_k + q_k``, ``q ~ N(0, Q)`` and a white part w.
-    States: ``bias`` (random constant, plus RW if present), one per AR1, ``DR`` (rate-ramp, drives the
-    bias). ``P0`` holds the stationary variance of each AR1 state and 0 for bias and DR: the filter sets
-    those from its own initial uncertainty. ``white_psd`` is the two-sided continuous PSD of WN + QN
-    (unit²·s = N², N the noise density); ``white_var`` its per-step variance at dt (white_psd / dt).
+    States: ``bias`` (random constant, plus RW if present), then each process' own states in canonical order
+    (one per AR1, ``DR``: the rate ramp, which drives the bias), from :meth:`Process.filter_block`; ``roles``
+    names what each state is to the filter (:data:`imunoise.process_base.ROLE_BIAS` etc.). ``P0`` holds the
+    stationary variance of each AR1 state and 0 for bias and DR: the filter sets those from its own initial
+    uncertainty. ``white_psd`` is the two-sided continuous PSD of the white part (WN + QN, and an MA1 by its
+    zero-frequency density; unit²·s = N², N the noise density); ``white_var`` its per-step variance at dt
+    (white_psd / dt).
 
     Attributes
     ----------

@@ -5,6 +5,10 @@ The kernels work in the unconstrained parametrisation u of :mod:`imunoise.fittin
 normalised problem (ν̂' = ν̂/c, W' = cW). Kind codes and the per-process numba forms come from the registry
 (:data:`imunoise.processes.PROCESS_TYPES`); the dispatch over kinds below is a compiled branch per registered
 process (a new process adds its line in :func:`wv_and_jacobian` and :func:`wv_of_theta`).
+
+numba's on-disk cache keys these kernels on this file only: after editing a process' numba form elsewhere,
+touch this file (or clear ``__pycache__``) so the kernels recompile; ``tests/test_process_registry.py`` compares
+the compiled WV with the numpy closed form and fails on a stale cache.
 """
 
 from __future__ import annotations
