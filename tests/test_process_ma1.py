@@ -39,7 +39,10 @@ def test_gmwm_recovers_ma1():
     # 4·10^5 samples: θ̂ = 0.5006 and σ̂² within 0.1 % of the truth on this seed; the tolerances allow other
     # platforms' last-bit differences in the optimiser, not a wrong closed form (θ off by 0.05 fails)
     x = Model([MA1(theta=0.5, sigma2=1e-4)]).simulate(400_000, seed=5)
-    th, s2 = gmwm("MA1", x, freq=100.0).model.vector
+    fit = gmwm("MA1", x, freq=100.0)
+    th, s2 = fit.model.vector
+    assert list(fit.param_units()) == ["MA1.theta", "MA1.sigma2"] and fit.param_units()["MA1.theta"] == "1"
+    assert set(fit.continuous_units()) == set(fit.continuous()) == {"MA1.theta", "MA1.noise_density"}
     assert th == pytest.approx(0.5, abs=0.01)
     assert s2 == pytest.approx(1e-4, rel=0.02)
     # beside a random walk, with a negative θ
@@ -65,8 +68,11 @@ def test_ma1_filter_block_is_white_with_its_long_scale_density():
 
 
 def test_ma1_in_the_registry_selection_and_filter_mapping():
+    import imunoise
     from imunoise.equivalent_noise import equivalent_noise
     from imunoise.selection import candidates
+
+    assert imunoise.MA1 is MA1  # the package facade serves every registered process
 
     assert str(Model.parse("ma1 + WN")) == "WN + MA1"
     assert sorted(c.n_params for c in candidates("WN+MA1")) == [1, 2, 3]

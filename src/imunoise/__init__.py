@@ -88,6 +88,14 @@ def __getattr__(name: str) -> Any:
         value = getattr(importlib.import_module(_LAZY[name]), name)
         globals()[name] = value
         return value
+    if name.isalnum() and name.isupper():  # a process of the registry beyond the five above, e.g. imunoise.MA1
+        import importlib
+
+        importlib.import_module("imunoise.model")  # registers the processes' algebra
+        registry = importlib.import_module("imunoise.processes").PROCESS_TYPES
+        if name in registry:
+            globals()[name] = registry[name]
+            return registry[name]
     raise AttributeError(f"module 'imunoise' has no attribute {name!r}")
 
 

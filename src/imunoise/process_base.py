@@ -98,6 +98,7 @@ class Process:
     kind: ClassVar[str] = ""
     param_names: ClassVar[tuple[str, ...]] = ()
     param_units: ClassVar[tuple[str, ...]] = ()  # unit of each parameter, in terms of the data unit "u"
+    continuous_units: ClassVar[dict[str, str]] = {}  # unit of each key of continuous(), in terms of "u"
 
     def __init__(self, **params: float | None) -> None:
         unknown = set(params) - set(self.param_names)

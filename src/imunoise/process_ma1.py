@@ -52,6 +52,7 @@ class MA1(Process):
     kind = "MA1"
     param_names = ("theta", "sigma2")
     param_units = ("1", "u^2")
+    continuous_units = {"theta": "1", "noise_density": "u/√Hz"}
 
     def _validate(self, values):
         th, s2 = values

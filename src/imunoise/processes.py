@@ -85,6 +85,7 @@ class WN(Process):
     kind = "WN"
     param_names = ("sigma2",)
     param_units = ("u^2",)
+    continuous_units = {"noise_density": "u/√Hz"}
 
     def wv(self, tau, values=None):
         (s2,) = values or self.values
@@ -147,6 +148,7 @@ class QN(Process):
     kind = "QN"
     param_names = ("q2",)
     param_units = ("u^2",)
+    continuous_units = {"q_ieee": "u·s"}
 
     def wv(self, tau, values=None):
         (q2,) = values or self.values
@@ -211,6 +213,7 @@ class RW(Process):
     reading = "random_walk"
     param_names = ("gamma2",)
     param_units = ("u^2",)
+    continuous_units = {"random_walk": "u/s/√Hz"}
 
     def wv(self, tau, values=None):
         (g2,) = values or self.values
@@ -280,6 +283,7 @@ class DR(Process):
     reading = "ramp"
     param_names = ("omega",)
     param_units = ("u",)
+    continuous_units = {"rate_ramp": "u/s"}
 
     def _validate(self, values):
         pass  # a drift may be negative
@@ -365,6 +369,7 @@ class AR1(Process):
     reading = "gauss_markov"
     param_names = ("phi", "sigma2")
     param_units = ("1", "u^2")
+    continuous_units = {"tau_c": "s", "sigma_gm": "u", "q_c": "u²/s"}
 
     def _validate(self, values):
         phi, s2 = values
