@@ -893,7 +893,7 @@ def _axis_calibration(axis: str, fit: Any) -> AxisCalibration:
         N_ci = nan2  # N holds more than the WN term (QN, fast AR1): the term's CI is not N's
     K_ci = ci.get("RW.random_walk", nan2)
     kb, kb_at = k_upper_bound(fit.wv)
-    has_rw = fit.model.has("RW")
+    has_rw = any(c.reading == "random_walk" for c in fit.model.components)
     det, und = [], []
     for name, c in zip(fit.model.component_names(), fit.model.components):
         own = {k: v for k, v in cont.items() if k.startswith(name + ".")}

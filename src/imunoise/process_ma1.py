@@ -18,7 +18,7 @@ from imunoise.process_base import LOG_HI, LOG_LO, EquivalentPart, Process
 __all__ = ["MA1"]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _ma1_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
     th = math.tanh(u[p])  # θ in (−1, 1): invertible MA1
     s2 = math.exp(u[p + 1])
@@ -30,7 +30,7 @@ def _ma1_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
         jac[j, p + 1] += d
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _ma1_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
     for j in range(tau.shape[0]):
         t = tau[j]

@@ -59,7 +59,7 @@ __all__ = [
 # ν from natural parameters.
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _wn_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
     val = math.exp(u[p])
     for j in range(tau.shape[0]):
@@ -67,7 +67,7 @@ def _wn_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
         nu[j] += d
         jac[j, p] += d
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _wn_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
     for j in range(tau.shape[0]):
         nu[j] += theta[p] / tau[j]
@@ -120,7 +120,7 @@ class WN(Process):
         return self.values[0]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _qn_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
     val = math.exp(u[p])
     for j in range(tau.shape[0]):
@@ -129,7 +129,7 @@ def _qn_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
         nu[j] += d
         jac[j, p] += d
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _qn_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
     for j in range(tau.shape[0]):
         t = tau[j]
@@ -184,7 +184,7 @@ class QN(Process):
         return 4.0 * self.values[0] * sin2  # x_t = u_t − u_{t−1}
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rw_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
     val = math.exp(u[p])
     for j in range(tau.shape[0]):
@@ -193,7 +193,7 @@ def _rw_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
         nu[j] += d
         jac[j, p] += d
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rw_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
     for j in range(tau.shape[0]):
         t = tau[j]
@@ -252,7 +252,7 @@ class RW(Process):
         return self.values[0] / (4.0 * sin2)  # pseudo-spectrum; the Haar gain removes the pole
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _dr_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
     val = math.exp(u[p])  # |ω|/√c: the WV is quadratic in it, so ∂ν/∂u = 2ν
     for j in range(tau.shape[0]):
@@ -261,7 +261,7 @@ def _dr_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
         jac[j, p] += 2.0 * d
         nu[j] += d
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _dr_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
     for j in range(tau.shape[0]):
         t = tau[j]
@@ -345,7 +345,7 @@ class DR(Process):
         return (tau**2 / 16.0)[:, None]  # ∂ν/∂ω² never vanishes, unlike ∂ν/∂ω at ω = 0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _ar1_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
     for j in range(tau.shape[0]):
         g, _ = ar1_g(tau[j] / 2.0, math.log(theta[p]))
