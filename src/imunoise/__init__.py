@@ -58,11 +58,11 @@ __all__ = [
 # Everything that needs numpy/scipy is imported on first use: `import imunoise` (and so `imunoise --help`,
 # which imports the package before its CLI) loads only the error classes.
 _LAZY = {
-    "AR1": "imunoise.processes",
-    "DR": "imunoise.processes",
-    "QN": "imunoise.processes",
-    "RW": "imunoise.processes",
-    "WN": "imunoise.processes",
+    "AR1": "imunoise.model",  # via the model, which registers the algebra
+    "DR": "imunoise.model",  # via the model, which registers the algebra
+    "QN": "imunoise.model",  # via the model, which registers the algebra
+    "RW": "imunoise.model",  # via the model, which registers the algebra
+    "WN": "imunoise.model",  # via the model, which registers the algebra
     "Model": "imunoise.model",
     "StateSpace": "imunoise.model",
     "as_model": "imunoise.model",
@@ -88,6 +88,14 @@ def __getattr__(name: str) -> Any:
         value = getattr(importlib.import_module(_LAZY[name]), name)
         globals()[name] = value
         return value
+    if name.isalnum() and name.isupper():  # a process of the registry beyond the five above, e.g. imunoise.MA1
+        import importlib
+
+        importlib.import_module("imunoise.model")  # registers the processes' algebra
+        registry = importlib.import_module("imunoise.processes").PROCESS_TYPES
+        if name in registry:
+            globals()[name] = registry[name]
+            return registry[name]
     raise AttributeError(f"module 'imunoise' has no attribute {name!r}")
 
 

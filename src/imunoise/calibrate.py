@@ -893,23 +893,22 @@ def _axis_calibration(axis: str, fit: Any) -> AxisCalibration:
         N_ci = nan2  # N holds more than the WN term (QN, fast AR1): the term's CI is not N's
     K_ci = ci.get("RW.random_walk", nan2)
     kb, kb_at = k_upper_bound(fit.wv)
-    has_rw = fit.model.has("RW")
+    has_rw = any(c.reading == "random_walk" for c in fit.model.components)
     det, und = [], []
-    for name, v in cont.items():
-        kind = name.split(".")[0].rstrip("_0123456789")
-        if kind == "WN":
-            det.append(f"{name} = {v:.4g}")
-        elif kind == "QN":
-            det.append(f"{name} = {v:.4g}")
-        elif kind == "AR1" and name.endswith(".tau_c"):
-            tag = name.split(".")[0]
+    for name, c in zip(fit.model.component_names(), fit.model.components):
+        own = {k: v for k, v in cont.items() if k.startswith(name + ".")}
+        if c.reading == "white":
+            det += [f"{k} = {v:.4g}" for k, v in own.items()]
+        elif c.reading == "gauss_markov":
+            v = own[f"{name}.tau_c"]
             if v <= h:
-                det.append(f"{tag}: T_c = {v:.4g} s ≤ horizon {h:.3g} s, σ_GM = {cont[tag + '.sigma_gm']:.4g}")
+                det.append(f"{name}: T_c = {v:.4g} s ≤ horizon {h:.3g} s, σ_GM = {own[name + '.sigma_gm']:.4g}")
             else:
-                und.append(f"{tag}: T_c = {v:.4g} s beyond the horizon {h:.3g} s (a slow Gauss–Markov term reads "
+                und.append(f"{name}: T_c = {v:.4g} s beyond the horizon {h:.3g} s (a slow Gauss–Markov term reads "
                            f"as a random walk there): not a value; inside K ≤ {kb:.3g}")
-        elif kind == "DR":
-            und.append(f"{name}: a ramp over {h:.3g} s is a reading of the rising WV, not a value; inside K ≤ {kb:.3g}")
+        elif c.reading == "ramp":
+            und += [f"{k}: a ramp over {h:.3g} s is a reading of the rising WV, not a value; inside K ≤ {kb:.3g}"
+                    for k in own]
     k_fit = a.K_rw
     tx = math.sqrt(3.0) * a.N / k_fit if k_fit > 0 else math.inf
     narrow = math.isfinite(K_ci[0]) and K_ci[0] > 0 and K_ci[1] / K_ci[0] <= K_CI_SPAN

@@ -67,6 +67,7 @@ from scipy.optimize import least_squares, nnls
 from imunoise.allan import AllanVariance, rw_bound
 from imunoise.errors import ModelError
 from imunoise.model import Model
+from imunoise.processes import ar1_white_variance, dr_equivalent_rw
 
 __all__ = [
     "POINTS_PER_OCTAVE",
@@ -102,27 +103,10 @@ def default_horizon_s(fit: Any) -> float | None:
     return None if tau is None else tau / (2.0 * float(fit.freq))
 
 
-def dr_equivalent_rw(omega: float, horizon: float) -> float:
-    """γ² (per sample) of the random walk with the same Haar WV as a drift ω at scale τ = ``horizon`` samples:
-    ω²τ²/16 = γ²(τ² + 2)/(12τ) (SPEC §2), so γ² = 3ω²τ³/(4(τ² + 2)).
-
-    Over the scales a static record covers, a ramp and a random walk are two readings of the same rising
-    WV; a ramp state in the filter would extrapolate one fitted slope over the whole drive, while the
-    random walk lets the filter track a bias that keeps wandering at the rate the data showed.
-    """
-    tau = float(horizon)
-    return 3.0 * omega * omega * tau**3 / (4.0 * (tau * tau + 2.0))
-
-
 def pair_wv(tau: np.ndarray, sigma2: float, gamma2: float) -> np.ndarray:
     """Haar WV of WN(σ²) + RW(γ²) at scales τ (samples; SPEC §2 closed forms)."""
     tau = np.asarray(tau, dtype=float)
     return sigma2 / tau + gamma2 * (tau * tau + 2.0) / (12.0 * tau)
-
-
-def ar1_white_variance(phi: float, sigma2: float) -> float:
-    """Per-sample variance of the white noise with the same zero-frequency density as AR1(φ, σ²): σ²/(1−φ)²."""
-    return sigma2 / (1.0 - phi) ** 2
 
 
 def match_grid(freq: float, horizon_s: float) -> np.ndarray:
@@ -220,10 +204,6 @@ def _worst(pair: np.ndarray, target: np.ndarray, m: np.ndarray, freq: float) -> 
     return float(math.exp(abs(lr[i]))), float(m[i] / freq), bool(lr[i] > 0)
 
 
-def _fmt_s(t: float) -> str:
-    return f"{t * 1e3:.3g} ms" if t < 1.0 else f"{t:.4g} s"
-
-
 def equivalent_noise(
     model: Model,
     freq: float,
@@ -287,40 +267,15 @@ def _model_pair(model: Model, freq: float, *, horizon_s: float | None, white_bel
     matched = []
     routes = []
     for name, c in zip(model.component_names(), model.components):
-        if c.kind == "WN":
-            s2_exact += c.values[0]
-            routes.append(Route(name, "N", "white, exact: N = sigma*sqrt(dt)"))
-        elif c.kind == "RW":
-            g2_exact += c.values[0]
-            routes.append(Route(name, "K", "random walk, exact: K = gamma/sqrt(dt)"))
-        elif c.kind == "QN":
-            if qn == "white":
-                s2_exact += 2.0 * c.values[0]
-                routes.append(Route(name, "N", "white with its per-sample variance 2Q^2"))
-            else:
-                routes.append(Route(name, "-", "dropped (qn='drop')"))
-        elif c.kind == "AR1":
-            phi, s2 = c.values
-            tc = -dt / math.log(phi)
-            if tc <= white_below:
-                s2_exact += ar1_white_variance(phi, s2)
-                routes.append(Route(name, "N", f"T_c = {_fmt_s(tc)} <= {_fmt_s(white_below)}: white, density "
-                                               "sigma/(1-phi)*sqrt(dt) (-> sigma_GM*sqrt(2*T_c) for T_c >> dt)"))
-            else:
-                matched.append(c)
-                if horizon_s is not None and tc >= horizon_s:
-                    how = f"T_c = {_fmt_s(tc)} >= horizon: a random walk of its innovation over the range; matched"
-                    routes.append(Route(name, "K", how))
-                else:
-                    how = (f"T_c = {_fmt_s(tc)} inside the range: white beyond T_c, random walk below; matched, "
-                           "its AV bump is what a WN+RW pair cannot follow")
-                    routes.append(Route(name, "N+K", how))
-        elif c.kind == "DR":
-            if horizon_s is None:
-                raise ModelError(f"{model}: a DR maps to the random walk with its AV at the horizon; give horizon_s")
-            g2_exact += dr_equivalent_rw(c.values[0], 2.0 * float(horizon_s) * freq)
-            routes.append(Route(name, "K", "ramp: the random walk with the same AV at the horizon (on the scales of "
-                                           "the data a ramp and a random walk are two readings of one rising AV)"))
+        part = c.equivalent_part(name, freq, white_below, horizon_s, qn, str(model))
+        if part.matched:
+            matched.append(c)
+        else:
+            if part.sigma2:
+                s2_exact += part.sigma2
+            if part.gamma2:
+                g2_exact += part.gamma2
+        routes.append(Route(name, part.symbol, part.text))
     if not matched:
         # only exact parts: the pair is the model's own (its AV equals the target at every scale)
         if horizon_s is None:

@@ -180,7 +180,7 @@ def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "", *, horizon_s: f
     notes = []
     s2, g2 = eq.sigma2, eq.gamma2
     if not s2 > NOT_IDENTIFIED * eq.sigma2_cap:
-        tcs = [-1.0 / (f * math.log(c.values[0])) for c in fit.model.components if c.kind == "AR1"]
+        tcs = [tc for c in fit.model.components if (tc := c.correlation_time(f)) is not None]
         if any(tc < h for tc in tcs) and eq.sigma2_cap > 0:
             s2 = eq.sigma2_cap
             notes.append(f"{name}: no white noise identified; N = the largest white line under the model's AV "
@@ -202,8 +202,8 @@ def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "", *, horizon_s: f
     N, K = eq.N, eq.K
     if not (math.isfinite(N) and math.isfinite(K) and N > 0 and K > 0):
         raise ModelError(f"{name}: the equivalent densities are not positive and finite (N={N}, K={K})")
-    rw = [c.values[0] for c in fit.model.components if c.kind == "RW"]
-    ramp = next((c.values[0] * f for c in fit.model.components if c.kind == "DR"), None)
+    rw = [c.values[0] for c in fit.model.components if c.reading == "random_walk"]
+    ramp = next((c.values[0] * f for c in fit.model.components if c.reading == "ramp"), None)
     if ramp is not None:
         notes.append(f"{name}: drift (rate ramp {ramp:.4g} {fit.unit}/s) has no slot; matched from below by K")
     if fit.model.has("QN"):

@@ -1,14 +1,16 @@
 """Composite error models: sums of independent latent processes (SPEC §2, paper Eq. 7).
 
 ``2 * AR1() + WN() + RW()`` builds a :class:`Model`. Its canonical form lists the AR1s first, ordered
-by decreasing φ (slowest first, which removes label switching), then WN, QN, RW, DR; parameters carry
-canonical names ``AR1_1.phi``, ``AR1_1.sigma2``, ..., ``WN.sigma2``, ``QN.q2``, ``RW.gamma2``,
-``DR.omega``. All parameters are per sample at the rate of the data they describe.
+by decreasing φ (slowest first, which removes label switching), then the others in the registry's order
+(:data:`imunoise.processes.ORDER`: WN, QN, RW, DR, MA1); parameters carry canonical names ``AR1_1.phi``,
+``AR1_1.sigma2``, ..., ``WN.sigma2``, ``QN.q2``, ``RW.gamma2``, ``DR.omega``, ``MA1.theta``. All parameters are
+per sample at the rate of the data they describe. The model's forms (WV, state space, white part, rate change)
+are sums or stacks of its processes' own (:class:`imunoise.process_base.Process`); nothing here branches on a
+kind except the AR1 ordering.
 """
 
 from __future__ import annotations
 
-import math
 import re
 from collections import Counter
 from dataclasses import dataclass
@@ -17,12 +19,11 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import ModelError
-from imunoise.processes import AR1, DR, PROCESS_TYPES, QN, RW, WN, Process
+from imunoise.processes import AR1, DR, ORDER, PROCESS_TYPES, QN, ROLE_BIAS, RW, WN, Process
 
 __all__ = ["Model", "StateSpace", "ORDER", "ModelLike", "as_model"]
 
-ORDER = ("AR1", "WN", "QN", "RW", "DR")
-_SINGLETONS = ("WN", "QN", "RW", "DR")
+_SINGLETONS = tuple(k for k, cls in PROCESS_TYPES.items() if cls.singleton)
 
 
 @dataclass(frozen=True)
@@ -30,10 +31,13 @@ class StateSpace:
     """Discrete state-space blocks of one sensor axis' error model over a step dt (SPEC §8).
 
     Sensor error = ``H @ x + w`` with ``x_{k+1} = Phi @ x_k + q_k``, ``q ~ N(0, Q)`` and a white part w.
-    States: ``bias`` (random constant, plus RW if present), one per AR1, ``DR`` (rate-ramp, drives the
-    bias). ``P0`` holds the stationary variance of each AR1 state and 0 for bias and DR: the filter sets
-    those from its own initial uncertainty. ``white_psd`` is the two-sided continuous PSD of WN + QN
-    (unit²·s = N², N the noise density); ``white_var`` its per-step variance at dt (white_psd / dt).
+    States: ``bias`` (random constant, plus RW if present), then each process' own states in canonical order
+    (one per AR1, ``DR``: the rate ramp, which drives the bias), from :meth:`Process.filter_block`; ``roles``
+    names what each state is to the filter (:data:`imunoise.process_base.ROLE_BIAS` etc.). ``P0`` holds the
+    stationary variance of each AR1 state and 0 for bias and DR: the filter sets those from its own initial
+    uncertainty. ``white_psd`` is the two-sided continuous PSD of the white part (WN + QN, and an MA1 by its
+    zero-frequency density; unit²·s = N², N the noise density); ``white_var`` its per-step variance at dt
+    (white_psd / dt).
 
     Attributes
     ----------
@@ -60,6 +64,7 @@ class StateSpace:
     P0: np.ndarray
     white_psd: float
     white_var: float
+    roles: tuple[int, ...] = ()  # per state: imunoise.processes.ROLE_BIAS / ROLE_STATIONARY / ROLE_RAMP
 
     @property
     def n(self) -> int:
@@ -89,7 +94,7 @@ class Model:
             raise ModelError("a model needs at least one process, e.g. WN() + RW()")
         for c in comps:
             if not isinstance(c, Process):
-                raise ModelError(f"models are sums of WN, QN, RW, DR, AR1 processes, got {c!r}")
+                raise ModelError(f"models are sums of {', '.join(ORDER)} processes, got {c!r}")
         counts = Counter(c.kind for c in comps)
         for kind in _SINGLETONS:
             if counts[kind] > 1:
@@ -337,10 +342,9 @@ class Model:
         """Per-sample variance of the white part: σ²_WN + 2Q² (QN x_t = u_t − u_{t−1} treated as white)."""
         total = 0.0
         for c in self.components:
-            if c.kind == "WN":
-                total += c.values[0]
-            elif c.kind == "QN":
-                total += 2.0 * c.values[0]
+            w = c.white_variance()
+            if w:
+                total += w
         return total
 
     def scaled(self, white: float = 1.0, bias: float = 1.0) -> Model:
@@ -348,16 +352,7 @@ class Model:
         processes (RW γ², AR1 σ²; φ and so T_c kept) × ``bias``; QN and DR unchanged. The one scaling of the
         motion law's moving regime (:func:`imunoise.sim.motion.scaled_models`) and of the adaptive baseline
         (:func:`imunoise.nav.adaptive.scale_bias_noise`)."""
-        out: list[Process] = []
-        for c in self.components:
-            if isinstance(c, WN):
-                out.append(WN(sigma2=c.values[0] * white))
-            elif isinstance(c, RW):
-                out.append(RW(gamma2=c.values[0] * bias))
-            elif isinstance(c, AR1):
-                out.append(AR1(phi=c.values[0], sigma2=c.values[1] * bias))
-            else:
-                out.append(c)
+        out = [c.scaled(white, bias) for c in self.components]
         return Model(out)
 
     def state_space(self, dt: float, freq: float | None = None) -> StateSpace:
@@ -384,32 +379,42 @@ class Model:
             raise ModelError(f"sampling frequency must be > 0 Hz, got {freq}")
         steps = dt * f
         labels = ["bias"]
-        ar1 = [c for c in self.components if c.kind == "AR1"]
-        labels += [f"AR1_{i + 1}" for i in range(len(ar1))]
-        has_dr = self.has("DR")
-        if has_dr:
-            labels.append("DR")
+        states = []
+        bias_q = 0.0
+        for name, c in zip(self.component_names(), self.components):
+            q_add, own = c.filter_block(steps, dt)
+            if q_add:
+                bias_q += q_add
+            for k, st in enumerate(own):
+                labels.append(name if len(own) == 1 else f"{name}.{k + 1}")
+                states.append(st)
         n = len(labels)
         Phi = np.eye(n)
         Q = np.zeros((n, n))
         P0 = np.zeros((n, n))
         H = np.zeros(n)
         H[0] = 1.0
-        for c in self.components:
-            if c.kind == "RW":
-                Q[0, 0] += c.values[0] * steps
-        for i, c in enumerate(ar1, start=1):
-            phi, s2 = c.values
-            var_gm = s2 / (1.0 - phi * phi)
-            phi_dt = math.exp(steps * math.log(phi))
-            Phi[i, i] = phi_dt
-            Q[i, i] = var_gm * (1.0 - phi_dt * phi_dt)
-            P0[i, i] = var_gm
-            H[i] = 1.0
-        if has_dr:
-            Phi[0, n - 1] = dt
+        if bias_q:
+            Q[0, 0] += bias_q
+        for i, st in enumerate(states, start=1):
+            Phi[i, i] = st.phi
+            Q[i, i] = st.q
+            P0[i, i] = st.p0
+            H[i] = st.h
+            if st.bias_link:
+                Phi[0, i] = st.bias_link
         white_psd = self.white_variance() / f
-        return StateSpace(tuple(labels), Phi, Q, H, P0, white_psd, white_psd / dt)
+        roles = (ROLE_BIAS,) + tuple(st.role for st in states)
+        return StateSpace(tuple(labels), Phi, Q, H, P0, white_psd, white_psd / dt, roles)
+
+    def at_rate(self, freq_from: float, freq_to: float) -> Model:
+        """The same continuous-time model with parameters per sample at ``freq_to`` instead of ``freq_from``
+        (N, K, R, Q_IEEE, T_c and σ_GM kept; SPEC §2 last column). Unchanged when the rates are equal."""
+        if not (freq_from > 0 and freq_to > 0):
+            raise ModelError(f"sample rates must be > 0 Hz, got {freq_from} and {freq_to}")
+        if freq_from == freq_to:
+            return self
+        return Model([c.at_rate(float(freq_from), float(freq_to)) for c in self.components])
 
     # -- serialisation -----------------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
@@ -427,6 +432,8 @@ class Model:
         params = d.get("params")
         return model.with_params(params) if params else model
 
+
+Process.sum_type = Model  # the processes' algebra (``WN() + RW()``) builds this type
 
 ModelLike = Process | Model | str
 """What every estimator accepts as a model: ``WN()``, ``2 * AR1() + WN()`` or ``"2*AR1+WN"``."""

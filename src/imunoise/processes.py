@@ -9,7 +9,12 @@ QN     Q²          6Q²/τ²
 RW     γ²          γ²(τ² + 2)/(12τ)
 DR     ω           ω²τ²/16
 AR1    φ, σ²       σ²[τ/2 − 3φ − (τ/2)φ² + 4φ^{τ/2+1} − φ^{τ+1}] / [2(τ/2)²(1−φ)²(1−φ²)]
+MA1    θ, σ²       σ²[(1+θ)²τ − 6θ]/τ²  (:mod:`imunoise.process_ma1`)
 =====  ==========  ==========================================================================
+
+Each class owns its math (the protocol: :class:`imunoise.process_base.Process`); its numba forms, which the
+estimator's kernels run, sit right above it. Everything else iterates over :data:`PROCESS_TYPES`, the one kind
+vocabulary (``cls.code`` is the compiled kind code).
 
 A process either has all its parameters (a "known" process, e.g. ``AR1(phi=0.99, sigma2=1e-6)``) or
 none (``AR1()``, to be estimated). ``+`` and ``k *`` build a :class:`imunoise.model.Model`.
@@ -18,210 +23,54 @@ none (``AR1()``, to be estimated). ``+`` and ``k *`` build a :class:`imunoise.mo
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
+from numba import njit
 
+from imunoise.ar1_math import ar1_g, ar1_wv, ar1_wv_dphi
 from imunoise.errors import ModelError
+from imunoise.process_base import (
+    B_HI,
+    B_LO,
+    LOG_HI,
+    LOG_LO,
+    ROLE_BIAS,
+    ROLE_RAMP,
+    ROLE_STATIONARY,
+    V_HI,
+    V_LO,
+    EquivalentPart,
+    FilterState,
+    Process,
+    ar1_white_variance,
+    dr_equivalent_rw,
+    fmt_seconds,
+)
+from imunoise.process_ma1 import MA1
 
-if TYPE_CHECKING:
-    from imunoise.model import Model
+__all__ = [
+    "Process", "WN", "QN", "RW", "DR", "AR1", "MA1", "PROCESS_TYPES", "ORDER", "N_PARAMS", "ar1_wv", "ar1_wv_dphi",
+    "ROLE_BIAS", "ROLE_STATIONARY", "ROLE_RAMP", "FilterState", "EquivalentPart", "dr_equivalent_rw",
+    "ar1_white_variance", "LOG_LO", "LOG_HI", "V_LO", "V_HI", "B_LO", "B_HI",
+]
 
-__all__ = ["Process", "WN", "QN", "RW", "DR", "AR1", "PROCESS_TYPES", "ar1_wv", "ar1_wv_dphi"]
-
-
-def _expm1_tail(x: np.ndarray, order: int) -> np.ndarray:
-    """exp(x) − Σ_{n<order} xⁿ/n!, accurate for small |x| (order 2: expm1 − x; order 3: − x²/2 too).
-
-    The AR1 closed form is a difference of powers of φ whose constant, linear and quadratic terms in
-    log φ cancel exactly; writing it through these tails removes the catastrophic cancellation that the
-    textbook form suffers for φ → 1 (e.g. φ = 0.9999 at τ = 2 loses ~12 digits otherwise).
-    """
-    x = np.asarray(x, dtype=float)
-    out = np.empty_like(x)
-    small = np.abs(x) < 0.5
-    xs = x[small]
-    term = xs**order / math.factorial(order)
-    acc = term.copy()
-    for n in range(order + 1, order + 30):
-        term = term * xs / n
-        acc += term
-    out[small] = acc
-    xl = x[~small]
-    big = np.expm1(xl) - xl
-    if order == 3:
-        big = big - 0.5 * xl * xl
-    out[~small] = big
-    return out
+# numba forms (the estimator's kernels call them; tests check them against wv): nb_wv_u(u, p, tau, nu, jac) adds
+# ν and ∂ν/∂u of the component whose u starts at index p (normalised scale); nb_wv_theta(theta, p, tau, nu) adds
+# ν from natural parameters.
 
 
-def ar1_wv(tau: np.ndarray, phi: float, sigma2: float) -> np.ndarray:
-    """Haar WV of a stationary AR1 with innovation variance σ² (SPEC §2 table, cancellation-free).
+@njit(cache=True, inline="always")
+def _wn_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
+    val = math.exp(u[p])
+    for j in range(tau.shape[0]):
+        d = val / tau[j]
+        nu[j] += d
+        jac[j, p] += d
 
-    With m = τ/2, L = ln φ and F_k = e^{kL} − 1 − kL − (kL)²/2 the numerator equals
-    −3F_1 − mF_2 + 4F_{m+1} − F_{2m+1} exactly, and the denominator is 2m²(1−φ)²(1−φ²).
-    """
-    tau = np.asarray(tau, dtype=float)
-    m = tau / 2.0
-    L = math.log(phi)
-
-    # Tails where (2m+1)|L| is small (the cancelling regime), plain expm1 elsewhere: there the tails
-    # would subtract huge polynomial terms instead.
-    def num_with(order: int) -> np.ndarray:
-        def e(x: np.ndarray) -> np.ndarray:
-            return _expm1_tail(x, order) if order else np.expm1(x)
-
-        return (
-            -3.0 * e(np.full_like(m, L))
-            - m * e(np.full_like(m, 2 * L))
-            + 4.0 * e((m + 1) * L)
-            - e((2 * m + 1) * L)
-        )
-
-    small = np.abs((2 * m + 1) * L) < 1.0
-    num = np.where(small, num_with(3), num_with(0))
-    one_m_phi = -math.expm1(L)
-    one_m_phi2 = -math.expm1(2 * L)
-    den = 2.0 * m * m * one_m_phi**2 * one_m_phi2
-    return sigma2 * num / den
-
-
-def ar1_wv_dphi(tau: np.ndarray, phi: float, sigma2: float) -> np.ndarray:
-    """∂ν²/∂φ of the AR1 Haar WV (analytic; same cancellation-free tails as :func:`ar1_wv`).
-
-    g = N/D, N' = −2mG_1 + 4(m+1)G_m − (2m+1)G_{2m} with G_k = e^{kL} − 1 − kL, and
-    D'/D = −2(1+2φ)/(1−φ²), so g' = N'/D + g·2(1+2φ)/(1−φ²).
-    """
-    tau = np.asarray(tau, dtype=float)
-    m = tau / 2.0
-    L = math.log(phi)
-
-    def dnum_with(order: int) -> np.ndarray:
-        def e(x: np.ndarray) -> np.ndarray:
-            return _expm1_tail(x, order) if order else np.expm1(x)
-
-        return -2.0 * m * e(np.full_like(m, L)) + 4.0 * (m + 1) * e(m * L) - (2 * m + 1) * e(2 * m * L)
-
-    small = np.abs(2 * m * L) < 1.0
-    dnum = np.where(small, dnum_with(2), dnum_with(0))
-    one_m_phi = -math.expm1(L)
-    one_m_phi2 = -math.expm1(2 * L)
-    den = 2.0 * m * m * one_m_phi**2 * one_m_phi2
-    g = ar1_wv(tau, phi, 1.0)
-    return sigma2 * (dnum / den + g * 2.0 * (1.0 + 2.0 * phi) / one_m_phi2)
-
-
-class Process:
-    """One latent process; parameters per sample (SPEC §1). Subclasses define the closed forms.
-
-    Parameters
-    ----------
-    **params : float, optional
-        The values of :attr:`param_names`, all or none (none: unknown, to be estimated by :func:`~imunoise.gmwm`).
-        ``u`` in the units is the data unit.
-
-    Raises
-    ------
-    ModelError
-        For an unknown name, only some parameters given, or a value out of range.
-    """
-
-    kind: ClassVar[str] = ""
-    param_names: ClassVar[tuple[str, ...]] = ()
-    param_units: ClassVar[tuple[str, ...]] = ()  # unit of each parameter, in terms of the data unit "u"
-
-    def __init__(self, **params: float | None) -> None:
-        unknown = set(params) - set(self.param_names)
-        if unknown:
-            raise ModelError(
-                f"{self.kind} has no parameter(s) {sorted(unknown)}; "
-                f"its parameters are {list(self.param_names)}"
-            )
-        values = [params.get(name) for name in self.param_names]
-        if any(v is None for v in values) and any(v is not None for v in values):
-            raise ModelError(f"{self.kind}: give all of {list(self.param_names)} or none of them")
-        self._values: tuple[float, ...] | None = None
-        if all(v is not None for v in values):
-            vals = tuple(float(v) for v in values)  # type: ignore[arg-type]
-            if not all(math.isfinite(v) for v in vals):
-                raise ModelError(
-                    f"{self.kind}: parameters must be finite, got {dict(zip(self.param_names, vals))}"
-                )
-            self._validate(vals)
-            self._values = vals
-
-    # -- parameters ---------------------------------------------------------------------------
-    @property
-    def known(self) -> bool:
-        return self._values is not None
-
-    @property
-    def values(self) -> tuple[float, ...]:
-        if self._values is None:
-            raise ModelError(f"{self.kind} has unknown parameters; estimate them with gmwm() or give them")
-        return self._values
-
-    def with_values(self, values: tuple[float, ...] | list[float] | np.ndarray) -> Process:
-        return type(self)(**dict(zip(self.param_names, (float(v) for v in values))))
-
-    def unknown(self) -> Process:
-        return type(self)()
-
-    def _validate(self, values: tuple[float, ...]) -> None:
-        for name, v in zip(self.param_names, values):
-            if v < 0:
-                raise ModelError(f"{self.kind}.{name} must be ≥ 0, got {v}")
-
-    # -- closed forms ---------------------------------------------------------------------------
-    def wv(self, tau: np.ndarray, values: tuple[float, ...] | None = None) -> np.ndarray:
-        """Theoretical Haar WV at scales τ (samples)."""
-        raise NotImplementedError
-
-    def wv_jacobian(self, tau: np.ndarray, values: tuple[float, ...] | None = None) -> np.ndarray:
-        """∂ν²(τ)/∂θ for the natural parameters θ, shape (len(τ), n_params)."""
-        raise NotImplementedError
-
-    def simulate(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """``n`` samples of the process from ``rng`` (a known process only)."""
-        raise NotImplementedError
-
-    def continuous(self, freq: float, prefix: str) -> dict[str, float]:
-        """Continuous-time equivalents (SPEC §2 last column) in SI-style units of the data."""
-        raise NotImplementedError
-
-    # -- algebra ----------------------------------------------------------------------------------
-    def __add__(self, other: Process | Model) -> Model:
-        from imunoise.model import Model
-
-        return Model([self]) + other
-
-    def __radd__(self, other: object) -> Model:
-        from imunoise.model import Model
-
-        if other == 0:  # sum([...]) support
-            return Model([self])
-        return NotImplemented
-
-    def __mul__(self, k: int) -> Model:
-        from imunoise.model import Model
-
-        if not isinstance(k, int) or isinstance(k, bool) or k < 1:
-            raise ModelError(f"a process can be repeated a positive whole number of times, got {k!r}")
-        return Model([self] * k)
-
-    __rmul__ = __mul__
-
-    def __eq__(self, other: object) -> bool:
-        return type(self) is type(other) and self._values == other._values  # type: ignore[attr-defined]
-
-    def __hash__(self) -> int:
-        return hash((self.kind, self._values))
-
-    def __repr__(self) -> str:
-        if self._values is None:
-            return f"{self.kind}()"
-        args = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.param_names, self._values))
-        return f"{self.kind}({args})"
+@njit(cache=True, inline="always")
+def _wn_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
+    for j in range(tau.shape[0]):
+        nu[j] += theta[p] / tau[j]
 
 
 class WN(Process):
@@ -236,6 +85,7 @@ class WN(Process):
     kind = "WN"
     param_names = ("sigma2",)
     param_units = ("u^2",)
+    continuous_units = {"noise_density": "u/√Hz"}
 
     def wv(self, tau, values=None):
         (s2,) = values or self.values
@@ -250,6 +100,41 @@ class WN(Process):
     def continuous(self, freq, prefix="WN"):
         return {f"{prefix}.noise_density": math.sqrt(self.values[0] / freq)}
 
+    def at_rate(self, freq_from, freq_to):
+        return WN(sigma2=self.values[0] * (freq_to / freq_from))  # N² = σ²/f
+
+    def white_variance(self):
+        return self.values[0]
+
+    @classmethod
+    def start_values(cls, frac, nu, tau):
+        return [frac * nu[0] * tau[0]]
+
+    def scaled(self, white, bias):
+        return WN(sigma2=self.values[0] * white)
+
+    def equivalent_part(self, name, freq, white_below, horizon_s, qn, model_text):
+        return EquivalentPart(self.values[0], 0.0, False, "N", "white, exact: N = sigma*sqrt(dt)")
+
+    def spectrum(self, f, sin2):
+        return self.values[0]
+
+
+@njit(cache=True, inline="always")
+def _qn_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
+    val = math.exp(u[p])
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        d = 6.0 * val / (t * t)
+        nu[j] += d
+        jac[j, p] += d
+
+@njit(cache=True, inline="always")
+def _qn_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        nu[j] += 6.0 * theta[p] / (t * t)
+
 
 class QN(Process):
     """Quantisation noise Q² (SPEC §2): x_t = u_t − u_{t−1}, Var(u) = Q²; ν² = 6Q²/τ²; Q_IEEE = QΔt.
@@ -263,6 +148,7 @@ class QN(Process):
     kind = "QN"
     param_names = ("q2",)
     param_units = ("u^2",)
+    continuous_units = {"q_ieee": "u·s"}
 
     def wv(self, tau, values=None):
         (q2,) = values or self.values
@@ -279,6 +165,40 @@ class QN(Process):
     def continuous(self, freq, prefix="QN"):
         return {f"{prefix}.q_ieee": math.sqrt(self.values[0]) / freq}
 
+    def at_rate(self, freq_from, freq_to):
+        return QN(q2=self.values[0] * (freq_to / freq_from) ** 2)  # Q_IEEE = Q/f
+
+    def white_variance(self):
+        return 2.0 * self.values[0]  # x_t = u_t − u_{t−1} treated as white
+
+    @classmethod
+    def start_values(cls, frac, nu, tau):
+        return [frac * nu[0] * tau[0] ** 2 / 6.0]
+
+    def equivalent_part(self, name, freq, white_below, horizon_s, qn, model_text):
+        if qn == "white":
+            return EquivalentPart(2.0 * self.values[0], 0.0, False, "N", "white with its per-sample variance 2Q^2")
+        return EquivalentPart(0.0, 0.0, False, "-", "dropped (qn='drop')")
+
+    def spectrum(self, f, sin2):
+        return 4.0 * self.values[0] * sin2  # x_t = u_t − u_{t−1}
+
+
+@njit(cache=True, inline="always")
+def _rw_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
+    val = math.exp(u[p])
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        d = val * (t * t + 2.0) / (12.0 * t)
+        nu[j] += d
+        jac[j, p] += d
+
+@njit(cache=True, inline="always")
+def _rw_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        nu[j] += theta[p] * (t * t + 2.0) / (12.0 * t)
+
 
 class RW(Process):
     """Random walk with innovation variance γ²: ν² = γ²(τ² + 2)/(12τ); K = γ/√Δt.
@@ -290,8 +210,10 @@ class RW(Process):
     """
 
     kind = "RW"
+    reading = "random_walk"
     param_names = ("gamma2",)
     param_units = ("u^2",)
+    continuous_units = {"random_walk": "u/s/√Hz"}
 
     def wv(self, tau, values=None):
         (g2,) = values or self.values
@@ -308,6 +230,43 @@ class RW(Process):
     def continuous(self, freq, prefix="RW"):
         return {f"{prefix}.random_walk": math.sqrt(self.values[0] * freq)}
 
+    def at_rate(self, freq_from, freq_to):
+        return RW(gamma2=self.values[0] * (freq_from / freq_to))  # K² = γ²f
+
+    def filter_block(self, steps, dt):
+        return self.values[0] * steps, []
+
+    starts_fine = False
+
+    @classmethod
+    def start_values(cls, frac, nu, tau):
+        return [frac * nu[-1] * 12.0 * tau[-1] / (tau[-1] ** 2 + 2.0)]
+
+    def scaled(self, white, bias):
+        return RW(gamma2=self.values[0] * bias)
+
+    def equivalent_part(self, name, freq, white_below, horizon_s, qn, model_text):
+        return EquivalentPart(0.0, self.values[0], False, "K", "random walk, exact: K = gamma/sqrt(dt)")
+
+    def spectrum(self, f, sin2):
+        return self.values[0] / (4.0 * sin2)  # pseudo-spectrum; the Haar gain removes the pole
+
+
+@njit(cache=True, inline="always")
+def _dr_wv_u(u, p, tau, nu, jac):  # pragma: no cover - compiled
+    val = math.exp(u[p])  # |ω|/√c: the WV is quadratic in it, so ∂ν/∂u = 2ν
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        d = val * val * t * t / 16.0
+        jac[j, p] += 2.0 * d
+        nu[j] += d
+
+@njit(cache=True, inline="always")
+def _dr_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
+    for j in range(tau.shape[0]):
+        t = tau[j]
+        nu[j] += theta[p] * theta[p] * t * t / 16.0
+
 
 class DR(Process):
     """Deterministic drift (rate ramp) ω per sample: x_t = ω·t; ν² = ω²τ²/16; R = ω/Δt.
@@ -321,8 +280,10 @@ class DR(Process):
     """
 
     kind = "DR"
+    reading = "ramp"
     param_names = ("omega",)
     param_units = ("u",)
+    continuous_units = {"rate_ramp": "u/s"}
 
     def _validate(self, values):
         pass  # a drift may be negative
@@ -341,6 +302,55 @@ class DR(Process):
     def continuous(self, freq, prefix="DR"):
         return {f"{prefix}.rate_ramp": self.values[0] * freq}
 
+    @classmethod
+    def u_bounds(cls, first):
+        return [LOG_LO / 2], [LOG_HI / 2]
+
+    @classmethod
+    def theta_from_u(cls, u, p, theta, scale, chain):
+        theta[p] = math.exp(u[p]) * math.sqrt(scale)  # ω scales as √c (the WV is quadratic in ω)
+        return chain
+
+    @classmethod
+    def u_from_theta(cls, theta, p, u, scale, chain):
+        u[p] = math.log(max(abs(theta[p]) / math.sqrt(scale), 1e-150))
+        return chain
+
+    def at_rate(self, freq_from, freq_to):
+        return DR(omega=self.values[0] * (freq_from / freq_to))  # R = ωf
+
+    starts_fine = False
+
+    @classmethod
+    def start_values(cls, frac, nu, tau):
+        return [math.sqrt(frac * nu[-1] * 16.0) / tau[-1]]
+
+    @classmethod
+    def embedding(cls, frac, nu, tau):
+        return DR(omega=max(cls.start_values(frac, nu, tau)[0], 1e-150))
+
+    def filter_block(self, steps, dt):
+        # a constant ramp state r (unit/s): bias_{k+1} = bias_k + r·dt
+        return 0.0, [FilterState(1.0, 0.0, 0.0, 0.0, ROLE_RAMP, dt)]
+
+    def equivalent_part(self, name, freq, white_below, horizon_s, qn, model_text):
+        if horizon_s is None:
+            raise ModelError(f"{model_text}: a DR maps to the random walk with its AV at the horizon; give horizon_s")
+        return EquivalentPart(0.0, dr_equivalent_rw(self.values[0], 2.0 * float(horizon_s) * freq), False, "K",
+                              "ramp: the random walk with the same AV at the horizon (on the scales of "
+                              "the data a ramp and a random walk are two readings of one rising AV)")
+
+    def identification_jacobian(self, tau):
+        tau = np.asarray(tau, dtype=float)
+        return (tau**2 / 16.0)[:, None]  # ∂ν/∂ω² never vanishes, unlike ∂ν/∂ω at ω = 0
+
+
+@njit(cache=True, inline="always")
+def _ar1_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
+    for j in range(tau.shape[0]):
+        g, _ = ar1_g(tau[j] / 2.0, math.log(theta[p]))
+        nu[j] += theta[p + 1] * g
+
 
 class AR1(Process):
     """First-order autoregression (discrete Gauss–Markov) x_t = φx_{t−1} + e_t, Var(e) = σ².
@@ -356,8 +366,10 @@ class AR1(Process):
     """
 
     kind = "AR1"
+    reading = "gauss_markov"
     param_names = ("phi", "sigma2")
     param_units = ("1", "u^2")
+    continuous_units = {"tau_c": "s", "sigma_gm": "u", "q_c": "u²/s"}
 
     def _validate(self, values):
         phi, s2 = values
@@ -396,5 +408,80 @@ class AR1(Process):
             f"{prefix}.q_c": 2.0 * var_gm / tau_c,
         }
 
+    singleton = False
 
-PROCESS_TYPES: dict[str, type[Process]] = {cls.kind: cls for cls in (AR1, WN, QN, RW, DR)}
+    @classmethod
+    def u_bounds(cls, first):
+        return [V_LO if first else B_LO, LOG_LO], [V_HI if first else B_HI, LOG_HI]
+
+    @classmethod
+    def theta_from_u(cls, u, p, theta, scale, chain):
+        # log(−ln φ) ordered: v_1 = u, v_k = v_{k−1} + exp(u_k), so φ_1 > φ_2 > … (no label switching)
+        v = u[p] if chain is None else chain + math.exp(u[p])
+        phi = math.exp(-math.exp(min(v, V_HI + 1.0)))
+        theta[p] = min(max(phi, 1e-300), 1.0 - 1e-16)
+        theta[p + 1] = math.exp(u[p + 1]) * scale
+        return v
+
+    @classmethod
+    def u_from_theta(cls, theta, p, u, scale, chain):
+        phi = float(np.clip(theta[p], 1e-300, 1.0 - 1e-15))
+        v = math.log(-math.log(phi))
+        if chain is None:
+            u[p] = v
+        else:
+            u[p] = math.log(max(v - chain, 1e-9))
+            v = chain + math.exp(u[p])
+        u[p + 1] = math.log(max(theta[p + 1] / scale, 1e-300))
+        return v
+
+    def at_rate(self, freq_from, freq_to):
+        phi, s2 = self.values
+        phi_to = math.exp(math.log(phi) * (freq_from / freq_to))  # T_c = −1/(f ln φ) kept
+        var_gm = s2 / (1.0 - phi * phi)
+        return AR1(phi=phi_to, sigma2=var_gm * (1.0 - phi_to * phi_to))  # σ²_GM kept
+
+    def filter_block(self, steps, dt):
+        phi, s2 = self.values
+        var_gm = s2 / (1.0 - phi * phi)
+        phi_dt = math.exp(steps * math.log(phi))
+        return 0.0, [FilterState(phi_dt, var_gm * (1.0 - phi_dt * phi_dt), var_gm, 1.0, ROLE_STATIONARY)]
+
+    def scaled(self, white, bias):
+        return AR1(phi=self.values[0], sigma2=self.values[1] * bias)
+
+    def equivalent_part(self, name, freq, white_below, horizon_s, qn, model_text):
+        phi, s2 = self.values
+        tc = -(1.0 / freq) / math.log(phi)
+        if tc <= white_below:
+            return EquivalentPart(ar1_white_variance(phi, s2), 0.0, False, "N",
+                                  f"T_c = {fmt_seconds(tc)} <= {fmt_seconds(white_below)}: white, density "
+                                  "sigma/(1-phi)*sqrt(dt) (-> sigma_GM*sqrt(2*T_c) for T_c >> dt)")
+        if horizon_s is not None and tc >= horizon_s:
+            how = f"T_c = {fmt_seconds(tc)} >= horizon: a random walk of its innovation over the range; matched"
+            return EquivalentPart(0.0, 0.0, True, "K", how)
+        how = (f"T_c = {fmt_seconds(tc)} inside the range: white beyond T_c, random walk below; matched, "
+               "its AV bump is what a WN+RW pair cannot follow")
+        return EquivalentPart(0.0, 0.0, True, "N+K", how)
+
+    def spectrum(self, f, sin2):
+        phi, sig2 = self.values
+        # 1 − 2φcos(2πf) + φ² written without cancellation (near φ → 1, f → 0 it is tiny, not 0)
+        return sig2 / ((1.0 - phi) ** 2 + 4.0 * phi * sin2)
+
+    def correlation_time(self, freq):
+        return -1.0 / (freq * math.log(self.values[0]))
+
+
+for _cls, _u, _t in ((WN, _wn_wv_u, _wn_wv_theta), (QN, _qn_wv_u, _qn_wv_theta), (RW, _rw_wv_u, _rw_wv_theta),
+                     (DR, _dr_wv_u, _dr_wv_theta), (AR1, None, _ar1_wv_theta)):
+    _cls.nb_wv_u, _cls.nb_wv_theta = _u, _t  # AR1's u-form is chained (ordering), in the estimator's kernel
+
+PROCESS_TYPES: dict[str, type[Process]] = {cls.kind: cls for cls in (AR1, WN, QN, RW, DR, MA1)}
+"""The registry, the one kind vocabulary: canonical order (a model lists its components in it) and, by position,
+the compiled kind codes. A new process is one class above plus its entry here (and its branch in the kernels'
+dispatch, :mod:`imunoise.fitting.kernels`)."""
+for _code, _cls in enumerate(PROCESS_TYPES.values()):
+    _cls.code = _code
+ORDER: tuple[str, ...] = tuple(PROCESS_TYPES)
+N_PARAMS: tuple[int, ...] = tuple(len(c.param_names) for c in PROCESS_TYPES.values())

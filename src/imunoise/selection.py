@@ -35,7 +35,7 @@ from imunoise.fitting.problem import GMWMProblem, param_cov, prepare
 from imunoise.fitting.result import GMWMFit
 from imunoise.fitting.wvic import haar_gain, ql_estimate, wv_correlation, wv_deviance, wv_neg_loglik, wvic_penalty
 from imunoise.model import Model, ModelLike, as_model, default_complete
-from imunoise.processes import AR1, DR, QN, RW, WN
+from imunoise.processes import AR1, PROCESS_TYPES
 
 __all__ = [
     "ModelRanking",
@@ -50,8 +50,9 @@ __all__ = [
     "wv_neg_loglik",
 ]
 
-_SINGLE = {"WN": WN, "QN": QN, "RW": RW, "DR": DR}
-_SINGLE_ORDER = ("WN", "QN", "RW", "DR")
+# the processes a model holds at most once, in canonical order (the registry); AR1 is the repeated one
+_SINGLE = {k: cls for k, cls in PROCESS_TYPES.items() if cls.singleton}
+_SINGLE_ORDER = tuple(_SINGLE)
 _NEGLIGIBLE = 1e-300  # amplitude of an embedded process: clipped to the lower bound e^-120·scale
 
 
@@ -63,7 +64,7 @@ class Candidate:
     """One sub-model of the complete model: number of AR1s and the set of other processes."""
 
     n_ar1: int
-    others: tuple[str, ...]  # canonical order WN, QN, RW, DR
+    others: tuple[str, ...]  # canonical order of the registry (WN, QN, RW, DR, ...)
 
     @property
     def model(self) -> Model:
@@ -72,7 +73,7 @@ class Candidate:
 
     @property
     def n_params(self) -> int:
-        return 2 * self.n_ar1 + len(self.others)
+        return len(AR1.param_names) * self.n_ar1 + sum(len(_SINGLE[k].param_names) for k in self.others)
 
     @property
     def size(self) -> int:
@@ -285,15 +286,7 @@ def _embed_variants(problem: GMWMProblem, parent: _Solved, kind: str, child: Can
         variants.append(comps + [AR1(phi=phi0, sigma2=_NEGLIGIBLE)])
     else:
         for frac in (0.5, 0.1, 0.01, 0.0):
-            if kind == "WN":
-                proc = WN(sigma2=max(frac * nu[0] * tau[0], _NEGLIGIBLE))
-            elif kind == "QN":
-                proc = QN(q2=max(frac * nu[0] * tau[0] ** 2 / 6.0, _NEGLIGIBLE))
-            elif kind == "RW":
-                proc = RW(gamma2=max(frac * nu[-1] * 12.0 * tau[-1] / (tau[-1] ** 2 + 2.0), _NEGLIGIBLE))
-            else:
-                proc = DR(omega=max(math.sqrt(frac * nu[-1] * 16.0) / tau[-1], 1e-150))
-            variants.append(comps + [proc])
+            variants.append(comps + [_SINGLE[kind].embedding(frac, nu, tau)])
     out = []
     for v in variants:
         m = Model(v)
@@ -352,10 +345,8 @@ def _embed_zero(parent: _Solved, kind: str, child: Candidate) -> np.ndarray:
     comps = list(parent.model.components)
     if kind == "AR1":
         comps.append(AR1(phi=_free_phi(parent.model), sigma2=_NEGLIGIBLE))
-    elif kind == "DR":
-        comps.append(DR(omega=_NEGLIGIBLE))
     else:
-        comps.append(_SINGLE[kind](**{_SINGLE[kind].param_names[0]: _NEGLIGIBLE}))
+        comps.append(_SINGLE[kind].negligible())
     m = Model(comps)
     assert _candidate_of(m) == child
     return m.vector

@@ -2,7 +2,13 @@
 Levenberg–Marquardt solver (paper Eq. 6, SPEC §2 and §4).
 
 The kernels work in the unconstrained parametrisation u of :mod:`imunoise.fitting.params` on the
-normalised problem (ν̂' = ν̂/c, W' = cW); kind codes are those of :data:`~imunoise.fitting.params.KIND_CODE`.
+normalised problem (ν̂' = ν̂/c, W' = cW). Kind codes and the per-process numba forms come from the registry
+(:data:`imunoise.processes.PROCESS_TYPES`); the dispatch over kinds below is a compiled branch per registered
+process (a new process adds its line in :func:`wv_and_jacobian` and :func:`wv_of_theta`).
+
+numba's on-disk cache keys these kernels on this file only: after editing a process' numba form elsewhere,
+touch this file (or clear ``__pycache__``) so the kernels recompile; ``tests/test_process_registry.py`` compares
+the compiled WV with the numpy closed form and fails on a stale cache.
 """
 
 from __future__ import annotations
@@ -12,69 +18,17 @@ import math
 import numpy as np
 from numba import njit
 
-from imunoise.fitting.params import V_HI
+from imunoise.ar1_math import ar1_g
+from imunoise.processes import AR1, DR, MA1, N_PARAMS, QN, RW, V_HI, WN
+
+# kind codes and numba forms of the registry, frozen as compile-time constants of the kernels
+_AR1, _WN, _QN, _RW, _DR = AR1.code, WN.code, QN.code, RW.code, DR.code
+_WN_U, _QN_U, _RW_U, _DR_U = WN.nb_wv_u, QN.nb_wv_u, RW.nb_wv_u, DR.nb_wv_u
+_AR1_T, _WN_T, _QN_T, _RW_T, _DR_T = AR1.nb_wv_theta, WN.nb_wv_theta, QN.nb_wv_theta, RW.nb_wv_theta, DR.nb_wv_theta
+_MA1, _MA1_U, _MA1_T = MA1.code, MA1.nb_wv_u, MA1.nb_wv_theta
+_NP = N_PARAMS
 
 __all__ = ["ar1_g", "wv_and_jacobian", "objectives", "levenberg_marquardt", "wv_of_theta"]
-
-
-@njit(cache=True)
-def _tail(x: float, order: int) -> float:
-    # exp(x) − Σ_{n<order} xⁿ/n! (see imunoise.processes._expm1_tail)
-    if abs(x) < 0.5:
-        term = x**order
-        for k in range(2, order + 1):
-            term /= k
-        acc = term
-        for n in range(order + 1, order + 30):
-            term = term * x / n
-            acc += term
-        return acc
-    out = math.expm1(x) - x
-    if order == 3:
-        out -= 0.5 * x * x
-    return out
-
-
-@njit(cache=True)
-def ar1_g(m: float, L: float) -> tuple[float, float]:
-    """AR1 Haar WV per unit innovation variance g and dg/dL at L = ln φ (SPEC §2, stable form).
-
-    Parameters
-    ----------
-    m
-        Half the scale, τ/2 (samples).
-    L
-        ln φ (< 0).
-
-    Returns
-    -------
-    g, dg_dL : float
-        ν_AR1(τ)/σ² and its derivative with respect to L.
-    """
-    phi = math.exp(L)
-    if abs((2 * m + 1) * L) < 1.0:
-        num = (
-            -3.0 * _tail(L, 3) - m * _tail(2 * L, 3) + 4.0 * _tail((m + 1) * L, 3) - _tail((2 * m + 1) * L, 3)
-        )
-    else:
-        num = (
-            -3.0 * math.expm1(L)
-            - m * math.expm1(2 * L)
-            + 4.0 * math.expm1((m + 1) * L)
-            - math.expm1((2 * m + 1) * L)
-        )
-    if abs(2 * m * L) < 1.0:
-        dnum = -2.0 * m * _tail(L, 2) + 4.0 * (m + 1) * _tail(m * L, 2) - (2 * m + 1) * _tail(2 * m * L, 2)
-    else:
-        dnum = (
-            -2.0 * m * math.expm1(L) + 4.0 * (m + 1) * math.expm1(m * L) - (2 * m + 1) * math.expm1(2 * m * L)
-        )
-    a = -math.expm1(L)
-    b = -math.expm1(2 * L)
-    den = 2.0 * m * m * a * a * b
-    g = num / den
-    gphi = dnum / den + g * 2.0 * (1.0 + 2.0 * phi) / b
-    return g, gphi * phi
 
 
 @njit(cache=True)
@@ -108,7 +62,7 @@ def wv_and_jacobian(u, kinds, tau, nu, jac):
     v = 0.0
     for c in range(kinds.shape[0]):
         kind = kinds[c]
-        if kind == 0:
+        if kind == _AR1:  # chained through the ordering of the correlation times (fitting.params)
             ar_idx[n_ar] = p
             if n_ar == 0:
                 v = u[p]
@@ -128,25 +82,17 @@ def wv_and_jacobian(u, kinds, tau, nu, jac):
                     jac[j, ar_idx[0]] += dv
                     for q in range(1, n_ar):
                         jac[j, ar_idx[q]] += dv * math.exp(u[ar_idx[q]])
-            p += 2
-        else:
-            val = math.exp(u[p])
-            for j in range(J):
-                t = tau[j]
-                if kind == 1:
-                    d = val / t
-                elif kind == 2:
-                    d = 6.0 * val / (t * t)
-                elif kind == 3:
-                    d = val * (t * t + 2.0) / (12.0 * t)
-                else:
-                    d = val * val * t * t / 16.0
-                    jac[j, p] += 2.0 * d
-                    nu[j] += d
-                    continue
-                nu[j] += d
-                jac[j, p] += d
-            p += 1
+        elif kind == _WN:
+            _WN_U(u, p, tau, nu, jac)
+        elif kind == _QN:
+            _QN_U(u, p, tau, nu, jac)
+        elif kind == _RW:
+            _RW_U(u, p, tau, nu, jac)
+        elif kind == _DR:
+            _DR_U(u, p, tau, nu, jac)
+        elif kind == _MA1:
+            _MA1_U(u, p, tau, nu, jac)
+        p += _NP[kind]
 
 
 @njit(cache=True)
@@ -283,18 +229,17 @@ def wv_of_theta(theta, kinds, tau):  # pragma: no cover - compiled
     p = 0
     for c in range(kinds.shape[0]):
         k = kinds[c]
-        for j in range(tau.shape[0]):
-            t = tau[j]
-            if k == 0:
-                g, _ = ar1_g(t / 2.0, math.log(theta[p]))
-                nu[j] += theta[p + 1] * g
-            elif k == 1:
-                nu[j] += theta[p] / t
-            elif k == 2:
-                nu[j] += 6.0 * theta[p] / (t * t)
-            elif k == 3:
-                nu[j] += theta[p] * (t * t + 2.0) / (12.0 * t)
-            else:
-                nu[j] += theta[p] * theta[p] * t * t / 16.0
-        p += 2 if k == 0 else 1
+        if k == _AR1:
+            _AR1_T(theta, p, tau, nu)
+        elif k == _WN:
+            _WN_T(theta, p, tau, nu)
+        elif k == _QN:
+            _QN_T(theta, p, tau, nu)
+        elif k == _RW:
+            _RW_T(theta, p, tau, nu)
+        elif k == _DR:
+            _DR_T(theta, p, tau, nu)
+        elif k == _MA1:
+            _MA1_T(theta, p, tau, nu)
+        p += _NP[k]
     return nu

@@ -3,15 +3,17 @@
 * variances (σ², Q², γ²) and the drift ``|ω|`` as logarithms, divided by the data's WV scale c (ω by √c);
 * AR1s through their correlation times, ordered: v_k = log(−ln φ_k) with v_1 = u and
   v_k = v_{k−1} + exp(u_k), so φ_1 > φ_2 > … (slowest first) and labels never switch.
+
+Each process class owns its entries (:meth:`imunoise.processes.Process.u_bounds`, ``theta_from_u``,
+``u_from_theta``); this module walks a model's components through them by kind code.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from imunoise.model import Model
+from imunoise.processes import B_HI, B_LO, LOG_HI, LOG_LO, PROCESS_TYPES, V_HI, V_LO
 
 __all__ = [
     "KIND_CODE",
@@ -27,11 +29,9 @@ __all__ = [
     "theta_to_u",
 ]
 
-KIND_CODE = {"AR1": 0, "WN": 1, "QN": 2, "RW": 3, "DR": 4}
-
-LOG_LO, LOG_HI = -120.0, 40.0  # normalised log-variance bounds (e^-120: indistinguishable from 0)
-V_LO, V_HI = -32.0, 4.0  # log(−ln φ): φ from 1 − 1.3e-14 down to e^-55
-B_LO, B_HI = -30.0, 4.0  # log spacing between successive AR1 correlation scales
+_TYPES = tuple(PROCESS_TYPES.values())
+KIND_CODE = {cls.kind: cls.code for cls in _TYPES}
+"""Compiled kind code of each process kind (from the registry :data:`imunoise.processes.PROCESS_TYPES`)."""
 
 
 def kind_codes(model: Model) -> np.ndarray:
@@ -47,7 +47,7 @@ def kind_codes(model: Model) -> np.ndarray:
     numpy.ndarray of int64
         One code per component, the layout the compiled kernels read.
     """
-    return np.array([KIND_CODE[c.kind] for c in model.components], dtype=np.int64)
+    return np.array([c.code for c in model.components], dtype=np.int64)
 
 
 def bounds(kinds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -63,16 +63,15 @@ def bounds(kinds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lo, hi : numpy.ndarray
         Lower and upper bounds of every entry of u (normalised scale).
     """
-    lo, hi = [], []
+    lo: list[float] = []
+    hi: list[float] = []
     first = True
     for k in kinds:
-        if k == 0:
-            lo += [V_LO if first else B_LO, LOG_LO]
-            hi += [V_HI if first else B_HI, LOG_HI]
-            first = False
-        else:
-            lo.append(LOG_LO / (2 if k == 4 else 1))
-            hi.append(LOG_HI / (2 if k == 4 else 1))
+        cls = _TYPES[k]
+        a, b = cls.u_bounds(first)
+        lo += a
+        hi += b
+        first = first and cls.singleton
     return np.array(lo), np.array(hi)
 
 
@@ -95,22 +94,11 @@ def u_to_theta(u: np.ndarray, kinds: np.ndarray, scale: float) -> np.ndarray:
     """
     theta = np.empty_like(u)
     p = 0
-    v = 0.0
-    first = True
+    chain = None
     for k in kinds:
-        if k == 0:
-            v = u[p] if first else v + math.exp(u[p])
-            first = False
-            phi = math.exp(-math.exp(min(v, V_HI + 1.0)))
-            theta[p] = min(max(phi, 1e-300), 1.0 - 1e-16)
-            theta[p + 1] = math.exp(u[p + 1]) * scale
-            p += 2
-        elif k == 4:
-            theta[p] = math.exp(u[p]) * math.sqrt(scale)
-            p += 1
-        else:
-            theta[p] = math.exp(u[p]) * scale
-            p += 1
+        cls = _TYPES[k]
+        chain = cls.theta_from_u(u, p, theta, scale, chain)
+        p += len(cls.param_names)
     return theta
 
 
@@ -134,24 +122,10 @@ def theta_to_u(theta: np.ndarray, kinds: np.ndarray, scale: float) -> np.ndarray
     """
     u = np.empty_like(theta, dtype=float)
     p = 0
-    v_prev = None
+    chain = None
     for k in kinds:
-        if k == 0:
-            phi = float(np.clip(theta[p], 1e-300, 1.0 - 1e-15))
-            v = math.log(-math.log(phi))
-            if v_prev is None:
-                u[p] = v
-            else:
-                u[p] = math.log(max(v - v_prev, 1e-9))
-                v = v_prev + math.exp(u[p])
-            v_prev = v
-            u[p + 1] = math.log(max(theta[p + 1] / scale, 1e-300))
-            p += 2
-        elif k == 4:
-            u[p] = math.log(max(abs(theta[p]) / math.sqrt(scale), 1e-150))
-            p += 1
-        else:
-            u[p] = math.log(max(theta[p] / scale, 1e-300))
-            p += 1
+        cls = _TYPES[k]
+        chain = cls.u_from_theta(theta, p, u, scale, chain)
+        p += len(cls.param_names)
     lo, hi = bounds(kinds)
     return np.clip(u, lo, hi)

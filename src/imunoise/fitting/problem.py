@@ -19,9 +19,12 @@ from imunoise.fitting.arguments import check_freq
 from imunoise.fitting.kernels import wv_and_jacobian
 from imunoise.fitting.params import bounds, kind_codes, theta_to_u
 from imunoise.model import Model
+from imunoise.processes import AR1, PROCESS_TYPES
 from imunoise.wv import WaveletVariance, wavelet_variance
 
 __all__ = ["GMWMProblem", "prepare", "guided_starts", "param_cov"]
+
+_TYPES = tuple(PROCESS_TYPES.values())
 
 
 @dataclass(frozen=True)
@@ -182,8 +185,9 @@ def prepare(
 def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: int) -> np.ndarray:
     """Starting points from the shape of the empirical WV (SPEC §4), plus seeded perturbations.
 
-    WN/QN start from the finest scale, RW/DR from the coarsest, AR1 peaks sit on the scale grid with
-    amplitudes read off the empirical WV.
+    Each process starts from its own reading of the empirical WV (:meth:`imunoise.processes.Process.start_values`:
+    WN/QN from the finest scale, RW/DR from the coarsest); AR1 peaks sit on the scale grid with amplitudes read
+    off the empirical WV.
 
     Parameters
     ----------
@@ -204,7 +208,7 @@ def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: 
     tau = problem.tau
     nu = problem.nuhat_n
     J = len(tau)
-    n_ar = int(np.sum(kinds == 0))
+    n_ar = int(np.sum(kinds == AR1.code))
     rng = np.random.default_rng(seed)
 
     def build(ar_levels: np.ndarray, fr: dict[int, float], ar_amp: float) -> np.ndarray:
@@ -220,17 +224,12 @@ def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: 
             ar_params.append((phi, var_gm * (1.0 - phi * phi)))
         i_ar = 0
         for k in kinds:
-            if k == 0:
+            cls = _TYPES[k]
+            if cls is AR1:
                 theta += list(ar_params[i_ar])
                 i_ar += 1
-            elif k == 1:
-                theta.append(fr[1] * nu[0] * tau[0])
-            elif k == 2:
-                theta.append(fr[2] * nu[0] * tau[0] ** 2 / 6.0)
-            elif k == 3:
-                theta.append(fr[3] * nu[-1] * 12.0 * tau[-1] / (tau[-1] ** 2 + 2.0))
             else:
-                theta.append(math.sqrt(fr[4] * nu[-1] * 16.0) / tau[-1])
+                theta += cls.start_values(fr[cls.kind], nu, tau)
         return theta_to_u(np.array(theta), kinds, 1.0)
 
     starts = []
@@ -241,11 +240,16 @@ def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: 
         base_levels = np.arange(n_ar)
     for f_fine in (0.9, 0.5, 0.1):
         for f_coarse in (0.5, 0.05):
-            fr = {1: f_fine, 2: f_fine, 3: f_coarse, 4: f_coarse}
+            fr = {cls.kind: f_fine if cls.starts_fine else f_coarse for cls in _TYPES}
             starts.append(build(base_levels, fr, 0.5))
+    present = {_TYPES[k].kind for k in kinds}
     for _ in range(n_random):
         levels = np.sort(rng.choice(J, size=n_ar, replace=False)) if n_ar <= J else base_levels
-        fr = {k: float(10 ** rng.uniform(-3, 0)) for k in (1, 2, 3, 4)}
+        # one draw per single-parameter process of the original four, always (the seeded sequence), then
+        # one per other process present
+        fr = {k: float(10 ** rng.uniform(-3, 0)) for k in ("WN", "QN", "RW", "DR")}
+        fr.update({k: float(10 ** rng.uniform(-3, 0)) for k, c in PROCESS_TYPES.items()
+                   if c is not AR1 and k not in fr and k in present})
         starts.append(build(levels, fr, float(10 ** rng.uniform(-1.5, 0.3))))
     return np.array(starts)
 

@@ -20,6 +20,7 @@ from imunoise.errors import DataError, ModelError
 from imunoise.fitting.params import kind_codes, theta_to_u, u_to_theta
 from imunoise.fitting.problem import GMWMProblem
 from imunoise.model import Model
+from imunoise.processes import PROCESS_TYPES
 from imunoise.wv import WaveletVariance, scale_runs
 
 __all__ = [
@@ -32,16 +33,12 @@ __all__ = [
 ]
 
 # Units of each per-sample parameter and continuous quantity, in terms of the data unit "u".
-PARAM_UNITS = {"phi": "1", "sigma2": "u²", "q2": "u²", "gamma2": "u²", "omega": "u"}
-CONTINUOUS_UNITS = {
-    "noise_density": "u/√Hz",
-    "q_ieee": "u·s",
-    "random_walk": "u/s/√Hz",
-    "rate_ramp": "u/s",
-    "tau_c": "s",
-    "sigma_gm": "u",
-    "q_c": "u²/s",
+PARAM_UNITS = {
+    n: u.replace("^2", "²") for cls in PROCESS_TYPES.values() for n, u in zip(cls.param_names, cls.param_units)
 }
+"""Unit of every parameter name of the registered processes, in terms of the data unit ``u``."""
+CONTINUOUS_UNITS = {k: u for cls in PROCESS_TYPES.values() for k, u in cls.continuous_units.items()}
+"""Unit of every continuous-time quantity of the registered processes (:meth:`Process.continuous` keys)."""
 
 
 def unit_text(template: str, unit: str) -> str:
@@ -284,10 +281,14 @@ class GMWMFit:
         return self.model.continuous(self.freq)
 
     def param_units(self) -> dict[str, str]:
-        return {n: unit_text(PARAM_UNITS[n.split(".")[1]], self.unit) for n in self.model.param_names}
+        return {f"{name}.{n}": unit_text(u.replace("^2", "²"), self.unit)
+                for name, c in zip(self.model.component_names(), self.model.components)
+                for n, u in zip(c.param_names, c.param_units)}
 
     def continuous_units(self) -> dict[str, str]:
-        return {k: unit_text(CONTINUOUS_UNITS[k.split(".")[1]], self.unit) for k in self.continuous()}
+        return {f"{name}.{k}": unit_text(u, self.unit)
+                for name, c in zip(self.model.component_names(), self.model.components)
+                for k, u in c.continuous_units.items()}
 
     # -- confidence intervals (delta method in the unconstrained parametrisation) -------------------------
     def _u(self) -> np.ndarray:

@@ -6,9 +6,10 @@ clone (empty cache) the fitting kernels take 8–10 s of CPU to compile (measure
 with a filled cache loading them still takes a few tenths of a second; without a warm-up both land in the
 first identification of the online engine, after the first stop. :func:`warm_up` pays that cost up front:
 it runs the production code paths — the pooled WV accumulator (:class:`imunoise.wv.WVAccumulator`), the model
-selection (:func:`imunoise.selection.select_model`) and the refit (:func:`imunoise.fitting.estimate.refit`)
-— once on a tiny seeded series, so every kernel they call is compiled (or loaded) with exactly the
-signatures the real calls use (float64 C-contiguous arrays, int64 kind codes, int64/float64 scalars).
+selection's kernels (estimator, WVIC likelihood, quasi-likelihood step) and the refit
+(:func:`imunoise.fitting.estimate.refit`) — once on a tiny seeded series, so every kernel they call is
+compiled (or loaded) with exactly the signatures the real calls use (float64 C-contiguous arrays, int64
+kind codes, int64/float64 scalars).
 :class:`imunoise.online.OnlineNavigator` calls it at construction. Precompile after an install with::
 
     python -c "import imunoise; imunoise.warm_up()"
@@ -23,7 +24,9 @@ from typing import Any
 __all__ = ["warm_up", "modelling_dispatchers"]
 
 # modules whose kernels the identification and refit paths call
-_MODULES = ("imunoise.fitting.kernels", "imunoise.wv")
+# (the processes' numba forms are compiled as part of the fitting kernels that call them)
+_MODULES = ("imunoise.fitting.kernels", "imunoise.ar1_math", "imunoise.processes", "imunoise.process_ma1",
+            "imunoise.wv")
 # the complete model of the online engine: every kind code (AR1, WN, QN, RW, DR) and a multi-AR1 structure
 _COMPLETE = "2*AR1 + DR + WN + QN + RW"
 
@@ -63,8 +66,9 @@ def _exercise() -> None:
     # imports here: ``import imunoise.fitting`` stays light (the CLI's start-up imports no numpy)
     import numpy as np
 
-    from imunoise.fitting.estimate import refit
-    from imunoise.selection import select_model
+    from imunoise.fitting.estimate import gmwm, refit
+    from imunoise.fitting.problem import prepare
+    from imunoise.fitting.wvic import ql_estimate, wv_neg_loglik
     from imunoise.wv import WVAccumulator
 
     rng = np.random.default_rng(0)
@@ -74,8 +78,11 @@ def _exercise() -> None:
         x = rng.standard_normal(n) + 0.02 * np.cumsum(rng.standard_normal(n))
         acc.add(x - x.mean())
     wv = acc.result()
-    ranking = select_model(wv, freq=freq, complete=_COMPLETE, criterion="wvic", top=1, unit="rad/s")
-    best = ranking.best
+    # the kernels model selection runs (the estimator, its WVIC likelihood and quasi-likelihood step), called
+    # here directly: the selection sits above the fitting layer
+    best = gmwm(_COMPLETE, wv, freq=freq, unit="rad/s")
+    wv_neg_loglik(wv, best.model)
+    ql_estimate(prepare(wv, freq=freq), best.model)
     refit(best, wv, start=best, freq=freq, unit="rad/s")
 
 

@@ -74,16 +74,7 @@ def process_spectrum(model: Model, f: np.ndarray) -> np.ndarray:
     S = np.zeros_like(f)
     s2 = np.sin(np.pi * f) ** 2
     for c in model.components:
-        if c.kind == "WN":
-            S += c.values[0]
-        elif c.kind == "QN":
-            S += 4.0 * c.values[0] * s2  # x_t = u_t − u_{t−1}
-        elif c.kind == "RW":
-            S += c.values[0] / (4.0 * s2)  # pseudo-spectrum; the Haar gain removes the pole
-        elif c.kind == "AR1":
-            phi, sig2 = c.values
-            # 1 − 2φcos(2πf) + φ² written without cancellation (near φ → 1, f → 0 it is tiny, not 0)
-            S += sig2 / ((1.0 - phi) ** 2 + 4.0 * phi * s2)
+        S += c.spectrum(f, s2)
     return S
 
 
@@ -209,10 +200,7 @@ def wvic_penalty(
     tau = problem.tau
     cols = []
     for c in model.components:
-        jac = c.wv_jacobian(tau)
-        if c.kind == "DR":
-            jac = (tau**2 / 16.0)[:, None]  # ∂ν/∂ω² never vanishes, unlike ∂ν/∂ω at ω = 0
-        cols.append(jac)
+        cols.append(c.identification_jacobian(tau))
     G = np.hstack(cols)
     Mw = problem.W @ G
     norms = np.linalg.norm(Mw, axis=0)

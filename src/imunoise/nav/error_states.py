@@ -23,13 +23,14 @@ from imunoise.errors import ModelError
 from imunoise.imu import AXES
 from imunoise.nav.defaults import EkfConfig
 from imunoise.nav.state import ATT, N_NAV, POS, VEL
+from imunoise.process_base import ROLE_BIAS, ROLE_RAMP, ROLE_STATIONARY
 
 __all__ = [
     "AXES", "ModelLayout", "SwapResult", "carried_states", "initial_covariance", "scale_spec", "swap_map",
 ]
 
 POW_MAX = 64
-KIND_SCALE = 3
+KIND_SCALE = 3  # the filter's own state kind, after the processes' roles (imunoise.process_base.ROLE_*)
 
 
 def scale_spec(config: EkfConfig) -> tuple[float, float, float] | None:
@@ -64,7 +65,7 @@ class ModelLayout:
 
     labels: list[str]
     axis_of: np.ndarray  # (nm,) int: 0..5
-    kind: np.ndarray  # (nm,) int: 0 bias, 1 AR1, 2 DR, 3 scale factor
+    kind: np.ndarray  # (nm,) int: ROLE_BIAS, ROLE_STATIONARY (AR1), ROLE_RAMP (DR), KIND_SCALE (scale factor)
     hvec: np.ndarray  # (nm,)
     P0: np.ndarray  # (nm, nm) AR1 stationary variances, bias/DR zero
     phi_pow: np.ndarray  # (POW_MAX+1, nm, nm): Φ_m^k
@@ -90,9 +91,9 @@ class ModelLayout:
         blocks_phi, blocks_q, blocks_p0, wpsd = [], [], [], np.zeros(6)
         for a, (m, f) in enumerate(models):
             ss = m.state_space(dt, f)
-            for lab in ss.labels:
+            for lab, role in zip(ss.labels, ss.roles):  # roles: imunoise.processes.ROLE_* = kinds 0–2 here
                 labels.append(f"{AXES[a]}.{lab}")
-                kind.append(0 if lab == "bias" else 2 if lab == "DR" else 1)
+                kind.append(role)
             axis_of += [a] * ss.n
             h += list(np.asarray(ss.H, dtype=float))
             blocks_phi.append(np.asarray(ss.Phi, dtype=float))
@@ -167,9 +168,9 @@ def initial_covariance(config: EkfConfig, layout: ModelLayout) -> np.ndarray:
     P[N_NAV:, N_NAV:] = layout.P0
     for s in range(layout.nm):
         gyro = layout.axis_of[s] < 3
-        if layout.kind[s] == 0:
+        if layout.kind[s] == ROLE_BIAS:
             P[N_NAV + s, N_NAV + s] = (config.sigma_gyro_bias0 if gyro else config.sigma_accel_bias0) ** 2
-        elif layout.kind[s] == 2:
+        elif layout.kind[s] == ROLE_RAMP:
             P[N_NAV + s, N_NAV + s] = (config.sigma_gyro_drift0 if gyro else config.sigma_accel_drift0) ** 2
     return P
 
@@ -188,17 +189,17 @@ def carried_states(old: ModelLayout, new: ModelLayout) -> dict[int, int]:
     phi_new = np.diag(new.phi_pow[1])
     pairs: dict[int, int] = {}
     for a in range(6):
-        so = [int(x) for x in old.index(a) if old.kind[x] not in (0, KIND_SCALE)]
-        sn = [int(x) for x in new.index(a) if new.kind[x] not in (0, KIND_SCALE)]
+        so = [int(x) for x in old.index(a) if old.kind[x] not in (ROLE_BIAS, KIND_SCALE)]
+        sn = [int(x) for x in new.index(a) if new.kind[x] not in (ROLE_BIAS, KIND_SCALE)]
         if [old.kind[x] for x in so] == [new.kind[x] for x in sn]:
             pairs.update(zip(sn, so))
             continue
         used: set[int] = set()
         for x in sn:
-            if new.kind[x] != 1:
+            if new.kind[x] != ROLE_STATIONARY:
                 continue
             for y in so:
-                if y not in used and old.kind[y] == 1 and abs(phi_new[x] - phi_old[y]) <= 1e-12:
+                if y not in used and old.kind[y] == ROLE_STATIONARY and abs(phi_new[x] - phi_old[y]) <= 1e-12:
                     pairs[x] = y
                     used.add(y)
                     break
@@ -268,7 +269,7 @@ def swap_map(
         for y in old.index(a):
             if int(y) not in paired_old and old.kind[y] != KIND_SCALE:
                 T[N_NAV + b_new, N_NAV + int(y)] = old.hvec[y]
-        fresh += [int(s) for s in new.index(a) if new.kind[s] != 0 and int(s) not in pairs]
+        fresh += [int(s) for s in new.index(a) if new.kind[s] != ROLE_BIAS and int(s) not in pairs]
     for s_new, s_old in pairs.items():
         T[N_NAV + s_new, N_NAV + s_old] = 1.0
     x_old = np.concatenate([np.zeros(N_NAV), x])

@@ -142,7 +142,11 @@ def filter_axis_models(fits: list, freq: float, config: OnlineConfig | None = No
             continue
         is_fit = hasattr(f, "model")
         fl = defaults[a] if config.floor == "default" else None
-        out.append((ekf_axis_model(f.model if is_fit else f, float(f.freq) if is_fit else freq, fl,
-                                   fold_tau_s=config.fold_tau_s, dr=config.dr,
-                                   horizon=data_horizon(f) if is_fit else None, qn=config.qn), freq))
+        model, horizon = f, None
+        if is_fit:  # per sample at the fit's own rate: the same continuous-time model at the filter's rate
+            model, horizon = f.model.at_rate(float(f.freq), freq), data_horizon(f)
+            if horizon is not None and float(f.freq) != freq:
+                horizon = horizon * freq / float(f.freq)
+        out.append((ekf_axis_model(model, freq, fl, fold_tau_s=config.fold_tau_s, dr=config.dr,
+                                   horizon=horizon, qn=config.qn), freq))
     return out
