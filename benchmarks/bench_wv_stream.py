@@ -119,7 +119,7 @@ def main(n: int = N, chunk: int = CHUNK) -> str:
             "imports and a warm-up call (for the batch it includes the series itself, which the stream "
             "never holds).",
             "",
-            "| estimator | time (s) | speed vs batch | peak RSS (MiB) | increase (MiB) |",
+            "| estimator | wall time (s) | speed vs batch (wall) | peak RSS (MiB) | increase (MiB) |",
             "|---|---|---|---|---|",
             row(f"batch `wavelet_variance`, {len(batch['levels'])} levels (tau up to 2^{top})", batch),
             row(f"`WVStream()`, all {len(stream['levels'])} levels", stream),
