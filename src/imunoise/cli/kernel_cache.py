@@ -22,16 +22,16 @@ from typing import Any
 
 __all__ = ["COMPILE_ESTIMATE_S", "announce_cold_cache", "silence", "CompileRecorder", "NOTICE"]
 
-# CPU seconds a command compiles with an empty cache (measured on the 2-core reference machine:
-# benchmarks/bench_first_run.py and the compile table of `imunoise warm-up --timings`), rounded up
+# CPU seconds a command spends compiling with an empty cache, rounded up from `imunoise warm-up --timings`
+# (compile CPU per kernel) and benchmarks/bench_first_run.py (`nav` with an empty cache) on a 2-core machine
 COMPILE_ESTIMATE_S = {
     "nav": 20,
-    "online": 40,
+    "online": 30,
     "fit": 15,
     "select": 15,
-    "calibrate": 25,
-    "experiment": 60,
-    "demo": 60,
+    "calibrate": 20,
+    "experiment": 40,
+    "demo": 40,
     "em": 5,
     "allan": 5,
     "detect": 5,
