@@ -152,15 +152,21 @@ def _profile(nav_args: list[str], out: Path) -> list[tuple[str, float]]:
     return rows
 
 
-def _wall_cpu_rss(argv: list[str]) -> tuple[float, float, float]:
-    """Wall, CPU (user + system) [s] and peak RSS [MiB] of one process."""
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(argv, env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    _, status, ru = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - t0
-    if os.waitstatus_to_exitcode(status) != 0:
-        raise RuntimeError(f"{' '.join(argv)} failed")
-    return wall, ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024
+def _wall_cpu_rss(args: list[str]) -> tuple[float, float, float]:
+    """Wall, CPU (user + system) [s] and peak RSS [MiB] of one `python -m imunoise ARGS` process (its own
+    VmHWM: see bench_first_run.HWM_WRAPPER)."""
+    from bench_first_run import HWM_WRAPPER
+
+    with tempfile.TemporaryDirectory() as tmp:
+        hwm = Path(tmp) / "hwm"
+        t0 = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-c", HWM_WRAPPER, *args], env=dict(_env(), IMUNOISE_HWM=str(hwm)),
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        _, status, ru = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - t0
+        if os.waitstatus_to_exitcode(status) != 0:
+            raise RuntimeError(f"imunoise {' '.join(args)} failed")
+        return wall, ru.ru_utime + ru.ru_stime, int(hwm.read_text()) / 1024
 
 
 def _nav() -> list[str]:
@@ -176,7 +182,7 @@ def _nav() -> list[str]:
         for label, extra in (("with figures (default)", []), ("`--no-plots`", ["--no-plots"])):
             walls, cpus, rss, filt = [], [], [], []
             for _ in range(NAV_REPS):
-                wall, cpu, mib = _wall_cpu_rss([*nav, *extra])
+                wall, cpu, mib = _wall_cpu_rss([*args, *extra])
                 walls.append(wall)
                 cpus.append(cpu)
                 rss.append(mib)

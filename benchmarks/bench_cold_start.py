@@ -37,11 +37,8 @@ PROBE = textwrap.dedent(
 
     again = []
     cpu = []
-    try:  # the job's home: imunoise.online.navigator (package layout) or imunoise.online (one module)
-        import imunoise.online.navigator as home
-        name = "model_job"
-    except ModuleNotFoundError:
-        home, name = online, "_model_job"
+    import imunoise.online.modeller as home  # where the online engine calls the modelling job
+    name = "model_job"
     job = getattr(home, name)
 
     def timed(kind, *args, **kw):

@@ -22,10 +22,27 @@ DRIVE = REPO / "data" / "drive_0708"
 WARM_REPS = 3
 
 
+# `python -m imunoise ARGS` that also writes its own peak RSS (VmHWM, kB) to $IMUNOISE_HWM at exit: the
+# rusage of a child (wait4) would report the parent's peak instead, which a fork carries over on Linux
+HWM_WRAPPER = """
+import atexit, os, runpy, sys
+def _hwm():
+    with open("/proc/self/status") as f:
+        kb = next(line.split()[1] for line in f if line.startswith("VmHWM:"))
+    with open(os.environ["IMUNOISE_HWM"], "w") as f:
+        f.write(kb)
+atexit.register(_hwm)
+sys.argv = ["imunoise", *sys.argv[1:]]
+runpy.run_module("imunoise", run_name="__main__", alter_sys=True)
+"""
+
+
 def _run(argv: list[str], cache: str) -> dict:
-    """Wall, CPU [s], peak RSS [MiB], stdout and stderr of one fresh process."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=cache,
+    """Wall, CPU [s], peak RSS [MiB], stdout and stderr of one fresh `python -m imunoise ARGV` process."""
+    hwm = Path(tempfile.mkdtemp()) / "hwm"
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, IMUNOISE_HWM=str(hwm),
                PYTHONPATH=str(REPO / "src") + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    argv = [sys.executable, "-c", HWM_WRAPPER, *argv]
     with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
         t0 = time.perf_counter()
         proc = subprocess.Popen(argv, env=env, stdout=out, stderr=err)
@@ -37,17 +54,19 @@ def _run(argv: list[str], cache: str) -> dict:
         so, se = out.read().decode(), err.read().decode()
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(argv)} exited {proc.returncode}: {se[-2000:]}")
-    return {"wall": wall, "cpu": ru.ru_utime + ru.ru_stime, "rss": ru.ru_maxrss / 1024, "out": so, "err": se}
+    rss = int(hwm.read_text()) / 1024
+    hwm.unlink()
+    hwm.parent.rmdir()
+    return {"wall": wall, "cpu": ru.ru_utime + ru.ru_stime, "rss": rss, "out": so, "err": se}
 
 
 def measure() -> dict:
-    py = sys.executable
     with tempfile.TemporaryDirectory() as tmp:
-        nav = [py, "-m", "imunoise", "nav", "--data", str(DRIVE), "--no-plots", "--out", str(Path(tmp) / "nav")]
+        nav = ["nav", "--data", str(DRIVE), "--no-plots", "--out", str(Path(tmp) / "nav")]
         cold_dir, warm_dir = str(Path(tmp) / "cache_cold"), str(Path(tmp) / "cache_warm")
         cold = _run(nav, cold_dir)  # an empty cache: compiles, then writes the cache
         again = [_run(nav, cold_dir) for _ in range(WARM_REPS)]  # the cache that first run filled
-        warmup = _run([py, "-m", "imunoise", "warm-up", "--timings"], warm_dir)
+        warmup = _run(["warm-up", "--timings"], warm_dir)
         after = [_run(nav, warm_dir) for _ in range(WARM_REPS)]  # after `imunoise warm-up` only
     return {"cold": cold, "again": again, "warmup": warmup, "after": after}
 
