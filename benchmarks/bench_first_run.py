@@ -102,7 +102,7 @@ def main() -> str:
         f"First run ÷ warm run (CPU): **{cold['cpu'] / _med(after, 'cpu'):.1f}×**. Target (acceptance 1): the "
         f"first `nav --no-plots` after `imunoise warm-up` ≤ 3 s — measured {_med(after, 'wall'):.2f} s wall "
         f"({'meets' if _med(after, 'wall') <= 3.0 else 'misses'}). The empty-cache run printed "
-        f"{len(notice)} notice line(s) on stderr" + (f": `{notice[0]}`" if notice else "")
+        f"{len(notice)} notice line(s) on stderr" + (f": `` {notice[0]} ``" if notice else "")
         + f"; the warm runs printed {'none' if quiet else 'one (unexpected)'}.",
         "",
         f"`imunoise warm-up --timings` with an empty cache: {summary.removeprefix('done in ').strip()}. "
