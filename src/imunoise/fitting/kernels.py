@@ -10,17 +10,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import njit
 
 from imunoise.fitting.params import V_HI
-
-try:  # the LAPACK dgesv binding that numba's np.linalg.solve calls
-    from numba.np.linalg import _LAPACK, F_INT_nptype, ensure_lapack
-
-    ensure_lapack()
-    _XGESV = _LAPACK().numba_xgesv(types.float64)
-except (ImportError, AttributeError):  # pragma: no cover - another numba layout: np.linalg.solve below
-    _XGESV = None
 
 __all__ = ["ar1_g", "wv_and_jacobian", "objectives", "levenberg_marquardt", "wv_of_theta"]
 
@@ -191,36 +183,6 @@ def objectives(U, kinds, tau, nuhat, W):
     return out
 
 
-if _XGESV is not None:
-    _KIND_D = ord("d")  # LAPACK's double-precision kind
-
-    @njit(cache=True)
-    def _solve(M, b):  # pragma: no cover - compiled
-        # x with M x = b through the same LAPACK dgesv call as np.linalg.solve, with the same inputs (a
-        # column-major copy of M, a copy of b) and the same errors, so the same bits; without numba's
-        # generic solve, whose checks and message formatting cost about 2 s of compile time (measured)
-        n = M.shape[0]
-        for i in range(n):
-            for j in range(n):
-                if not np.isfinite(M[i, j]):
-                    raise np.linalg.LinAlgError("Array must not contain infs or NaNs.")
-        for i in range(n):
-            if not np.isfinite(b[i]):
-                raise np.linalg.LinAlgError("Array must not contain infs or NaNs.")
-        a = M.T.copy()  # row-major Mᵀ = column-major M
-        x = b.copy()
-        ipiv = np.empty(n, dtype=F_INT_nptype)
-        if _XGESV(_KIND_D, n, 1, a.ctypes, n, ipiv.ctypes, x.ctypes, n) != 0:
-            raise np.linalg.LinAlgError("Matrix is singular to machine precision.")
-        return x
-
-else:  # pragma: no cover
-
-    @njit(cache=True)
-    def _solve(M, b):
-        return np.linalg.solve(M, b)
-
-
 @njit(cache=True)
 def levenberg_marquardt(u0, kinds, tau, nuhat, W, lo, hi, max_iter, rtol):
     """Levenberg–Marquardt (Marquardt scaling) on r(u) = W(ν̂ − ν(u)) within box bounds (paper Eq. 6).
@@ -270,7 +232,7 @@ def levenberg_marquardt(u0, kinds, tau, nuhat, W, lo, hi, max_iter, rtol):
             M = A.copy()
             for i in range(P):
                 M[i, i] += lam * d[i]
-            step = _solve(M, -g)
+            step = np.linalg.solve(M, -g)
             un = np.minimum(np.maximum(u + step, lo), hi)
             wv_and_jacobian(un, kinds, tau, nu_n, jac_n)
             rn = W @ (nuhat - nu_n)
