@@ -13,7 +13,7 @@ $(BIN)/python:
 
 $(STAMP): $(BIN)/python pyproject.toml
 	$(BIN)/python -m pip install -q -e ".[test]"
-	$(BIN)/python -c "import imunoise; imunoise.warm_up()"  # compile the fitting kernels into numba's cache once
+	$(BIN)/imunoise warm-up  # compile every command's numba kernels into numba's cache once
 	@rm -f $(VENV)/.installed-*; touch $(STAMP)
 
 demo: $(STAMP)

@@ -37,11 +37,8 @@ PROBE = textwrap.dedent(
 
     again = []
     cpu = []
-    try:  # the job's home: imunoise.online.navigator (package layout) or imunoise.online (one module)
-        import imunoise.online.navigator as home
-        name = "model_job"
-    except ModuleNotFoundError:
-        home, name = online, "_model_job"
+    import imunoise.online.modeller as home  # where the online engine calls the modelling job
+    name = "model_job"
     job = getattr(home, name)
 
     def timed(kind, *args, **kw):
@@ -117,9 +114,10 @@ def main() -> str:
         "directory (`NUMBA_CACHE_DIR`) is a new empty directory for the *empty* runs and the one they filled "
         f"for the *filled* runs. Baseline of this run: `python -c \"import numpy\"` = {base:.3f} s.",
         "",
-        "| numba cache | warm-up at construction | warm-up [s] (compiled / loaded) | first identification per "
-        "axis [s] | slowest axis [s] | worst axis first ÷ steady | slowest ÷ baseline | CPU first / steady job [s] "
-        "| process [s] |",
+        "| numba cache | warm-up at construction | warm-up wall [s] (compiled / loaded) | first identification per "
+        "axis, wall [s] | slowest axis, wall [s] | worst axis first ÷ steady | slowest ÷ baseline "
+        "| CPU first / steady job [s] "
+        "| process wall [s] |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for (cache, warm), r in m["runs"].items():
@@ -137,7 +135,7 @@ def main() -> str:
         "Target (issue \"Evidence with power\", acceptance 4): first identification ≤ 1 s per axis in a fresh "
         "process. Without the warm-up, the first axis of the first identification paid for compiling (empty "
         "cache) or loading (filled cache) the fitting kernels; with it, that cost is the `warm_up` event at "
-        "construction. Precompile after an install: `python -c \"import imunoise; imunoise.warm_up()\"`.",
+        "construction. Precompile every command's kernels after an install: `imunoise warm-up`.",
     ]
     return "\n".join(lines)
 

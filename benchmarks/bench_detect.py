@@ -50,7 +50,7 @@ def _speed() -> list[str]:
         sd.push_chunk(t[k : k + 1000], accel[k : k + 1000], gyro[k : k + 1000])
     chunk = (time.perf_counter() - t0) / n
     return [
-        "| form | time per sample | note |",
+        "| form | wall time per sample | note |",
         "|---|---|---|",
         f"| `detect_static`, 10^6 samples | {batch / n * 1e9:.1f} ns | whole detector (statistic, threshold, "
         f"segments, gate): {base / batch:.1f}× faster than numpy's sliding-window std alone ({base:.2f} s) |",

@@ -45,8 +45,9 @@ def main() -> str:
     ]
     for name, wall, _ in rows:
         lines.append(f"| {name} | {wall:.2f} | {dur / wall:.0f}× | {wall / plain:.2f}× |")
-    lines += ["", "| criterion | identification, 6 axes [s] | slowest axis [s] | refits (6 axes) [ms] | "
-              "slowest refit axis [ms] | static data at identification [s] |", "|---|---|---|---|---|---|"]
+    lines += ["", "| criterion | identification, 6 axes, wall [s] | slowest axis, wall [s] | "
+              "refits (6 axes), wall [ms] | "
+              "slowest refit axis, wall [ms] | static data at identification [s] |", "|---|---|---|---|---|---|"]
     for crit, r in res.items():
         t = r.timing
         ident = next(u for u in r.updates if u.kind == "identify")

@@ -62,3 +62,26 @@ def test_lazy_exports_are_the_objects_of_their_modules(name):
     home = {"AR1": "imunoise.processes", "Model": "imunoise.model", "as_model": "imunoise.model"}
     module = importlib.import_module(home.get(name, "imunoise.estimator"))
     assert getattr(imunoise, name) is getattr(module, name)
+
+
+DRIVE = SRC.parent / "data" / "drive_0708"
+
+
+@pytest.mark.skipif(not (DRIVE / "dataset.json").exists(), reason="data/drive_0708 not in this checkout")
+def test_nav_no_plots_imports_no_plotting_and_no_scipy_routine(tmp_path):
+    # `nav --no-plots` draws nothing and calls no scipy routine: matplotlib stays out, and of scipy only what
+    # numba itself loads for its BLAS/LAPACK bindings (scipy.linalg, at its first kernel call) is there
+    code = (
+        "import imunoise.cli\n"
+        f"code = imunoise.cli.main(['nav', '--data', {str(DRIVE)!r}, '--no-plots', '--end', '243300', "
+        f"'--out', {str(tmp_path / 'nav')!r}])\n"
+        "assert code == 0, code\n"
+    )
+    modules = _modules_after(code)
+    assert "imunoise.nav.ekf" in modules  # the filter ran
+    assert not any(m.split(".")[0] == "matplotlib" for m in modules)
+    numba_scipy = {"linalg", "_lib", "__config__", "version", "_distributor_init", "_distributor_init_local",
+                   "_cyutility"}
+    scipy = [m.split(".") for m in modules if m.split(".")[0] == "scipy"]
+    extra = sorted(".".join(p) for p in scipy if len(p) > 1 and p[1] not in numba_scipy)
+    assert extra == [], extra

@@ -4,8 +4,9 @@ Model algebra: ``2 * AR1() + WN() + RW()``; wavelet variance: :func:`wavelet_var
 chunks: :class:`WVStream`);
 estimators: :func:`gmwm` (GMWM), :func:`refit`, :func:`em_fit` (EM baseline), all called as
 ``estimator(model, data, freq=...)``, and :func:`select_model`; :func:`warm_up` compiles (or loads from
-numba's cache) the fitting kernels ahead of the first fit. All quantities are SI; GMWM parameters
-are per sample (SPEC §1).
+numba's cache) the fitting kernels ahead of the first fit (the online engine calls it at construction); the
+command ``imunoise warm-up`` (what ``make`` runs) compiles the kernels of every command. All quantities are
+SI; GMWM parameters are per sample (SPEC §1).
 
 No exported name equals a submodule's name (the estimator lives in :mod:`imunoise.estimator`): an
 exported function and a submodule of the same name share one attribute of this package, and importing

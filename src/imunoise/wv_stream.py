@@ -67,10 +67,11 @@ def _run_ring(a, ring, out, i0, i1, t0, mask, write):  # pragma: no cover - comp
     # slot index wraps so each piece is a pair of contiguous slices
     s = 0.0
     i = i0
+    zero = i0 - i0  # an int64 0, not the literal 0: level_pass keeps the one specialisation wv.py compiles
     while i < i1:
         p = (t0 + i) & mask
         e = min(i1, i + mask + 1 - p)
-        s += level_pass(a[i:], ring[p:], out[i:], 0, e - i, write)
+        s += level_pass(a[i:], ring[p:], out[i:], zero, e - i, write)
         i = e
     return s
 

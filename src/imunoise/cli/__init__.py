@@ -68,6 +68,9 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "func", None) is None:
         parser.print_help()
         return 2
+    from imunoise.cli.kernel_cache import announce_cold_cache
+
+    announce_cold_cache(args.command)  # one line on stderr if this command has to compile numba kernels
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
