@@ -16,8 +16,15 @@ a template, by the block's own visible first line:
   skipped with the reason.
 * ``readme-test: slow REASON``: run by the slow test (marked slow).
 * ``readme-test: needs-shared``: reads ``../shared/data``; run by a slow test that skips when it is absent.
+* ``readme-test: inputs DEST=SRC [DEST=SRC ...]``: run like an untagged block, after copying each repository
+  file SRC (under ``tests/fixtures/``) to DEST (relative, inside the scratch root) when DEST is not there yet:
+  the stand-ins for files the reader has of their own (e.g. another tool's settings file that the example
+  rewrites in place). The block's visible text says what the files are.
 * a block whose first line starts with ``# template:`` needs a file only the reader has; the line, visible on
   the page, says what to put in. Not run; reported as skipped.
+
+A block that prints ``warning: OPTION is deprecated`` (the CLI's notice for an old option name) fails: the
+examples show the current names.
 
 Timeouts are hang guards only (:data:`HANG_GUARD_S` per block), far above any expected duration: no test here
 depends on the machine's speed.
@@ -27,6 +34,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -40,9 +48,11 @@ SHELL_LANGS = {"", "bash", "sh", "shell", "console"}
 HANG_GUARD_S = 3600  # per block; the slowest example run by the tests takes about 2 minutes on 2 cores
 TEST_TIMEOUT_S = 4 * 3600  # per test (overrides `make test`'s --timeout): a hang guard for a list of blocks
 TEMPLATE = "# template:"
-MD_TAG = re.compile(r"^<!--\s*readme-test:\s*(skip|slow|needs-shared)\b\s*(.*?)\s*-->\s*$")
+MD_TAG = re.compile(r"^<!--\s*readme-test:\s*(skip|slow|needs-shared|inputs)\b\s*(.*?)\s*-->\s*$")
 MD_FENCE = re.compile(r"^```\s*([A-Za-z0-9_+-]*)\s*$")
-RST_TAG = re.compile(r"^\.\. readme-test:\s*(skip|slow|needs-shared)\b\s*(.*?)\s*$")
+RST_TAG = re.compile(r"^\.\. readme-test:\s*(skip|slow|needs-shared|inputs)\b\s*(.*?)\s*$")
+FIXTURES = "tests/fixtures/"
+DEPRECATED = re.compile(r"\S+ is deprecated; use \S+")
 RST_CODE = re.compile(r"^(\s*)\.\. (code-block|code|sourcecode)::\s*(\S*)\s*$")
 
 
@@ -52,8 +62,9 @@ class Block:
     line: int  # 1-based line of the opening fence / directive
     lang: str  # "shell" or "python"
     code: str
-    tag: str  # "", "skip", "slow", "needs-shared", "template"
+    tag: str  # "", "skip", "slow", "needs-shared", "template" (an ``inputs`` tag leaves it "")
     note: str  # the reason / the template line
+    inputs: tuple[tuple[str, str], ...] = ()  # (DEST, SRC) of an ``inputs`` tag, copied in before the block
 
     @property
     def label(self) -> str:
@@ -66,11 +77,31 @@ def _kind(lang: str) -> str | None:
     return "shell" if lang in SHELL_LANGS else "python" if lang == "python" else None
 
 
+def parse_inputs(spec: str, where: str = "") -> tuple[tuple[str, str], ...]:
+    """The (DEST, SRC) pairs of an ``inputs`` tag: ``DEST=SRC`` separated by spaces, SRC a file under
+    tests/fixtures/, DEST a relative path that stays inside the scratch root."""
+    pairs = []
+    for item in spec.split():
+        dest, eq, src = item.partition("=")
+        if not eq or not dest or not src:
+            raise AssertionError(f"{where}: readme-test inputs: {item!r} is not DEST=SRC")
+        if not src.startswith(FIXTURES) or ".." in Path(src).parts:
+            raise AssertionError(f"{where}: readme-test inputs: {src!r} must be a file under {FIXTURES}")
+        if Path(dest).is_absolute() or ".." in Path(dest).parts:
+            raise AssertionError(f"{where}: readme-test inputs: {dest!r} must be relative, inside the scratch root")
+        pairs.append((dest, src))
+    if not pairs:
+        raise AssertionError(f"{where}: readme-test inputs: name at least one DEST=SRC")
+    return tuple(pairs)
+
+
 def _block(source: str, line: int, kind: str, code: str, pending: tuple[str, str] | None) -> Block:
     first = next((ln.strip() for ln in code.splitlines() if ln.strip()), "")
     if first.startswith(TEMPLATE):
         return Block(source, line, kind, code, "template", first[len(TEMPLATE):].strip())
     tag, note = pending or ("", "")
+    if tag == "inputs":
+        return Block(source, line, kind, code, "", note, parse_inputs(note, f"{source}:{line}"))
     return Block(source, line, kind, code, tag, note)
 
 
@@ -194,8 +225,21 @@ def _env(repo: Path) -> dict:
     return env
 
 
+def _copy_inputs(block: Block, repo: Path) -> None:
+    """Copy the block's ``inputs`` fixtures into ``repo`` (a file already there, e.g. from an earlier block
+    sharing it, is kept: the page's later examples see what the earlier ones made of it)."""
+    for dest, src in block.inputs:
+        source = REPO / src
+        assert source.is_file(), f"{block.label}: readme-test inputs: no file {src}"
+        target = repo / dest
+        if not target.exists():
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(source, target)
+
+
 def _run_block(block: Block, repo: Path) -> tuple[float, str | None]:
     """Run one block in ``repo``; (seconds, None) or (seconds, failure text)."""
+    _copy_inputs(block, repo)
     if block.lang == "shell":
         cmd = ["bash", "-e", "-o", "pipefail", "-c", block.code]
     else:
@@ -211,6 +255,9 @@ def _run_block(block: Block, repo: Path) -> tuple[float, str | None]:
     if proc.returncode != 0:
         tail = "\n".join((proc.stdout + proc.stderr).strip().splitlines()[-15:])
         return dt, f"{block.label}: exit {proc.returncode}\n{tail}"
+    old = sorted(set(DEPRECATED.findall(proc.stdout + proc.stderr)))
+    if old:
+        return dt, f"{block.label}: uses deprecated option(s): {'; '.join(old)}"
     return dt, None
 
 

@@ -13,7 +13,7 @@ import re
 import pytest
 
 from conftest import REPO
-from doc_examples import TEST_TIMEOUT_S, guide_blocks, parse_markdown, parse_rst, run_all
+from doc_examples import TEST_TIMEOUT_S, guide_blocks, parse_inputs, parse_markdown, parse_rst, run_all
 
 README = REPO / "README.md"
 BLOCKS = parse_markdown(README.read_text(encoding="utf-8"))
@@ -92,6 +92,38 @@ def test_parser_reads_tags_languages_and_templates():
         parse_rst("Run this::\n\n   imunoise a\n", "p.rst")
     with pytest.raises(AssertionError, match="start of a line"):
         parse_rst("- item\n\n  .. code-block:: bash\n\n     imunoise a\n", "p.rst")
+
+
+def test_inputs_tag_copies_named_fixtures_before_the_block(tmp_path):
+    """`readme-test: inputs DEST=SRC ...` runs the block like an untagged one, with the fixtures copied in."""
+    md = ("<!-- readme-test: inputs EuRoC.yaml=tests/fixtures/orbslam3_euroc_v1.yaml "
+          "rig/imu.yaml=tests/fixtures/kalibr_imu.yaml -->\n```bash\ncat EuRoC.yaml rig/imu.yaml > both.txt\n"
+          "grep -c 'IMU.NoiseGyro' both.txt\ngrep -c accelerometer_noise_density both.txt\n```\n")
+    (got,) = parse_markdown(md)
+    assert (got.tag, got.line) == ("", 2)
+    assert got.inputs == (("EuRoC.yaml", "tests/fixtures/orbslam3_euroc_v1.yaml"),
+                          ("rig/imu.yaml", "tests/fixtures/kalibr_imu.yaml"))
+    (rst,) = parse_rst(".. readme-test: inputs a.yaml=tests/fixtures/kalibr_imu.yaml\n\n.. code-block:: bash\n\n"
+                       "   cat a.yaml\n", "p.rst")
+    assert rst.tag == "" and rst.inputs == (("a.yaml", "tests/fixtures/kalibr_imu.yaml"),)
+    run_all([got], tmp_path)  # fails unless both files were copied in
+    for bad, why in (("a.yaml", "not DEST=SRC"), ("a.yaml=README.md", "under tests/fixtures/"),
+                     ("../a.yaml=tests/fixtures/kalibr_imu.yaml", "inside the scratch root"),
+                     ("/tmp/a.yaml=tests/fixtures/kalibr_imu.yaml", "inside the scratch root"),
+                     ("a=tests/fixtures/../../README.md", "under tests/fixtures/"), ("", "at least one")):
+        with pytest.raises(AssertionError, match=why):
+            parse_inputs(bad)
+    (tmp_path / "again").mkdir()
+    with pytest.raises(AssertionError, match="no file tests/fixtures/absent.yaml"):
+        run_all(parse_markdown("<!-- readme-test: inputs a=tests/fixtures/absent.yaml -->\n```bash\ntrue\n```\n"),
+                tmp_path / "again")
+
+
+def test_an_example_with_a_deprecated_option_fails(tmp_path):
+    """The CLI keeps old option names with a notice on stderr; an example that still uses one fails."""
+    md = "```bash\necho 'warning: --topic is deprecated; use --imu-topic (same meaning)' >&2\n```\n"
+    with pytest.raises(AssertionError, match="uses deprecated option\\(s\\): --topic is deprecated; use --imu-topic"):
+        run_all(parse_markdown(md), tmp_path)
 
 
 # -- the fixes the README examples needed ------------------------------------------------------------------
