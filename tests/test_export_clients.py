@@ -55,8 +55,10 @@ def base_fit() -> GMWMFit:
 
 
 def _with(fit: GMWMFit, params: dict, unit: str, **extra) -> GMWMFit:
-    d = fit.to_dict()
-    d.update(model="WN+RW", params=params, unit=unit, param_cov_u=None)
+    """A WN+RW fit of data simulated with ``params``: the export gate checks a fit against its own data, so the
+    test models are real fits (a fit with its parameters swapped by hand would leave its WV band)."""
+    x = Model.parse("WN+RW").with_params(params).simulate(2**12, seed=3)
+    d = gmwm("WN+RW", x, freq=F, unit=unit, n_random=4, n_local=2).to_dict()
     d["extra"] = {**(d.get("extra") or {}), **extra}
     return GMWMFit.from_dict(d)
 
@@ -411,9 +413,9 @@ def test_into_follows_a_symlink_and_keeps_the_mode(tmp_path, model):
 # The README's export block (the README quotes it; the docs keep both the same), run as written: the three
 # settings files stand for the user's own (the fixtures, copied to the paths the block names).
 README_EXPORT_BLOCK = """\
-imunoise export out/calib/imu_model.json --to orbslam3 --into EuRoC.yaml                 # ORB-SLAM3 settings
-imunoise export out/calib/imu_model.json --to openvins --into kalibr_imu_chain.yaml      # OpenVINS v2.6 / >= v2.7
-imunoise export out/calib/imu_model.json --to kalibr --into imu.yaml                     # Kalibr
+imunoise export out/calib/imu_model.json --force --to orbslam3 --into my_rig/EuRoC.yaml     # IMU.NoiseGyro ...
+imunoise export out/calib/imu_model.json --force --to openvins --into my_rig/kalibr_imu_chain.yaml
+imunoise export out/calib/imu_model.json --force --to kalibr --into my_rig/imu.yaml
 """
 
 
@@ -422,16 +424,18 @@ def test_readme_export_block_runs_as_written(tmp_path, model, ours, monkeypatch)
 
     (tmp_path / "out" / "calib").mkdir(parents=True)
     model.save(tmp_path / "out" / "calib" / "imu_model.json")
+    (tmp_path / "my_rig").mkdir()
     for src, dst in (("orbslam3_euroc_v1.yaml", "EuRoC.yaml"), ("openvins_kalibr_imu_chain.yaml",
                      "kalibr_imu_chain.yaml"), ("kalibr_imu.yaml", "imu.yaml")):  # fmt: skip
-        shutil.copyfile(FIX / src, tmp_path / dst)
+        shutil.copyfile(FIX / src, tmp_path / "my_rig" / dst)
     monkeypatch.chdir(tmp_path)
     for line in README_EXPORT_BLOCK.splitlines():  # each command as the shell would split it (comments dropped)
         argv = shlex.split(line, comments=True)
         assert argv[0] == "imunoise" and main(argv[1:]) == 0, line
-    assert {k: orbslam3_reads(tmp_path / "EuRoC.yaml")[k] for k in ORB_KEYS} == {k: ours[k] for k in ORB_KEYS}
-    chain = openvins_reads(tmp_path / "kalibr_imu_chain.yaml")
+    rig = tmp_path / "my_rig"
+    assert {k: orbslam3_reads(rig / "EuRoC.yaml")[k] for k in ORB_KEYS} == {k: ours[k] for k in ORB_KEYS}
+    chain = openvins_reads(rig / "kalibr_imu_chain.yaml")
     assert chain["gyroscope_noise_density"] == ours["gyroscope_noise_density"]
-    assert kalibr_reads(tmp_path / "imu.yaml")["accelerometer_random_walk"] == ours["accelerometer_random_walk"]
-    assert sorted(p.name for p in tmp_path.glob("*.bak")) == ["EuRoC.yaml.bak", "imu.yaml.bak",
+    assert kalibr_reads(rig / "imu.yaml")["accelerometer_random_walk"] == ours["accelerometer_random_walk"]
+    assert sorted(p.name for p in rig.glob("*.bak")) == ["EuRoC.yaml.bak", "imu.yaml.bak",
                                                                 "kalibr_imu_chain.yaml.bak"]

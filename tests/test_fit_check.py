@@ -125,3 +125,23 @@ def test_with_warnings_leaves_a_clean_export_alone():
     assert with_warnings("%YAML:1.0\na: 1\n", "openvins", []) == "%YAML:1.0\na: 1\n"
     assert with_warnings('{"kind": "k", "a": 1}', "json", ["w"]) == json.dumps({"kind": "k", "warnings": ["w"], "a": 1},
                                                                                indent=1)
+
+
+def test_export_command_applies_the_gate_to_a_saved_model(ar1_wn, tmp_path, capsys):
+    """`imunoise export MODEL` checks the saved fit against its data as `fit --export` does: a fit that leaves
+    its band is refused in one line, and `--force` writes the warning into the file."""
+    csv = tmp_path / "gyro.csv"
+    np.savetxt(csv, ar1_wn[:, None] * 1e-3, header="gyro_x", comments="", fmt="%.9g")
+    assert main(["fit", str(csv), "--column", "gyro_x", "--freq", "100", "--units", "rad/s", "--model", "WN",
+                 "--out", str(tmp_path / "fit")]) == 0  # fmt: skip
+    capsys.readouterr()
+    model = tmp_path / "fit" / "model.json"
+    out = tmp_path / "imu.yaml"
+    assert main(["export", str(model), "--to", "kalibr", "--sensor", "gyro", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("imunoise export: error: export refused: gyro_x (WN) outside the 95 % WV band at τ = ")
+    assert not out.exists()
+    assert main(["export", str(model), "--to", "kalibr", "--sensor", "gyro", "--force", "--out", str(out)]) == 0
+    first = out.read_text().splitlines()[0]
+    assert first.startswith("# WARNING (exported with --force): gyro_x: the WN fit is outside the 95 % WV band")
+    assert read_export(out)["gyroscope_noise_density"] > 0

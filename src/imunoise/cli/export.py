@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from imunoise.cli.export_gate import add_force, band_checks, refusal, with_warnings
 from imunoise.cli.options import add_topic
 
 EXAMPLES = """examples:
@@ -97,6 +98,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="ORB-SLAM3: write IMU.Frequency as an integer, as legacy settings (no File.version, ORB-SLAM3 <= 0.4) "
         "need; --into detects such files by itself",
     )
+    add_force(p)
     p.set_defaults(func=run)
 
 
@@ -116,6 +118,20 @@ def load_for_export(path: str | Path):
         raise ModelError(f"{path} is an incomplete imunoise model file (missing {exc.args[0]!r}); refit it") from exc
     except (TypeError, ValueError, AttributeError) as exc:
         raise ModelError(f"{path} is not a readable imunoise model file: {exc}") from exc
+
+
+def gate(model, sensor: str | None, force: bool, where: str) -> list[str]:
+    """The fit-quality gate of ``calibrate``/``fit --export`` applied again when a saved model is exported: the
+    fit of every exported axis is checked against its data's WV band (:func:`imunoise.cli.export_gate.refusal`),
+    so a model that needed ``--force`` there needs it here too, and its warnings go into the file."""
+    from imunoise.imu_model import ImuModel
+
+    if isinstance(model, ImuModel):
+        axes = model.sensor_axes(sensor) if sensor else list(model.axes)
+        fits = {ax: model.fit(ax) for ax in axes}
+    else:
+        fits = {str(model.extra.get("column") or "axis"): model}
+    return refusal(band_checks(fits), force, where=where)
 
 
 def report(sensors, file=None) -> None:
@@ -149,6 +165,9 @@ def run(args: argparse.Namespace) -> int:
     if args.legacy and args.fmt != "orbslam3":
         raise ModelError(f"--legacy is for --to orbslam3 (legacy ORB-SLAM3 settings), not --to {args.fmt}")
     model = load_for_export(args.model)
+    forced = gate(model, args.sensor, args.force, str(args.model))
+    for w in forced:
+        print(f"warning: exported with --force: {w}", file=sys.stderr)
     if args.into is not None:
         return _run_into(args, model)
     out = None
@@ -175,6 +194,7 @@ def run(args: argparse.Namespace) -> int:
             if args.sensor in (None, s) and not model.sensor_axes(s):
                 print(f"note: no {s} axes in {args.model}; its keys are commented out", file=sys.stderr)
     report(sensors.values())
+    text = with_warnings(text, args.fmt, forced)
     if out is None:
         sys.stdout.write(text)
         return 0
