@@ -90,6 +90,7 @@ from imunoise.estimator import GMWMFit
 from imunoise.model import Model
 from imunoise.nav.defaults import default_axis_models
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, normalize_axis_models
+from imunoise.online.chunks import run_record
 from imunoise.online.config import OnlineConfig, config_summary
 from imunoise.online.modeller import StopModeller
 from imunoise.online.motion_noise import MotionNoiseLearner
@@ -98,7 +99,6 @@ from imunoise.online.stops import stop_verdict
 from imunoise.online.to_filter import filter_axis_models
 
 log = logging.getLogger(__name__)
-_RUN_CHUNK = 4096  # IMU samples per StaticDetector.push_chunk call in OnlineNavigator.run
 
 __all__ = ["OnlineNavigator", "run_online"]
 
@@ -192,6 +192,7 @@ class OnlineNavigator:
         self.current_models = models
         self._motion_fixes: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._ekf_models_log: list[tuple[float, list[str]]] = []
+        self._event_sources: list[tuple[np.ndarray, Any]] = []
         self._event("start", init.t, lambda0=self.lambda0, config=config_summary(config))
         if earlier_static is not None:
             self.modeller.add_earlier(earlier_static, init.t)
@@ -206,6 +207,14 @@ class OnlineNavigator:
         self.detector = StaticDetector(cfg, self.rate)
         self.lambda0 = float(cfg.lambda0)
         self._stop_start_n = int(math.ceil((cfg.min_duration_s + 2 * cfg.margin_s) * self.rate)) + 1
+
+    def add_event_source(self, indices: np.ndarray, hook: Any) -> None:
+        """Call ``hook(navigator, i)`` just before IMU sample ``i`` (0-based, in push order) for every ``i`` of the
+        sorted ``indices``: a source of events beside the stops, swaps and fixes (e.g. the change points of a
+        per-sample noise schedule). :meth:`run` makes each such sample an event of its chunked replay
+        (:mod:`imunoise.online.chunks`), so the kernel stops there and the sample takes the per-sample path,
+        which calls the hook (as for :meth:`push_imu`)."""
+        self._event_sources.append((np.asarray(indices, dtype=np.int64), hook))
 
     # -- streaming API ----------------------------------------------------------------------------
     def push_gnss(self, t: float, llh_rad: np.ndarray, sigma_ned_m: np.ndarray) -> None:
@@ -387,36 +396,9 @@ class OnlineNavigator:
             lam_mask = t < t[0] + self.config.learn_lambda0_s
             self._learn_from(accel[lam_mask], t[0])
         self._elapsed += time.perf_counter() - t0
-        gi = 0
-        n = t.size
-        every = max(n // 100, 1)
-        base = self.detector.n_samples
-        for a in range(0, n, _RUN_CHUNK):
-            # the same streaming detector as push_imu, fed a chunk: per-sample results and, for each segment,
-            # the sample whose push would have completed it (identical to per-sample pushes)
-            t1 = time.perf_counter()
-            b = min(a + _RUN_CHUNK, n)
-            det = self.detector.push_chunk(t[a:b], accel[a:b], gyro[a:b])
-            done_at: dict[int, list[StaticSegment]] = {}
-            for s, k in zip(det.segments, det.completed_at, strict=True):
-                done_at.setdefault(k - base, []).append(s)
-            self._elapsed += time.perf_counter() - t1
-            for k in range(a, b):
-                tk = t[k]
-                t1 = time.perf_counter()
-                while gi < gt.size and gt[gi] <= tk:
-                    self.push_gnss(gt[gi], gllh[gi], gsig[gi])
-                    gi += 1
-                self._sample(tk, dth_all[k], dv_all[k], gyro[k], accel[k], bool(det.static_raw[k - a]),
-                             bool(det.gate_open[k - a]), done_at.get(k, []))
-                self._elapsed += time.perf_counter() - t1
-                if progress is not None and k % every == 0:
-                    progress(k, n)
-        while gi < gt.size:
-            self.push_gnss(gt[gi], gllh[gi], gsig[gi])
-            gi += 1
+        run_record(self, t, dth_all, dv_all, gyro, accel, gt, gllh, gsig, progress)
         if progress is not None:
-            progress(n, n)
+            progress(t.size, t.size)
         return self.finish()
 
     # -- λ0 learning --------------------------------------------------------------------------------
@@ -455,6 +437,9 @@ class OnlineNavigator:
     # -- one sample -----------------------------------------------------------------------------------
     def _sample(self, t, dth, dvv, gyro, accel, is_static: bool, gate_open: bool, segs) -> None:
         cfg = self.config
+        for idx, hook in self._event_sources:
+            if np.any(idx == self._n):
+                hook(self, self._n)
         self._rows.append(np.concatenate([gyro, accel]))
         self._static_raw.append(is_static)
         self._sample_t.append(t)
