@@ -30,10 +30,11 @@ from typing import Any
 
 import numpy as np
 
+from imunoise.errors import DataError
 from imunoise.nav.filter_loop import SPAN_COLS, Fixes, ImuInput, next_event, run_span
 from imunoise.online.result import EpochStore
 
-__all__ = ["chunked", "run_chunk", "run_record"]
+__all__ = ["chunked", "replay", "run_chunk", "run_record"]
 
 RUN_CHUNK = 4096  # IMU samples per StaticDetector.push_chunk call
 
@@ -41,6 +42,33 @@ RUN_CHUNK = 4096  # IMU samples per StaticDetector.push_chunk call
 def chunked(nav: Any) -> bool:
     """Whether ``nav`` can run its record in kernel spans (inline worker, no in-motion noise learner)."""
     return nav.config.worker == "inline" and nav._motion is None
+
+
+def replay(nav: Any, imu: Any, gnss: Any, progress: Any = None) -> Any:
+    """:meth:`OnlineNavigator.run`: check and prepare the record (rates, sorted fixes, λ0), replay it with
+    :func:`run_record`, and finish."""
+    t0 = time.perf_counter()
+    t = np.asarray(imu.t, dtype=float)
+    dth_all, dv_all = imu.increments() if hasattr(imu, "increments") else (imu.dtheta, imu.dv)
+    if t.size < 2:
+        raise DataError("the IMU record needs at least 2 samples")
+    if np.any(np.diff(t) <= 0):
+        k = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
+        raise DataError(f"IMU time stamps must increase strictly (sample {k}: {t[k]!r} after {t[k - 1]!r})")
+    dt = np.diff(t, prepend=t[0] - nav.dt_nom)
+    gyro = dth_all / dt[:, None]
+    accel = dv_all / dt[:, None]
+    gt = np.asarray(gnss.t, dtype=float)
+    order = np.argsort(gt, kind="stable")
+    gt, gllh, gsig = gt[order], np.asarray(gnss.llh)[order], np.asarray(gnss.sigma_ned)[order]
+    if nav.detector is None:
+        lam_mask = t < t[0] + nav.config.learn_lambda0_s
+        nav._learn_from(accel[lam_mask], t[0])
+    nav._elapsed += time.perf_counter() - t0
+    run_record(nav, t, dth_all, dv_all, gyro, accel, gt, gllh, gsig, progress)
+    if progress is not None:
+        progress(t.size, t.size)
+    return nav.finish()
 
 
 def _static_runs(static: np.ndarray, run0: int) -> np.ndarray:
