@@ -33,7 +33,7 @@ from imunoise.nav.state import A_LAST_DT, A_STEPS, I_POS, I_Q, I_VEL, N_NAV, X_V
 __all__ = [
     "FilterArrays", "ModelArrays", "Settings", "ImuInput", "Fixes", "VelocityFixes", "Outputs",
     "flush", "gnss_position_update", "gnss_velocity_update", "zupt_update", "nhc_due", "nhc_update", "fix_status",
-    "run_batch", "run_span", "SPAN_COLS", "next_event",
+    "run_batch", "run_span", "SPAN_COLS", "next_event", "euler_rows",
 ]
 
 
@@ -304,3 +304,13 @@ def run_span(imu, f, m, s, nh, fx, carry, rows, pv):
             for i in range(3):
                 for j in range(3):
                     pv[k - 1, i, j] = f.P[X_VEL + i, X_VEL + j]
+
+
+@njit(cache=True)
+def euler_rows(q):
+    """Euler angles (roll, pitch, yaw; rad) of each quaternion row of ``q`` (n, 4), as the per-sample outputs
+    compute them (``dcm_to_euler(quat_to_dcm(q))``), in one call."""
+    out = np.empty((q.shape[0], 3))
+    for k in range(q.shape[0]):
+        out[k] = dcm_to_euler(quat_to_dcm(q[k]))
+    return out

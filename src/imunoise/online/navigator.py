@@ -91,6 +91,7 @@ from imunoise.estimator import GMWMFit
 from imunoise.model import Model
 from imunoise.nav.defaults import default_axis_models
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, normalize_axis_models
+from imunoise.nav.filter_loop import euler_rows
 from imunoise.online.chunks import replay
 from imunoise.online.config import OnlineConfig, config_summary
 from imunoise.online.lambda0 import Lambda0Learning
@@ -552,7 +553,11 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
     # -- result ---------------------------------------------------------------------------------------
     def _result(self) -> OnlineResult:
         if self._store is not None and self._store.n:
-            t, pos, vel, eul, eg, ea, std = self._store.arrays()
+            # EpochStore.arrays' columns, the Euler angles in one kernel call instead of one per epoch
+            b = self._store.buf[: self._store.n]
+            t, pos, vel, eg, ea, std = (b[:, 0].copy(), b[:, 1:4].copy(), b[:, 4:7].copy(), b[:, 11:14].copy(),
+                                        b[:, 14:17].copy(), b[:, 17:26].copy())
+            eul = euler_rows(np.ascontiguousarray(b[:, 7:11]))
         else:
             z = np.zeros((0, 3))
             t, pos, vel, eul, eg, ea, std = np.zeros(0), z, z, z, z, z, np.zeros((0, 9))
