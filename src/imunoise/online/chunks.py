@@ -10,6 +10,9 @@ per-sample Python path (:meth:`OnlineNavigator._sample`):
 * the sample at which a scheduled model takes effect (:meth:`StopModeller.due`: a swap);
 * a ZUPT/ZARU candidate (the update's speed/gate policy and the ZARU σ from the stop's own scatter);
 * a non-finite increment (the step filter replaces it and logs it);
+* with the in-motion noise learner: while its shadows wait to start, every sample that applies a fix (a
+  start needs the live filter's speed after the fix); while they run, the sample its next rehearsal round
+  is due;
 * the change points of any extra event source (:meth:`OnlineNavigator.add_event_source`: e.g. a noise schedule).
 
 Everything between two events runs in one :func:`~imunoise.nav.filter_loop.run_span` call, which is the
@@ -17,9 +20,9 @@ step filter's propagate / GNSS update sequence through the same functions, and t
 (raw samples for the segments, static flags, gate log and events, the stop guard's navigation rows, stored
 epochs) is done on arrays. Where the next event lies is decided in one place,
 :func:`~imunoise.nav.filter_loop.next_event`. The result equals the per-sample path to the bit
-(``tests/test_online_chunks.py``). The learner of in-motion noise (its shadows start and rehearse at fixes
-and times it decides) and the thread worker (whose results arrive at wall-clock moments) keep the
-per-sample path.
+(``tests/test_online_chunks.py``). The shadows of the in-motion noise learner already run in the batch
+kernel, one call per shadow and round (:meth:`~imunoise.nav.ekf.LooselyCoupledEKF.rehearse`). The thread
+worker (whose results arrive at wall-clock moments) keeps the per-sample path.
 """
 
 from __future__ import annotations
@@ -40,8 +43,9 @@ RUN_CHUNK = 4096  # IMU samples per StaticDetector.push_chunk call
 
 
 def chunked(nav: Any) -> bool:
-    """Whether ``nav`` can run its record in kernel spans (inline worker, no in-motion noise learner)."""
-    return nav.config.worker == "inline" and nav._motion is None
+    """Whether ``nav`` can run its record in kernel spans (the inline worker: a thread's results arrive at
+    wall-clock moments, so its replay stays per sample)."""
+    return nav.config.worker == "inline"
 
 
 def replay(nav: Any, imu: Any, gnss: Any, progress: Any = None) -> Any:
@@ -137,10 +141,19 @@ def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: d
     k = 0
     m = b - a
     while k < m:
-        due = nav.modeller.next_effect()
         sources = list(py)
-        if due is not None:
-            sources.append(np.array([int(np.searchsorted(t[a:b], due, side="left"))], dtype=np.int64))
+        due = [nav.modeller.next_effect()]
+        learner = nav._motion
+        if learner is not None and nav._started:
+            if learner.waiting():
+                # the shadows start at an aided moving step: every sample that applies a fix
+                q = [f[0] for f in nav._gnss] + gt[gi:].tolist()
+                sources.append(np.unique(np.searchsorted(t[a:b], np.array(q, dtype=float), side="left")))
+            else:
+                due.append(learner.next_round_t())
+        for d in due:
+            if d is not None:
+                sources.append(np.array([int(np.searchsorted(t[a:b], d, side="left"))], dtype=np.int64))
         e = next_event(k, m, sources)
         if e > k:
             while gi < gt.size and gt[gi] <= t[a + e - 1]:
@@ -273,6 +286,8 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec) -> None:
                     nis = math.inf
             nav._run_row(math.hypot(v0, v1), math.sqrt(max(P[0, 0] + P[1, 1], 0.0)),
                          float(ts[i] - t_aided[i] <= cfg.stop_aided_s), nis)
+    if nav._motion is not None:
+        nav._motion.observe_span(ts, dth, dv, [f for f, u in zip(fl, used, strict=True) if u])
     if nav._store is not None:
         _store_rows(nav._store, rows)
 
