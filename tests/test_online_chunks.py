@@ -113,3 +113,19 @@ def test_static_runs_continue_the_previous_chunk():
     s = np.array([True, True, False, True, True, True, False])
     assert chunks._static_runs(s, 5).tolist() == [6, 7, 0, 1, 2, 3, 0]
     assert chunks._static_runs(np.array([True, True]), 0).tolist() == [1, 2]
+
+
+@pytest.mark.timeout(900)
+def test_run_in_chunks_with_the_motion_noise_learner(scenario):
+    """gmwm_dyn: the shadows start at a fix sample and rehearse when due; identical to the push path."""
+    from imunoise.online.motion_noise import MotionNoiseConfig
+
+    sc = scenario
+    gnss = sc.gnss.without(sc.windows)
+    cfg = _config(sc, motion_noise=MotionNoiseConfig(every_s=5.0, outage_s=10.0, min_pairs=2))
+    batch = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate).run(sc.imu, gnss)
+    stream = _push(OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate), sc.imu, gnss)
+    assert any(e["event"] == "motion_noise_start" for e in batch.events)
+    end = next(e for e in batch.events if e["event"] == "motion_noise_end")
+    assert end["n_rehearsals"] >= 2
+    _same(batch, stream)
