@@ -68,9 +68,10 @@ def test_run_in_chunks_equals_per_sample_pushes(scenario, monkeypatch, zupt):
         return real(*args)
 
     monkeypatch.setattr(chunks, "run_span", counting)
-    batch = OnlineNavigator(_config(sc, zupt=zupt), sc.init, imu_rate_hz=sc.rate).run(sc.imu, gnss)
+    cfg = _config(sc, zupt=zupt, stop_chi2=7.8 if zupt else 0.0)  # with ZUPT also the guard's NIS test
+    batch = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate).run(sc.imu, gnss)
     assert sum(calls) > 0.8 * sc.imu.t.size and len(calls) < sc.imu.t.size / 20
-    stream = _push(OnlineNavigator(_config(sc, zupt=zupt), sc.init, imu_rate_hz=sc.rate), sc.imu, gnss)
+    stream = _push(OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate), sc.imu, gnss)
     kinds = [e["event"] for e in batch.events]
     assert "swap" in kinds and "stop_end" in kinds
     _same(batch, stream)

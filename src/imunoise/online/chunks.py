@@ -40,6 +40,7 @@ from imunoise.online.result import EpochStore
 __all__ = ["chunked", "replay", "run_chunk", "run_record"]
 
 RUN_CHUNK = 4096  # IMU samples per StaticDetector.push_chunk call
+_VEL = 4  # first velocity column of a run_span row (SPAN_COLS layout)
 
 
 def chunked(nav: Any) -> bool:
@@ -275,16 +276,16 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec) -> None:
         nav._t_aided = float(ts[ua[-1]])
     if guard:
         for i in np.flatnonzero(rec):
-            v0, v1 = float(rows[i, 4]), float(rows[i, 5])
-            P = pv[i]
+            v0, v1 = float(rows[i, _VEL]), float(rows[i, _VEL + 1])
+            P_vel = pv[i]
             nis = math.nan
             if cfg.stop_chi2 > 0:
-                v = rows[i, 4:7]
+                v = rows[i, _VEL:_VEL + 3]
                 try:
-                    nis = float(v @ np.linalg.solve(P + cfg.zupt_sigma_v**2 * np.eye(3), v))
+                    nis = float(v @ np.linalg.solve(P_vel + cfg.zupt_sigma_v**2 * np.eye(3), v))
                 except np.linalg.LinAlgError:
                     nis = math.inf
-            nav._run_row(math.hypot(v0, v1), math.sqrt(max(P[0, 0] + P[1, 1], 0.0)),
+            nav._run_row(math.hypot(v0, v1), math.sqrt(max(P_vel[0, 0] + P_vel[1, 1], 0.0)),
                          float(ts[i] - t_aided[i] <= cfg.stop_aided_s), nis)
     if nav._motion is not None:
         nav._motion.observe_span(ts, dth, dv, [f for f, u in zip(fl, used, strict=True) if u])
