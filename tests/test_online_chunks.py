@@ -130,3 +130,23 @@ def test_run_in_chunks_with_the_motion_noise_learner(scenario):
     end = next(e for e in batch.events if e["event"] == "motion_noise_end")
     assert end["n_rehearsals"] >= 2
     _same(batch, stream)
+
+
+@pytest.mark.timeout(900)
+def test_push_chunk_equals_push_imu(scenario):
+    """The streaming API in chunks (λ0 learned inside the first chunk, uneven chunk ends, fixes after a chunk's
+    end queued) equals sample-by-sample pushes to the bit."""
+    sc = scenario
+    gnss = sc.gnss.without(sc.windows)
+    cfg = _config(sc, zupt=True)
+    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate)
+    t, dth, dv = sc.imu.t, sc.imu.dtheta, sc.imu.dv
+    ends = [1500, 1501, 7000, 12345, t.size]
+    a, gi = 0, 0
+    for b in ends:
+        gj = int(np.searchsorted(gnss.t, t[b - 1] + 0.5, side="right")) if b < t.size else gnss.t.size
+        nav.push_chunk(t[a:b], dth[a:b], dv[a:b], gnss.t[gi:gj], gnss.llh[gi:gj], gnss.sigma_ned[gi:gj])
+        a, gi = b, gj
+    chunked = nav.finish()
+    stream = _push(OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate), sc.imu, gnss)
+    _same(chunked, stream)

@@ -37,7 +37,7 @@ from imunoise.errors import DataError
 from imunoise.nav.filter_loop import SPAN_COLS, Fixes, ImuInput, next_event, run_span
 from imunoise.online.result import EpochStore
 
-__all__ = ["chunked", "replay", "run_chunk", "run_record"]
+__all__ = ["chunked", "push_chunk", "replay", "run_chunk", "run_record"]
 
 RUN_CHUNK = 4096  # IMU samples per StaticDetector.push_chunk call
 _VEL = 4  # first velocity column of a run_span row (SPAN_COLS layout)
@@ -74,6 +74,48 @@ def replay(nav: Any, imu: Any, gnss: Any, progress: Any = None) -> Any:
     if progress is not None:
         progress(t.size, t.size)
     return nav.finish()
+
+
+def push_chunk(nav: Any, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -> None:
+    """:meth:`OnlineNavigator.push_chunk`: samples checked as :meth:`push_imu` checks one, rates with the same
+    Δt (the first after the last pushed sample, else the nominal one), then :func:`run_record` without
+    finishing. While λ_0 is still to be learned the samples go through :meth:`push_imu` one by one."""
+    t = np.asarray(t, dtype=float).reshape(-1)
+    dth = np.ascontiguousarray(dtheta, dtype=float)
+    dvv = np.ascontiguousarray(dv, dtype=float)
+    if dth.shape != (t.size, 3) or dvv.shape != (t.size, 3):
+        raise DataError(f"push_chunk: dtheta and dv must be (n, 3) with n = len(t) = {t.size}, got {dth.shape} "
+                        f"and {dvv.shape}")
+    gt = np.asarray(gnss_t, dtype=float).reshape(-1)
+    order = np.argsort(gt, kind="stable")
+    gt = gt[order]
+    gllh = np.asarray(gnss_llh, dtype=float).reshape(-1, 3)[order]
+    gsig = np.asarray(gnss_sigma, dtype=float).reshape(-1, 3)[order]
+    if t.size == 0:
+        for k in range(gt.size):
+            nav.push_gnss(gt[k], gllh[k], gsig[k])
+        return
+    if nav.detector is None:
+        gi = 0
+        for k in range(t.size):
+            while gi < gt.size and gt[gi] <= t[k]:
+                nav.push_gnss(gt[gi], gllh[gi], gsig[gi])
+                gi += 1
+            nav.push_imu(t[k], dth[k], dvv[k])
+        for k in range(gi, gt.size):
+            nav.push_gnss(gt[k], gllh[k], gsig[k])
+        return
+    prev = np.concatenate([[nav._t_in], t[:-1]])
+    if not np.all(t > prev):
+        k = int(np.flatnonzero(~(t > prev))[0])
+        raise DataError(f"push_chunk: time {t[k]!r} does not follow {prev[k]!r}; stamps must increase")
+    t0 = time.perf_counter()
+    dt = t - prev
+    if not math.isfinite(nav._t_in):
+        dt[0] = nav.dt_nom
+    nav._t_in = float(t[-1])
+    nav._elapsed += time.perf_counter() - t0
+    run_record(nav, t, dth, dvv, dth / dt[:, None], dvv / dt[:, None], gt, gllh, gsig)
 
 
 def _static_runs(static: np.ndarray, run0: int) -> np.ndarray:

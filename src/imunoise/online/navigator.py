@@ -92,7 +92,7 @@ from imunoise.model import Model
 from imunoise.nav.defaults import default_axis_models
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, normalize_axis_models
 from imunoise.nav.filter_loop import euler_rows
-from imunoise.online.chunks import replay
+from imunoise.online.chunks import push_chunk, replay
 from imunoise.online.config import OnlineConfig, config_summary
 from imunoise.online.lambda0 import Lambda0Learning
 from imunoise.online.modeller import StopModeller
@@ -296,6 +296,12 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
             segs = self.detector.push(t, accel, gyro)
             self._sample(t, dth, dvv, gyro, accel, self.detector.is_static, self.detector.gate_open, segs)
         self._elapsed += time.perf_counter() - t0
+
+    def push_chunk(self, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -> None:
+        """Many IMU increments (n,), (n, 3), (n, 3) and the fixes up to them at once: the same as :meth:`push_gnss`
+        and :meth:`push_imu` in time order (fixes after ``t[-1]`` are queued), the filter run in kernel spans
+        between events (:func:`imunoise.online.chunks.push_chunk`)."""
+        push_chunk(self, t, dtheta, dv, gnss_t, gnss_llh, gnss_sigma)
 
     def solution(self) -> dict:
         """Current filter solution (IMU point): see :meth:`LooselyCoupledEKF.state`."""
