@@ -28,12 +28,12 @@ from imunoise.nav.measurements.gnss_velocity import gnss_velocity
 from imunoise.nav.measurements.nhc import nhc, nhc_gate
 from imunoise.nav.measurements.zupt import zupt
 from imunoise.nav.mechanization import quat_to_dcm
-from imunoise.nav.state import A_LAST_DT, A_STEPS, I_POS, I_Q, I_VEL, N_NAV
+from imunoise.nav.state import A_LAST_DT, A_STEPS, I_POS, I_Q, I_VEL, N_NAV, X_VEL
 
 __all__ = [
     "FilterArrays", "ModelArrays", "Settings", "ImuInput", "Fixes", "VelocityFixes", "Outputs",
     "flush", "gnss_position_update", "gnss_velocity_update", "zupt_update", "nhc_due", "nhc_update", "fix_status",
-    "run_batch",
+    "run_batch", "run_span", "SPAN_COLS", "next_event", "euler_rows",
 ]
 
 
@@ -239,3 +239,78 @@ def run_batch(imu, f, m, s, nh, fx, vfx, out):
     while gi < ng:
         fx.status[gi] = -1
         gi += 1
+
+
+SPAN_COLS = 1 + 3 + 3 + 4 + 6 + N_NAV
+"""Columns of a :func:`run_span` row: t, llh, NED velocity, quaternion, sensor errors (6), 1σ of δr, δv, φ (9)."""
+
+
+def next_event(k: int, stop: int, sources) -> int:
+    """The one place a chunked run decides where the batch kernel stops: the smallest index ≥ ``k`` in any
+    of the sorted integer arrays ``sources`` (stop starts/ends, a model swap, a sample needing Python-side
+    policy, a noise schedule's change points, ...), or ``stop`` when none lies before it."""
+    e = stop
+    for src in sources:
+        i = int(np.searchsorted(src, k, side="left"))
+        if i < src.shape[0] and src[i] < e:
+            e = int(src[i])
+    return max(e, k)
+
+
+@njit(cache=True)
+def run_span(imu, f, m, s, nh, fx, carry, rows, pv):
+    """The step filter's sample loop over one span between events, in one call (the online engine's chunks).
+
+    Sample k ≥ 1 of ``imu`` is one :meth:`~imunoise.nav.ekf.LooselyCoupledEKF.propagate` (with the gate
+    ``imu.gate[k]``; NHC counted from ``carry[0]``) followed by :meth:`update_gnss` of every fix of ``fx`` with
+    t ≤ t[k] (σ as given: the caller applies the NaN and floor policy), in the step filter's order and
+    through the same update functions, so the span equals the per-sample calls to the bit. Row 0 of ``imu`` is
+    the filter's current epoch. ``carry`` (int64): samples so far, consecutive GNSS rejections, consecutive NHC
+    rejections (read and written). Writes ``fx.status``/``fx.nis``, per sample ``rows[k − 1]`` (:data:`SPAN_COLS`
+    layout: the online engine's stored epoch) and, when ``pv`` has a row per sample, the velocity covariance
+    (the stop guard's input)."""
+    t = imu.t
+    nimu = t.shape[0]
+    gi = 0
+    ng = fx.t.shape[0]
+    std = np.empty(N_NAV)
+    std_nav(f.P, std)
+    for k in range(1, nimu):
+        dt = t[k] - t[k - 1]
+        nav_step(f.nav, f.xm, f.acc, imu.dth[k], imu.dv[k], dt, m.hvec, m.axis_of, imu.gate[k], m.sf_idx)
+        carry[0] += 1
+        if f.acc[A_STEPS] >= s.cov_every or dt > 1.5 * s.dt_nom * s.cov_every:
+            flush(f, m, s)
+            std_nav(f.P, std)
+        if nhc_due(f, nh, carry[0]):
+            ok = nhc_update(f, m, s, nh, carry[2])[1]
+            carry[2] = 0 if ok else carry[2] + 1
+            std_nav(f.P, std)
+        while gi < ng and fx.t[gi] <= t[k]:
+            force = carry[1] >= s.max_reject
+            nis, ok, _, _, _ = gnss_position_update(f, m, s, fx.llh[gi], fx.sigma[gi], fx.lever, t[k] - fx.t[gi], force)
+            fx.nis[gi] = nis
+            fx.status[gi] = fix_status(ok, force, s.chi2, nis)
+            carry[1] = 0 if ok else carry[1] + 1
+            std_nav(f.P, std)
+            gi += 1
+        r = rows[k - 1]
+        r[0] = t[k]
+        for i in range(10):
+            r[1 + i] = f.nav[I_POS + i]
+        r[11:17] = sensor_errors_of(f.xm, m.hvec, m.axis_of)
+        r[17:26] = std
+        if pv.shape[0] == nimu - 1:
+            for i in range(3):
+                for j in range(3):
+                    pv[k - 1, i, j] = f.P[X_VEL + i, X_VEL + j]
+
+
+@njit(cache=True)
+def euler_rows(q):
+    """Euler angles (roll, pitch, yaw; rad) of each quaternion row of ``q`` (n, 4), as the per-sample outputs
+    compute them (``dcm_to_euler(quat_to_dcm(q))``), in one call."""
+    out = np.empty((q.shape[0], 3))
+    for k in range(q.shape[0]):
+        out[k] = dcm_to_euler(quat_to_dcm(q[k]))
+    return out

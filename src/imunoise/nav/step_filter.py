@@ -253,8 +253,12 @@ class LooselyCoupledEKF:
         else:
             self._consecutive_reject += 1
             self.n_rejected += 1
-            log.info("GNSS fix at t=%.3f rejected (NIS %.1f > %.1f)", t, nis, self.config.chi2_gate)
+            self.log_rejected(t, nis)
         return bool(ok)
+
+    def log_rejected(self, t: float, nis: float) -> None:
+        """Log a GNSS fix the χ² gate rejected (here and for the online engine's kernel spans)."""
+        log.info("GNSS fix at t=%.3f rejected (NIS %.1f > %.1f)", t, nis, self.config.chi2_gate)
 
     def update_gnss_velocity(self, t: float, vel_ned: np.ndarray, sigma_ned: np.ndarray) -> bool:
         """GNSS antenna velocity fix (NED m/s, 1σ NED m/s) at time t ≤ the filter time

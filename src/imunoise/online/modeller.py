@@ -276,6 +276,10 @@ class StopModeller:
             out.append(self._scheduled.pop(0)[1])
         return out
 
+    def next_effect(self) -> float | None:
+        """Effect time of the next scheduled update (None: none): where a chunked replay must stop to swap."""
+        return self._scheduled[0][0] if self._scheduled else None
+
     def finish(self, t_last: float) -> None:
         """Wait for the warm-up and a running job (logged at ``t_last``) and stop the worker thread."""
         if self._warm is not None:

@@ -355,6 +355,32 @@ class MotionNoiseLearner:
         self._t[self._n], self._dth[self._n], self._dv[self._n] = t, dth, dv
         self._n += 1
 
+    def waiting(self) -> bool:
+        """The shadows wait to (re)start at the next aided moving step: every sample with a fix is an event."""
+        return self._shadows is None or self._stale
+
+    def next_round_t(self) -> float:
+        """Filter time from which the next rehearsal round is due (the shadows running; inline worker)."""
+        return self._t_sh + max(self.config.every_s, self.config.outage_s)
+
+    def observe_span(self, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, fixes: Sequence[tuple]) -> None:
+        """:meth:`observe` over samples ``t`` (n,) none of which starts the shadows or runs a round (the chunked
+        replay stops at those): keep the samples and the fixes the live filter used there."""
+        m = t.size
+        if self._n + m > self._t.size:
+            keep_from = self._t_sh if math.isfinite(self._t_sh) else t[0]
+            i = max(int(np.searchsorted(self._t[: self._n], keep_from, side="left")), 0)
+            k = self._n - i
+            size = self._t.size
+            while k + m > size:
+                size *= 2
+            nt, nth, nv = np.empty(size), np.empty((size, 3)), np.empty((size, 3))
+            nt[:k], nth[:k], nv[:k] = self._t[i:self._n], self._dth[i:self._n], self._dv[i:self._n]
+            self._t, self._dth, self._dv, self._n = nt, nth, nv, k
+        self._t[self._n:self._n + m], self._dth[self._n:self._n + m], self._dv[self._n:self._n + m] = t, dth, dv
+        self._n += m
+        self._fixes.extend(fixes)
+
     def observe(self, nav: Any, t: float, dth: np.ndarray, dv: np.ndarray, fixes: Sequence[tuple]) -> None:
         """One filter step of the navigator ``nav`` (after the fixes ``fixes`` were applied at ``t``). Starts
         the shadows at the first aided moving step; runs a rehearsal round when one is due; a decision lands in

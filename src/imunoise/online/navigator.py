@@ -69,7 +69,9 @@ never waits; the model takes effect at the first sample after the thread finishe
 the one streaming :class:`~imunoise.detect.StaticDetector`, batch in chunks (:meth:`StaticDetector.push_chunk`,
 which also says at which sample each segment was completed; identical to per-sample pushes, checked in
 tests/test_detect_paths.py), and batch interleaves the GNSS fixes by time (a fix at t_g is applied after the
-first IMU sample with t ≥ t_g, as in :func:`imunoise.nav.ekf.run_ekf`).
+first IMU sample with t ≥ t_g, as in :func:`imunoise.nav.ekf.run_ekf`). Batch runs the filter between events
+(stop ends, swaps, ZUPT candidates, the first sample) in one kernel call (:mod:`imunoise.online.chunks`),
+identical to the per-sample path to the bit.
 """
 
 from __future__ import annotations
@@ -79,26 +81,27 @@ import logging
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
-from imunoise.detect import DetectorConfig, StaticDetector, StaticSegment, learn_lambda0
-from imunoise.errors import DataError, ImunoiseError, ModelError
+from imunoise.detect import StaticDetector, StaticSegment
+from imunoise.errors import DataError, ModelError
 from imunoise.estimator import GMWMFit
 from imunoise.model import Model
 from imunoise.nav.defaults import default_axis_models
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, normalize_axis_models
+from imunoise.nav.filter_loop import euler_rows
+from imunoise.online.chunks import push_chunk, replay
 from imunoise.online.config import OnlineConfig, config_summary
+from imunoise.online.lambda0 import Lambda0Learning
 from imunoise.online.modeller import StopModeller
 from imunoise.online.motion_noise import MotionNoiseLearner
 from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult, log_event
-from imunoise.online.stops import stop_verdict
+from imunoise.online.stops import NavStopGuard
 from imunoise.online.to_filter import filter_axis_models
 
 log = logging.getLogger(__name__)
-_RUN_CHUNK = 4096  # IMU samples per StaticDetector.push_chunk call in OnlineNavigator.run
 
 __all__ = ["OnlineNavigator", "run_online"]
 
@@ -106,7 +109,7 @@ __all__ = ["OnlineNavigator", "run_online"]
 # --------------------------------------------------------------------------------------------------
 # navigator
 # --------------------------------------------------------------------------------------------------
-class OnlineNavigator:
+class OnlineNavigator(Lambda0Learning, NavStopGuard):
     """Online GMWM INS/GNSS navigator (SPEC §9). See the module docstring.
 
     Parameters
@@ -192,6 +195,7 @@ class OnlineNavigator:
         self.current_models = models
         self._motion_fixes: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._ekf_models_log: list[tuple[float, list[str]]] = []
+        self._event_sources: list[tuple[np.ndarray, Any]] = []
         self._event("start", init.t, lambda0=self.lambda0, config=config_summary(config))
         if earlier_static is not None:
             self.modeller.add_earlier(earlier_static, init.t)
@@ -202,10 +206,13 @@ class OnlineNavigator:
     def _event(self, event: str, t: float, **kw: Any) -> None:
         log_event(self.events, event, t, **kw)
 
-    def _make_detector(self, cfg: DetectorConfig) -> None:
-        self.detector = StaticDetector(cfg, self.rate)
-        self.lambda0 = float(cfg.lambda0)
-        self._stop_start_n = int(math.ceil((cfg.min_duration_s + 2 * cfg.margin_s) * self.rate)) + 1
+    def add_event_source(self, indices: np.ndarray, hook: Any) -> None:
+        """Call ``hook(navigator, i)`` just before IMU sample ``i`` (0-based, in push order) for every ``i`` of the
+        sorted ``indices``: a source of events beside the stops, swaps and fixes (e.g. the change points of a
+        per-sample noise schedule). :meth:`run` makes each such sample an event of its chunked replay
+        (:mod:`imunoise.online.chunks`), so the kernel stops there and the sample takes the per-sample path,
+        which calls the hook (as for :meth:`push_imu`)."""
+        self._event_sources.append((np.asarray(indices, dtype=np.int64), hook))
 
     # -- streaming API ----------------------------------------------------------------------------
     def push_gnss(self, t: float, llh_rad: np.ndarray, sigma_ned_m: np.ndarray) -> None:
@@ -290,6 +297,12 @@ class OnlineNavigator:
             self._sample(t, dth, dvv, gyro, accel, self.detector.is_static, self.detector.gate_open, segs)
         self._elapsed += time.perf_counter() - t0
 
+    def push_chunk(self, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -> None:
+        """Many IMU increments (n,), (n, 3), (n, 3) and the fixes up to them at once: the same as :meth:`push_gnss`
+        and :meth:`push_imu` in time order (fixes after ``t[-1]`` are queued), the filter run in kernel spans
+        between events (:func:`imunoise.online.chunks.push_chunk`)."""
+        push_chunk(self, t, dtheta, dv, gnss_t, gnss_llh, gnss_sigma)
+
     def solution(self) -> dict:
         """Current filter solution (IMU point): see :meth:`LooselyCoupledEKF.state`."""
         return self.ekf.state()
@@ -369,92 +382,14 @@ class OnlineNavigator:
         -------
         OnlineResult
         """
-        t0 = time.perf_counter()
-        t = np.asarray(imu.t, dtype=float)
-        dth_all, dv_all = imu.increments() if hasattr(imu, "increments") else (imu.dtheta, imu.dv)
-        if t.size < 2:
-            raise DataError("the IMU record needs at least 2 samples")
-        if np.any(np.diff(t) <= 0):
-            k = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
-            raise DataError(f"IMU time stamps must increase strictly (sample {k}: {t[k]!r} after {t[k - 1]!r})")
-        dt = np.diff(t, prepend=t[0] - self.dt_nom)
-        gyro = dth_all / dt[:, None]
-        accel = dv_all / dt[:, None]
-        gt = np.asarray(gnss.t, dtype=float)
-        order = np.argsort(gt, kind="stable")
-        gt, gllh, gsig = gt[order], np.asarray(gnss.llh)[order], np.asarray(gnss.sigma_ned)[order]
-        if self.detector is None:
-            lam_mask = t < t[0] + self.config.learn_lambda0_s
-            self._learn_from(accel[lam_mask], t[0])
-        self._elapsed += time.perf_counter() - t0
-        gi = 0
-        n = t.size
-        every = max(n // 100, 1)
-        base = self.detector.n_samples
-        for a in range(0, n, _RUN_CHUNK):
-            # the same streaming detector as push_imu, fed a chunk: per-sample results and, for each segment,
-            # the sample whose push would have completed it (identical to per-sample pushes)
-            t1 = time.perf_counter()
-            b = min(a + _RUN_CHUNK, n)
-            det = self.detector.push_chunk(t[a:b], accel[a:b], gyro[a:b])
-            done_at: dict[int, list[StaticSegment]] = {}
-            for s, k in zip(det.segments, det.completed_at, strict=True):
-                done_at.setdefault(k - base, []).append(s)
-            self._elapsed += time.perf_counter() - t1
-            for k in range(a, b):
-                tk = t[k]
-                t1 = time.perf_counter()
-                while gi < gt.size and gt[gi] <= tk:
-                    self.push_gnss(gt[gi], gllh[gi], gsig[gi])
-                    gi += 1
-                self._sample(tk, dth_all[k], dv_all[k], gyro[k], accel[k], bool(det.static_raw[k - a]),
-                             bool(det.gate_open[k - a]), done_at.get(k, []))
-                self._elapsed += time.perf_counter() - t1
-                if progress is not None and k % every == 0:
-                    progress(k, n)
-        while gi < gt.size:
-            self.push_gnss(gt[gi], gllh[gi], gsig[gi])
-            gi += 1
-        if progress is not None:
-            progress(n, n)
-        return self.finish()
-
-    # -- λ0 learning --------------------------------------------------------------------------------
-    def _learn_push(self, t, dth, dvv, gyro, accel) -> None:
-        if self._learn_t0 is None:
-            self._learn_t0 = t
-        if t < self._learn_t0 + self.config.learn_lambda0_s:
-            self._pending_samples.append((t, dth, dvv, gyro, accel))
-            return
-        self._learn_finish()
-        self._after_learning(t, dth, dvv, gyro, accel)
-
-    def _after_learning(self, t, dth, dvv, gyro, accel) -> None:
-        segs = self.detector.push(t, accel, gyro)
-        self._sample(t, dth, dvv, gyro, accel, self.detector.is_static, self.detector.gate_open, segs)
-
-    def _learn_finish(self) -> None:
-        held = self._pending_samples
-        self._pending_samples = []
-        acc = np.array([s[4] for s in held]) if held else np.zeros((0, 3))
-        self._learn_from(acc, self._learn_t0 if self._learn_t0 is not None else 0.0)
-        for s in held:
-            self._after_learning(*s)
-
-    def _learn_from(self, accel_static: np.ndarray, t0: float) -> None:
-        base = DetectorConfig()
-        try:
-            lam = learn_lambda0(accel_static, window=base.window)
-            src = f"learned from the first {self.config.learn_lambda0_s:g} s"
-        except ImunoiseError as exc:
-            lam = base.lambda0
-            src = f"default (could not learn: {exc})"
-        self._make_detector(replace(base, lambda0=lam))
-        self._event("lambda0", t0, lambda0=lam, source=src)
+        return replay(self, imu, gnss, progress)
 
     # -- one sample -----------------------------------------------------------------------------------
     def _sample(self, t, dth, dvv, gyro, accel, is_static: bool, gate_open: bool, segs) -> None:
         cfg = self.config
+        for idx, hook in self._event_sources:
+            if np.any(idx == self._n):
+                hook(self, self._n)
         self._rows.append(np.concatenate([gyro, accel]))
         self._static_raw.append(is_static)
         self._sample_t.append(t)
@@ -528,60 +463,6 @@ class OnlineNavigator:
             drop = len(self._rows) - 16
             del self._rows[:drop]
             self._raw_t0 += drop
-
-    def _record_nav(self, t: float) -> None:
-        """The navigation solution at this static sample, before any ZUPT (a ZUPT would make a false stop
-        look still): horizontal speed, its σ from the (lazily propagated) covariance, whether a GNSS fix was
-        used within ``stop_aided_s``, and with ``stop_chi2`` > 0 the zero-velocity NIS (3 dof). P is read as
-        is, never flushed here, so the guard does not change the filter's numbers."""
-        cfg = self.config
-        sv = self.ekf.view
-        v, P_vel = sv.vel, sv.P_vel
-        nis = math.nan
-        if cfg.stop_chi2 > 0:
-            try:
-                nis = float(v @ np.linalg.solve(P_vel + cfg.zupt_sigma_v**2 * np.eye(3), v))
-            except np.linalg.LinAlgError:
-                nis = math.inf
-        self._run_row(math.hypot(v[0], v[1]), math.sqrt(max(P_vel[0, 0] + P_vel[1, 1], 0.0)),
-                      float(t - self._t_aided <= cfg.stop_aided_s), nis)
-
-    def _run_row(self, speed: float, sigma: float, aided: float, nis: float) -> None:
-        if self._run_len == self._run_nav.shape[0]:
-            self._run_nav = np.concatenate([self._run_nav, np.empty_like(self._run_nav)])
-        self._run_nav[self._run_len] = (speed, sigma, aided, nis)
-        self._run_len += 1
-
-    def _guard(self, seg: StaticSegment, t_now: float) -> list[StaticSegment]:
-        """The pieces of a detected segment the navigation solution agrees are a stop (:func:`stop_verdict`):
-        ``[seg]`` when nothing contradicts it; otherwise a ``stop_rejected`` event, the dropped pieces added to
-        ``rejected_segments``, and the kept pieces (possibly none)."""
-        cfg = self.config
-        if cfg.stop_guard != "nav":
-            return [seg]
-        a, b = seg.i0 - self._run_i0, seg.i1 - self._run_i0
-        if a < 0 or b > self._run_len:  # cannot happen: a segment lies inside the raw run that just ended
-            log.warning("static segment %.2f–%.2f s outside the recorded run; not guarded", seg.t0, seg.t1)
-            return [seg]
-        rows = self._run_nav[a:b]
-        v = stop_verdict(rows[:, 0], rows[:, 1], rows[:, 2] > 0, rows[:, 3], rate_hz=self.rate,
-                         max_speed=cfg.stop_max_speed, sigma_k=cfg.stop_sigma_k, chi2=cfg.stop_chi2,
-                         edge_s=cfg.stop_edge_s, min_duration_s=self.detector.config.min_duration_s)
-        if v.whole:
-            return [seg]
-        ts = self._sample_t
-
-        def piece(p: int, q: int) -> StaticSegment:
-            return StaticSegment(ts[seg.i0 + p], ts[seg.i0 + q - 1], seg.i0 + p, seg.i0 + q)
-
-        kept = [piece(p, q) for p, q in v.keep]
-        dropped = [piece(p, q) for p, q in v.drop]
-        self.rejected_segments.extend(dropped)
-        self._event("stop_rejected", t_now, t0=seg.t0, t1=seg.t1, duration_s=seg.duration, reason=v.reason,
-                    max_speed_mps=v.max_speed_mps, threshold_mps=v.threshold_mps, max_nis=v.max_nis,
-                    rejected_s=float(sum(d.i1 - d.i0 for d in dropped) / self.rate),
-                    kept=[(k.t0, k.t1) for k in kept])
-        return kept
 
     def _zaru_sigma(self) -> float:
         """σ of one ZARU sample: the larger of the configured σ, the current gyro model's per-sample white σ
@@ -678,7 +559,11 @@ class OnlineNavigator:
     # -- result ---------------------------------------------------------------------------------------
     def _result(self) -> OnlineResult:
         if self._store is not None and self._store.n:
-            t, pos, vel, eul, eg, ea, std = self._store.arrays()
+            # EpochStore.arrays' columns, the Euler angles in one kernel call instead of one per epoch
+            b = self._store.buf[: self._store.n]
+            t, pos, vel, eg, ea, std = (b[:, 0].copy(), b[:, 1:4].copy(), b[:, 4:7].copy(), b[:, 11:14].copy(),
+                                        b[:, 14:17].copy(), b[:, 17:26].copy())
+            eul = euler_rows(np.ascontiguousarray(b[:, 7:11]))
         else:
             z = np.zeros((0, 3))
             t, pos, vel, eul, eg, ea, std = np.zeros(0), z, z, z, z, z, np.zeros((0, 9))

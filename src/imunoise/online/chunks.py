@@ -1,0 +1,348 @@
+"""Replay of a whole record by the online engine in chunks (issue 25): the batch kernel between events.
+
+:meth:`~imunoise.online.navigator.OnlineNavigator.run` feeds the streaming detector a chunk of IMU samples
+(:meth:`~imunoise.detect.StaticDetector.push_chunk`: it decides the stops from the IMU alone, so it runs
+ahead of the filter), then walks the chunk from event to event. An *event* is a sample that needs the
+per-sample Python path (:meth:`OnlineNavigator._sample`):
+
+* the first sample after the initial time (the strapdown is primed there);
+* a sample at which the detector completed a segment (stop end: the stop guard, the modeller, an inline fit);
+* the sample at which a scheduled model takes effect (:meth:`StopModeller.due`: a swap);
+* a ZUPT/ZARU candidate (the update's speed/gate policy and the ZARU σ from the stop's own scatter);
+* a non-finite increment (the step filter replaces it and logs it);
+* with the in-motion noise learner: while its shadows wait to start, every sample that applies a fix (a
+  start needs the live filter's speed after the fix); while they run, the sample its next rehearsal round
+  is due;
+* the change points of any extra event source (:meth:`OnlineNavigator.add_event_source`: e.g. a noise schedule).
+
+Everything between two events runs in one :func:`~imunoise.nav.filter_loop.run_span` call, which is the
+step filter's propagate / GNSS update sequence through the same functions, and the per-sample bookkeeping
+(raw samples for the segments, static flags, gate log and events, the stop guard's navigation rows, stored
+epochs) is done on arrays. Where the next event lies is decided in one place,
+:func:`~imunoise.nav.filter_loop.next_event`. The result equals the per-sample path to the bit
+(``tests/test_online_chunks.py``). The shadows of the in-motion noise learner already run in the batch
+kernel, one call per shadow and round (:meth:`~imunoise.nav.ekf.LooselyCoupledEKF.rehearse`). The thread
+worker (whose results arrive at wall-clock moments) keeps the per-sample path.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from imunoise.errors import DataError
+from imunoise.nav.filter_loop import SPAN_COLS, Fixes, ImuInput, next_event, run_span
+from imunoise.online.result import EpochStore
+
+__all__ = ["chunked", "push_chunk", "replay", "run_chunk", "run_record"]
+
+RUN_CHUNK = 4096  # IMU samples per StaticDetector.push_chunk call
+_VEL = 4  # first velocity column of a run_span row (SPAN_COLS layout)
+
+
+def chunked(nav: Any) -> bool:
+    """Whether ``nav`` can run its record in kernel spans (the inline worker: a thread's results arrive at
+    wall-clock moments, so its replay stays per sample)."""
+    return nav.config.worker == "inline"
+
+
+def replay(nav: Any, imu: Any, gnss: Any, progress: Any = None) -> Any:
+    """:meth:`OnlineNavigator.run`: check and prepare the record (rates, sorted fixes, λ0), replay it with
+    :func:`run_record`, and finish."""
+    t0 = time.perf_counter()
+    t = np.asarray(imu.t, dtype=float)
+    dth_all, dv_all = imu.increments() if hasattr(imu, "increments") else (imu.dtheta, imu.dv)
+    if t.size < 2:
+        raise DataError("the IMU record needs at least 2 samples")
+    if np.any(np.diff(t) <= 0):
+        k = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
+        raise DataError(f"IMU time stamps must increase strictly (sample {k}: {t[k]!r} after {t[k - 1]!r})")
+    dt = np.diff(t, prepend=t[0] - nav.dt_nom)
+    gyro = dth_all / dt[:, None]
+    accel = dv_all / dt[:, None]
+    gt = np.asarray(gnss.t, dtype=float)
+    order = np.argsort(gt, kind="stable")
+    gt, gllh, gsig = gt[order], np.asarray(gnss.llh)[order], np.asarray(gnss.sigma_ned)[order]
+    if nav.detector is None:
+        lam_mask = t < t[0] + nav.config.learn_lambda0_s
+        nav._learn_from(accel[lam_mask], t[0])
+    nav._elapsed += time.perf_counter() - t0
+    run_record(nav, t, dth_all, dv_all, gyro, accel, gt, gllh, gsig, progress)
+    if progress is not None:
+        progress(t.size, t.size)
+    return nav.finish()
+
+
+def push_chunk(nav: Any, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -> None:
+    """:meth:`OnlineNavigator.push_chunk`: samples checked as :meth:`push_imu` checks one, rates with the same
+    Δt (the first after the last pushed sample, else the nominal one), then :func:`run_record` without
+    finishing. While λ_0 is still to be learned the samples go through :meth:`push_imu` one by one."""
+    t = np.asarray(t, dtype=float).reshape(-1)
+    dth = np.ascontiguousarray(dtheta, dtype=float)
+    dvv = np.ascontiguousarray(dv, dtype=float)
+    if dth.shape != (t.size, 3) or dvv.shape != (t.size, 3):
+        raise DataError(f"push_chunk: dtheta and dv must be (n, 3) with n = len(t) = {t.size}, got {dth.shape} "
+                        f"and {dvv.shape}")
+    gt = np.asarray(gnss_t, dtype=float).reshape(-1)
+    order = np.argsort(gt, kind="stable")
+    gt = gt[order]
+    gllh = np.asarray(gnss_llh, dtype=float).reshape(-1, 3)[order]
+    gsig = np.asarray(gnss_sigma, dtype=float).reshape(-1, 3)[order]
+    if t.size == 0:
+        for k in range(gt.size):
+            nav.push_gnss(gt[k], gllh[k], gsig[k])
+        return
+    if nav.detector is None:
+        gi = 0
+        for k in range(t.size):
+            while gi < gt.size and gt[gi] <= t[k]:
+                nav.push_gnss(gt[gi], gllh[gi], gsig[gi])
+                gi += 1
+            nav.push_imu(t[k], dth[k], dvv[k])
+        for k in range(gi, gt.size):
+            nav.push_gnss(gt[k], gllh[k], gsig[k])
+        return
+    prev = np.concatenate([[nav._t_in], t[:-1]])
+    if not np.all(t > prev):
+        k = int(np.flatnonzero(~(t > prev))[0])
+        raise DataError(f"push_chunk: time {t[k]!r} does not follow {prev[k]!r}; stamps must increase")
+    t0 = time.perf_counter()
+    dt = t - prev
+    if not math.isfinite(nav._t_in):
+        dt[0] = nav.dt_nom
+    nav._t_in = float(t[-1])
+    nav._elapsed += time.perf_counter() - t0
+    run_record(nav, t, dth, dvv, dth / dt[:, None], dvv / dt[:, None], gt, gllh, gsig)
+
+
+def _static_runs(static: np.ndarray, run0: int) -> np.ndarray:
+    """Length of the raw static run at each sample (0 when not static), continuing ``run0``."""
+    n = static.size
+    idx = np.arange(n)
+    last_false = np.maximum.accumulate(np.where(static, -1, idx))
+    return np.where(last_false >= 0, idx - last_false, run0 + idx + 1).astype(np.int64)
+
+
+def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: np.ndarray, accel: np.ndarray,
+               gt: np.ndarray, gllh: np.ndarray, gsig: np.ndarray, progress: Any = None) -> None:
+    """Replay samples and fixes (sorted) through ``nav``: detector chunks, then per chunk the events and the
+    kernel spans between them (or every sample in Python when :func:`chunked` is false)."""
+    n = t.size
+    every = max(n // 100, 1)
+    gi = 0
+    base = nav.detector.n_samples
+    fast = chunked(nav)
+    for a in range(0, n, RUN_CHUNK):
+        t1 = time.perf_counter()
+        b = min(a + RUN_CHUNK, n)
+        det = nav.detector.push_chunk(t[a:b], accel[a:b], gyro[a:b])
+        done_at: dict[int, list] = {}
+        for s, k in zip(det.segments, det.completed_at, strict=True):
+            done_at.setdefault(k - base, []).append(s)
+        nav._elapsed += time.perf_counter() - t1
+        if fast:
+            gi = run_chunk(nav, a, b, t, dth, dv, gyro, accel, det, done_at, gt, gllh, gsig, gi, progress, every, n)
+            continue
+        for k in range(a, b):
+            t1 = time.perf_counter()
+            while gi < gt.size and gt[gi] <= t[k]:
+                nav.push_gnss(gt[gi], gllh[gi], gsig[gi])
+                gi += 1
+            nav._sample(t[k], dth[k], dv[k], gyro[k], accel[k], bool(det.static_raw[k - a]),
+                        bool(det.gate_open[k - a]), done_at.get(k, []))
+            nav._elapsed += time.perf_counter() - t1
+            if progress is not None and k % every == 0:
+                progress(k, n)
+    while gi < gt.size:
+        nav.push_gnss(gt[gi], gllh[gi], gsig[gi])
+        gi += 1
+
+
+def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: dict, gt, gllh, gsig, gi: int,
+              progress: Any, every: int, n_total: int) -> int:
+    """Samples ``a``..``b−1`` (one detector chunk ``det``) from event to event; returns the next fix index."""
+    t1 = time.perf_counter()
+    cfg = nav.config
+    static = np.asarray(det.static_raw, dtype=bool)
+    gate = np.asarray(det.gate_open, dtype=bool) & bool(cfg.gate)
+    runs = _static_runs(static, nav._static_run)
+    rel = np.arange(b - a)
+    py = [np.fromiter(sorted(k - a for k in done_at), dtype=np.int64)]
+    bad = ~(np.all(np.isfinite(dth[a:b]), axis=1) & np.all(np.isfinite(dv[a:b]), axis=1))
+    py.append(rel[bad])
+    if cfg.zupt:
+        py.append(rel[static & (runs >= cfg.zupt_after) & (runs % cfg.zupt_every == 0)])
+    if not nav._started:
+        i = int(np.searchsorted(t[a:b], nav.init.t, side="right"))
+        py.append(np.array([i], dtype=np.int64))
+    for idx, _ in nav._event_sources:
+        py.append(idx[(idx >= nav._n) & (idx < nav._n + b - a)] - nav._n)
+    py = [np.unique(p) for p in py if p.size]
+    k = 0
+    m = b - a
+    while k < m:
+        sources = list(py)
+        due = [nav.modeller.next_effect()]
+        learner = nav._motion
+        if learner is not None and nav._started:
+            if learner.waiting():
+                # the shadows start at an aided moving step: every sample that applies a fix
+                q = [f[0] for f in nav._gnss] + gt[gi:].tolist()
+                sources.append(np.unique(np.searchsorted(t[a:b], np.array(q, dtype=float), side="left")))
+            else:
+                due.append(learner.next_round_t())
+        for d in due:
+            if d is not None:
+                sources.append(np.array([int(np.searchsorted(t[a:b], d, side="left"))], dtype=np.int64))
+        e = next_event(k, m, sources)
+        if e > k:
+            while gi < gt.size and gt[gi] <= t[a + e - 1]:
+                nav.push_gnss(gt[gi], gllh[gi], gsig[gi])
+                gi += 1
+            _span(nav, a + k, a + e, t, dth, dv, gyro, accel, static[k:e], gate[k:e], runs[k:e])
+            if progress is not None:
+                for j in range(a + k + (-(a + k)) % every, a + e, every):
+                    progress(j, n_total)
+        if e < m:
+            j = a + e
+            while gi < gt.size and gt[gi] <= t[j]:
+                nav.push_gnss(gt[gi], gllh[gi], gsig[gi])
+                gi += 1
+            nav._sample(t[j], dth[j], dv[j], gyro[j], accel[j], bool(static[e]), bool(det.gate_open[e]),
+                        done_at.get(j, []))
+            if progress is not None and j % every == 0:
+                progress(j, n_total)
+        k = e + 1
+    nav._elapsed += time.perf_counter() - t1
+    return gi
+
+
+def _span(nav: Any, a: int, e: int, t, dth, dv, gyro, accel, static, gate, runs) -> None:
+    """Samples a..e−1, none of them an event: bookkeeping on arrays, the filter in one kernel call."""
+    cfg = nav.config
+    ts = t[a:e]
+    m = e - a
+    n0 = nav._n
+    # -- the raw-sample bookkeeping of _sample -------------------------------------------------------
+    nav._rows.extend(np.concatenate([gyro[a:e], accel[a:e]], axis=1))
+    nav._static_raw.extend(static.tolist())
+    nav._sample_t.extend(ts.tolist())
+    nav._t_last = float(ts[-1])
+    nav._n += m
+    nav._static_run = int(runs[-1])
+    starts = np.flatnonzero(runs == 1)
+    if starts.size:
+        nav._run_len = 0
+        nav._run_i0 = n0 + int(starts[-1])
+    if not np.all(static):
+        nav._zupt_rejected = False
+    evs = []
+    if nav.detector is not None:
+        for i in np.flatnonzero(runs == nav._stop_start_n):
+            evs.append((int(i), 0, "stop_start", {"t0": nav._sample_t[n0 + i - nav._stop_start_n + 1]}))
+    prev = np.concatenate([[nav._gate], gate[:-1]])
+    for i in np.flatnonzero(gate != prev):
+        evs.append((int(i), 1, "gate_open" if gate[i] else "gate_closed", {}))
+    nav._gate = bool(gate[-1])
+    nav._gate_log.extend(gate.tolist())
+    for i, _, name, kw in sorted(evs, key=lambda x: (x[0], x[1])):
+        nav._event(name, float(ts[i]), **kw)
+    rec = static.copy()
+    if starts.size:
+        rec[: starts[-1]] = False
+    # -- the filter ------------------------------------------------------------------------------------
+    if not nav._started:
+        fixes = nav._gnss
+        while fixes and fixes[0][0] <= ts[-1]:
+            fixes.pop(0)
+        if cfg.stop_guard == "nav":
+            for _ in range(int(rec.sum())):
+                nav._run_row(math.nan, math.nan, 0.0, math.nan)
+    else:
+        _filter_span(nav, ts, dth[a:e], dv[a:e], gate, rec)
+    # raw samples are needed only back to the start of a possible segment
+    if not np.all(static) and len(nav._rows) > 4096:
+        last_moving = int(np.flatnonzero(~static)[-1])
+        drop = len(nav._rows) - (m - last_moving) - 15
+        if drop > 0:
+            del nav._rows[:drop]
+            nav._raw_t0 += drop
+
+
+def _filter_span(nav: Any, ts, dth, dv, gate, rec) -> None:
+    cfg = nav.config
+    ekf = nav.ekf
+    ec = ekf.config
+    m = ts.size
+    q = nav._gnss
+    j = 0
+    while j < len(q) and q[j][0] <= ts[-1]:
+        j += 1
+    fl, nav._gnss = q[:j], q[j:]
+    fl = [f for f in fl if f[0] > nav.init.t and np.all(np.isfinite(f[1]))]
+    ft = np.array([f[0] for f in fl], dtype=float)
+    sig = np.array([f[2] for f in fl], dtype=float).reshape(-1, 3)
+    sig = np.where(np.isfinite(sig), sig, ec.gnss_sigma_nan)
+    sig = np.maximum(sig, ec.gnss_sigma_floor)
+    fixes = Fixes(ft, np.array([f[1] for f in fl], dtype=float).reshape(-1, 3), sig, ekf.lever,
+                  np.full(ft.size, -1, dtype=np.int64), np.full(ft.size, np.nan))
+    tin = np.concatenate([[ekf.t], ts])
+    gin = np.concatenate([[ekf.gate_open], gate])
+    imu = ImuInput(tin, np.concatenate([np.zeros((1, 3)), dth]), np.concatenate([np.zeros((1, 3)), dv]), gin,
+                   np.zeros(m + 1, dtype=np.bool_))
+    carry = np.array([ekf._k, ekf._consecutive_reject, ekf._nhc_reject], dtype=np.int64)
+    rows = np.empty((m, SPAN_COLS))
+    guard = cfg.stop_guard == "nav" and bool(rec.any())
+    pv = np.empty((m if guard else 1, 3, 3))
+    model, settings = ekf.kernel_parts()
+    run_span(imu, ekf.arrays(), model, settings, ekf.nhc_settings(), fixes, carry, rows, pv)
+    ekf.t = float(ts[-1])
+    ekf.gate_open = bool(gate[-1])
+    ekf._k, ekf._consecutive_reject, ekf._nhc_reject = int(carry[0]), int(carry[1]), int(carry[2])
+    used = fixes.status > 0
+    for k in np.flatnonzero(~used):
+        ekf.n_rejected += 1
+        ekf.log_rejected(ft[k], fixes.nis[k])
+    # the sample each fix was applied at (the first with t ≥ the fix time)
+    at = np.searchsorted(ts, ft, side="left")
+    t_aided = np.full(m, nav._t_aided)
+    if used.any():
+        ua = at[used]
+        mark = np.full(m, -1)
+        mark[ua] = ua
+        last = np.maximum.accumulate(mark)
+        t_aided = np.where(last >= 0, ts[np.maximum(last, 0)], nav._t_aided)
+        nav._t_aided = float(ts[ua[-1]])
+    if guard:
+        for i in np.flatnonzero(rec):
+            v0, v1 = float(rows[i, _VEL]), float(rows[i, _VEL + 1])
+            P_vel = pv[i]
+            nis = math.nan
+            if cfg.stop_chi2 > 0:
+                v = rows[i, _VEL:_VEL + 3]
+                try:
+                    nis = float(v @ np.linalg.solve(P_vel + cfg.zupt_sigma_v**2 * np.eye(3), v))
+                except np.linalg.LinAlgError:
+                    nis = math.inf
+            nav._run_row(math.hypot(v0, v1), math.sqrt(max(P_vel[0, 0] + P_vel[1, 1], 0.0)),
+                         float(ts[i] - t_aided[i] <= cfg.stop_aided_s), nis)
+    if nav._motion is not None:
+        nav._motion.observe_span(ts, dth, dv, [f for f, u in zip(fl, used, strict=True) if u])
+    if nav._store is not None:
+        _store_rows(nav._store, rows)
+
+
+def _store_rows(store: EpochStore, rows: np.ndarray) -> None:
+    need = store.n + rows.shape[0]
+    if need > store.buf.shape[0]:
+        cap = store.buf.shape[0]
+        while cap < need:
+            cap *= 2
+        buf = np.empty((cap, store.buf.shape[1]))
+        buf[: store.n] = store.buf[: store.n]
+        store.buf = buf
+    store.buf[store.n:need] = rows
+    store.n = need
