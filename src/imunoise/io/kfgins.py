@@ -13,6 +13,8 @@ Inside, everything is SI (radians, m, m/s, s). Time checks on every reader: time
 NaN/Inf value raises :class:`~imunoise.errors.DataError` naming the file line; duplicated stamps are
 dropped (the first kept) with a :class:`DataWarning` giving their count; gaps longer than
 ``gap_factor`` × the median step are reported with a :class:`DataWarning` (count and largest gap).
+
+The writers live in :mod:`imunoise.io.kfgins_write` and are importable from here.
 """
 
 from __future__ import annotations
