@@ -90,6 +90,7 @@ def test_log_without_stop_is_refused_with_the_static_time(drive, tmp_path, capsy
         calibrate([as_log(drive, "moving", 0, 3000)], lambda0=1e-6)
 
 
+@pytest.mark.slow
 def test_bag_input_with_exports_names_the_topic_read(tmp_path, capsys):
     pytest.importorskip("rosbags")
     from imunoise.export import read_export
@@ -168,6 +169,7 @@ def test_the_same_log_twice_is_refused(drive, tmp_path, capsys):
         calibrate([as_log(drive), as_log(drive, "copy")])
 
 
+@pytest.mark.slow
 def test_drive_export_forced_with_the_warnings_kept(tmp_path, capsys):
     """drive_0708's stops (engine vibration) leave the WV band of every structure: without --force the export is
     refused (the one-line message: tests/test_fit_check.py); with it the warnings go into the file, on top, and

@@ -57,6 +57,7 @@ def test_streamed_csv_equals_whole_log(drive, tmp_path):
         assert b.axes[ax].K == pytest.approx(a.axes[ax].K, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_streamed_bag_with_gnss_equals_whole_log_cli(drive, tmp_path, capsys):
     pytest.importorskip("rosbags")
     from imunoise.io.navinput import write_nav_bag

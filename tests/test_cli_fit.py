@@ -78,6 +78,7 @@ def test_csv_units_and_time_column_give_the_same_model(tmp_path, capsys):
                  "--model", "WN"]) == 2  # fmt: skip
 
 
+@pytest.mark.slow
 def test_three_bag_formats_give_one_model_and_a_kalibr_file(tmp_path):
     """Acceptance 1 in small: the same samples in .bag, .db3 and .mcap give the same model and export."""
     n = 2**15

@@ -14,6 +14,7 @@ DRIVE = repo_data_dir()
 pytestmark = pytest.mark.skipif(not (DRIVE / "imu_body_inc.txt.gz").exists(), reason="data/drive_0708 not shipped")
 
 
+@pytest.mark.slow
 def test_online_demo_headline_is_the_paired_comparison(tmp_path, capsys):
     from imunoise.cli.demo import run_online_demo
 

@@ -413,6 +413,7 @@ def test_real_drive_learned_lambda0(shared_data):
 # --------------------------------------------------------------------------------- simulated drives
 
 
+@pytest.mark.slow
 def test_simulated_drives_precision_and_recall():
     """SPEC §10 simulator, IMU errors 3*AR1+WN+RW (mems preset), truth = speed < 0.05 m/s and no rotation.
     Issue acceptance on 20 drives is measured by benchmarks/bench_detect.py; here 5 drives."""

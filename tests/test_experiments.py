@@ -54,6 +54,7 @@ def mc():
     return online_exp.run_sim([0, 1], methods=("plain", "gmwm"), workers=2, base=FAST, **SIM)
 
 
+@pytest.mark.slow
 def test_sim_monte_carlo_results(mc, tmp_path):
     assert mc["seeds"] == [0, 1]
     for name in ("plain", "gmwm"):
@@ -77,6 +78,7 @@ def test_sim_monte_carlo_results(mc, tmp_path):
         assert (tmp_path / f).exists()
 
 
+@pytest.mark.slow
 def test_oracle_is_the_true_model_and_sim_only(real):
     """The oracle method filters with the simulator's true models (same mapping, no floor); real data has none."""
     from imunoise.experiments.common import filter_models, simulate_scenario
@@ -96,6 +98,7 @@ def test_oracle_is_the_true_model_and_sim_only(real):
         online_exp.method_config("oracle", real[1])
 
 
+@pytest.mark.slow
 def test_denial_sim_models_and_keys():
     res = denial.run_sim([0], methods=("plain", "av", "gmwm", "gmwm_top3"), workers=1, static_recording_s=600.0,
                          complete="2*AR1 + WN + RW", **SIM)
@@ -114,6 +117,7 @@ def real():
     return online_exp.run_real(str(shipped_drive()), methods=("plain", "gmwm"), workers=2, base=FAST)
 
 
+@pytest.mark.slow
 def test_real_drive_online(real, tmp_path):
     res, sc = real
     assert len(sc.windows) == 5
@@ -137,6 +141,7 @@ def test_real_drive_online(real, tmp_path):
     assert {"start", "stop_start", "stop_end", "identified", "refit", "swap", "gate_open", "end"} <= kinds
 
 
+@pytest.mark.slow
 def test_cli_experiment_sim(tmp_path):
     out = tmp_path / "exp"
     rc = main(["experiment", "online", "--sim", "--seeds", "1", "--duration", "240", "--stops", "2", "--outages",
@@ -152,6 +157,7 @@ def test_cli_rejects_unknown_method(tmp_path, capsys):
     assert "unknown method" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_cli_online_on_the_shipped_drive(tmp_path):
     folder = shipped_drive()
     out = tmp_path / "on"

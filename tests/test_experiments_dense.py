@@ -145,6 +145,7 @@ def test_static_var_model_is_the_variance_as_white_noise():
         assert m.components[0].values[0] == pytest.approx(4.0, rel=0.05)  # segment means removed
 
 
+@pytest.mark.slow
 def test_cli_evidence_on_two_simulated_drives(tmp_path):
     from imunoise.cli import main
 
@@ -169,6 +170,7 @@ def test_cli_evidence_on_two_simulated_drives(tmp_path):
     assert md.index("Paired ratios") < md.index("paired_drift.png") < md.index("Paper-style view")
 
 
+@pytest.mark.slow
 def test_fixed_latency_puts_every_model_in_effect_at_stop_end_plus_latency(short_drive):
     """With ``latency`` fixed the hot-swap moments do not depend on the machine: every accepted model takes
     effect exactly ``latency`` s after its stop, and a second run repeats the first to the bit."""

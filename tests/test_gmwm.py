@@ -37,6 +37,7 @@ def test_beats_simts_on_its_own_series(simts, weights):
     assert fit.params["AR1_1.phi"] == pytest.approx(0.999, abs=1e-3)
 
 
+@pytest.mark.slow
 def test_parameter_recovery_50_seeds():
     """Issue 2 acceptance 2: AR1(0.995,1e-6)+WN(1e-4)+RW(1e-9), N = 2^17, 50 seeds."""
     truth = AR1(phi=0.995, sigma2=1e-6) + WN(sigma2=1e-4) + RW(gamma2=1e-9)

@@ -133,6 +133,7 @@ def inline_run(drive):
     return _dyn_run(sc, gnss, push=False)
 
 
+@pytest.mark.slow
 def test_learner_moves_off_the_static_model_and_streaming_equals_batch(drive, inline_run):
     # the simulator's default motion law: gyro y/z biases wander 3.75× / 5.8× faster while driving
     sc, gnss = drive
@@ -156,6 +157,7 @@ def test_learner_moves_off_the_static_model_and_streaming_equals_batch(drive, in
             assert np.mean(S[:, k] - S[:, 0]) < 0
 
 
+@pytest.mark.slow
 def test_thread_worker_runs_the_same_rehearsals_without_blocking(drive, inline_run):
     # a replay runs far faster than real time, so the background thread completes fewer rounds before the end;
     # its first round rehearses what the inline run's first round does (the engine's own fits take effect at
@@ -167,6 +169,7 @@ def test_thread_worker_runs_the_same_rehearsals_without_blocking(drive, inline_r
     assert np.allclose(nav_t._motion.scores[0], nav_i._motion.scores[0], rtol=1e-2)
 
 
+@pytest.mark.slow
 def test_shadows_wait_out_a_gnss_outage_and_restart(drive, inline_run):
     # 60 s without GNSS while driving: the round that finds no fix stops the shadows (nothing to score, nothing
     # to learn); they restart from the live filter at the first aided moving step after it and go on scoring
@@ -185,6 +188,7 @@ def _learner_cfg(prior=None):
     return MotionNoiseConfig(min_pairs=3, min_t=0.0, margin=0.0, prior=prior)
 
 
+@pytest.mark.slow
 def test_evidence_carries_to_the_next_drive(drive, inline_run, tmp_path):
     # what one drive learned is the next drive's start: the filter runs the carried choice from its first
     # sample, and the first decision of the new drive is made on the carried rounds and its own together
@@ -242,6 +246,7 @@ def test_prior_of_other_candidates_or_files_is_refused(tmp_path):
         MotionNoisePrior.load(other)
 
 
+@pytest.mark.slow
 def test_warm_method_needs_an_earlier_drive(drive, inline_run):
     from imunoise.cli.experiment import select_methods
 
@@ -256,6 +261,7 @@ def test_warm_method_needs_an_earlier_drive(drive, inline_run):
         select_methods("online", False, "gmwm_dyn_warm", evidence=True)
 
 
+@pytest.mark.slow
 def test_warm_prior_chains_the_earlier_drives_oldest_first():
     # earlier drives in a row: each starts with what the ones before it learned, so the last one's evidence
     # holds the oldest drive's rounds first, unchanged, and then the later drive's own

@@ -26,6 +26,7 @@ def sim_dir(tmp_path_factory):
     return d.write(tmp_path_factory.mktemp("sim"))
 
 
+@pytest.mark.slow
 def test_nav_outage_runs_writes_everything(sim_dir, tmp_path, capsys):
     out = tmp_path / "nav"
     rc = main(["nav", "--data", str(sim_dir), "--outage-runs", "--out", str(out)])

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import imunoise.nav.step_filter as step_filter
 import imunoise.online.chunks as chunks
 from imunoise.experiments.common import simulate_scenario
 from imunoise.nav.filter_loop import next_event
@@ -61,13 +62,13 @@ def test_run_in_chunks_equals_per_sample_pushes(scenario, monkeypatch, zupt):
     sc = scenario
     gnss = sc.gnss.without(sc.windows)
     calls = []
-    real = chunks.run_span
+    real = step_filter.run_span
 
     def counting(*args):
         calls.append(args[0].t.size - 1)
         return real(*args)
 
-    monkeypatch.setattr(chunks, "run_span", counting)
+    monkeypatch.setattr(step_filter, "run_span", counting)
     cfg = _config(sc, zupt=zupt, stop_chi2=7.8 if zupt else 0.0)  # with ZUPT also the guard's NIS test
     batch = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate).run(sc.imu, gnss)
     assert sum(calls) > 0.8 * sc.imu.t.size and len(calls) < sc.imu.t.size / 20

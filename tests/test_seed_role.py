@@ -9,6 +9,7 @@ import pytest
 from imunoise.cli import main
 
 
+@pytest.mark.slow
 def test_seed_role_is_recorded_and_named(tmp_path):
     out = tmp_path / "exp"
     rc = main(["experiment", "online", "--sim", "--seeds", "1", "--seed0", "7", "--duration", "240", "--stops", "2",

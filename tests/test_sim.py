@@ -97,6 +97,7 @@ def test_specific_force_at_rest_is_gravity(clean_drive):
     np.testing.assert_allclose(np.linalg.norm(f[m], axis=1), gravity(r.llh[m, 0], r.llh[m, 2]), rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_noise_free_ins_stays_within_half_metre(clean_drive):
     """Issue 4 acceptance 1: exact increments + two-sample mechanization, 10 min urban drive."""
     from imunoise.nav.mechanization import integrate

@@ -1,9 +1,11 @@
 """Static (zero-motion) detection (SPEC §7, paper §2.3): Eq. 9 moving std, adaptive threshold, segments, gate.
 
 ``kernels``: the numba kernel (one pass over a chunk, state carried between calls). ``detector``: the
-streaming :class:`StaticDetector` (the only detector implementation), :func:`detect_static` (that detector
-fed a whole record in chunks), :func:`learn_lambda0` and helpers. Every public name is importable from
-``imunoise.detect``.
+streaming :class:`StaticDetector` (the only detector implementation) and :func:`detect_static` (that detector
+fed a whole record in chunks). ``config``: :class:`DetectorConfig`. ``statistics``: Eq. 9 moving std, the
+Eq. 10 threshold, the gate and :func:`learn_lambda0`. ``results``: segments and detections. ``metrics``:
+scoring a mask against the truth. Every public name is importable from ``imunoise.detect`` (and from
+``imunoise.detect.detector``).
 
 The second stage of the data path (IMU → detection → modelling → filter): it takes SI arrays, imports
 only :mod:`imunoise.errors`, and its segments and masks feed the modelling and the filter's ZUPT/gate.

@@ -30,15 +30,19 @@ A time step longer than ``max_gap_samples`` nominal sample periods, or a non-fin
 samples before it can call an epoch static again.
 """
 
+
 from __future__ import annotations
 
 from bisect import bisect_left, bisect_right
 from collections import deque
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from imunoise.detect.kernels import N_SF, N_SI, detector_kernel, reset_state
+from imunoise.detect.config import DetectorConfig
+from imunoise.detect.kernels import detector_kernel
+from imunoise.detect.metrics import static_metrics, static_truth_from_speed
+from imunoise.detect.results import ChunkDetection, Detection, StaticSegment, segment_data
+from imunoise.detect.statistics import KernelState, adaptive_threshold, angular_rate_gate, learn_lambda0, moving_std
 from imunoise.errors import DataError, ModelError
 
 __all__ = [
@@ -56,242 +60,6 @@ __all__ = [
     "static_metrics",
     "static_truth_from_speed",
 ]
-
-
-@dataclass(frozen=True)
-class DetectorConfig:
-    """Parameters of the static detector (SPEC §7).
-
-    ``window`` N [samples] of Eq. (9); ``lambda0`` λ_0 [m/s²] of Eq. (10) (paper: 0.02, which suits a
-    quiet IMU; learn it per sensor with :func:`learn_lambda0`); ``min_duration_s`` minimum length of a
-    trimmed segment [s]; ``margin_s`` trimmed at each end of a run [s]; ``gate_rate`` [rad/s] of the
-    angular-rate gate; ``adaptive`` False uses the fixed threshold λ_0 (Eq. 9 alone);
-    ``max_gap_samples``: a time step longer than this many nominal periods restarts the window.
-    """
-
-    window: int = 100
-    lambda0: float = 0.02
-    min_duration_s: float = 2.0
-    margin_s: float = 0.5
-    gate_rate: float = float(np.deg2rad(30.0))
-    adaptive: bool = True
-    max_gap_samples: float = 5.0
-
-    def __post_init__(self) -> None:
-        # invalid settings are a malformed detector model: ModelError (a ValueError), naming the field to fix
-        w = self.window
-        if isinstance(w, bool) or not isinstance(w, int | np.integer | float) or not np.isfinite(w) \
-                or int(w) != w or w < 2:
-            raise ModelError(
-                f"DetectorConfig.window must be a whole number of samples ≥ 2 (paper: 100), got {w!r}"
-            )
-        for name, rule in (("lambda0", "> 0 m/s² (paper: 0.02; or learn it with learn_lambda0)"),
-                           ("gate_rate", "> 0 rad/s (SPEC §7: 30 °/s = 0.5236 rad/s)"),
-                           ("max_gap_samples", "> 0 sample periods (default 5)"),
-                           ("min_duration_s", "≥ 0 s (default 2)"), ("margin_s", "≥ 0 s (default 0.5)")):
-            try:
-                v = float(getattr(self, name))
-            except (TypeError, ValueError):
-                v = float("nan")
-            ok = v >= 0 if name in ("min_duration_s", "margin_s") else v > 0
-            if not (np.isfinite(v) and ok):
-                raise ModelError(f"DetectorConfig.{name} must be a finite number {rule}, got {getattr(self, name)!r}")
-        object.__setattr__(self, "window", int(w))
-
-
-@dataclass(frozen=True)
-class StaticSegment:
-    """A detected static segment: samples ``i0 ≤ i < i1`` (slice convention, ``data[i0:i1]``);
-    ``t0`` = t[i0] and ``t1`` = t[i1 − 1] are the times of its first and last sample [s]."""
-
-    t0: float
-    t1: float
-    i0: int
-    i1: int
-
-    @property
-    def duration(self) -> float:
-        """t1 − t0 [s]."""
-        return self.t1 - self.t0
-
-    @property
-    def slice(self) -> slice:
-        return slice(self.i0, self.i1)
-
-
-@dataclass(frozen=True, eq=False)
-class Detection:
-    """Result of :func:`detect_static`. Arrays are per epoch (n samples).
-
-    ``statistic`` (n, 2) T of Eq. (9) for accel x, y [m/s²] (NaN while the window fills);
-    ``threshold`` (n,) λ_i [m/s²]; ``static_raw`` the per-epoch test; ``static`` epochs inside the
-    kept (trimmed, long enough) ``segments``; ``gate_open`` ‖ω‖ > gate_rate.
-    """
-
-    t: np.ndarray
-    statistic: np.ndarray
-    threshold: np.ndarray
-    static_raw: np.ndarray
-    static: np.ndarray
-    segments: list[StaticSegment]
-    gate_open: np.ndarray
-    config: DetectorConfig = field(default_factory=DetectorConfig)
-
-    @property
-    def static_time_s(self) -> float:
-        """Total duration of the kept segments [s]."""
-        return float(sum(s.duration for s in self.segments))
-
-
-@dataclass(frozen=True, eq=False)
-class ChunkDetection:
-    """Per-epoch results of one :meth:`StaticDetector.push_chunk` call (fields as in :class:`Detection`)
-    and the segments completed inside the chunk. ``completed_at[j]`` is the index (counted from the
-    detector's first sample) of the sample whose :meth:`StaticDetector.push` would have returned
-    ``segments[j]``: the first non-static sample after its run."""
-
-    statistic: np.ndarray
-    threshold: np.ndarray
-    static_raw: np.ndarray
-    gate_open: np.ndarray
-    segments: list[StaticSegment]
-    completed_at: list[int] = field(default_factory=list)
-
-
-class _KernelState:
-    """Mutable state of :func:`imunoise.detect.kernels.detector_kernel` (ring buffer + scalars)."""
-
-    def __init__(self, config: DetectorConfig, rate_hz: float):
-        try:
-            rate = float(rate_hz)
-        except (TypeError, ValueError):
-            rate = float("nan")
-        if not (np.isfinite(rate) and rate > 0):
-            raise DataError(f"rate_hz must be the positive nominal sampling rate in Hz (e.g. 100.0), got {rate_hz!r}")
-        self.config = config
-        self.max_gap = float(config.max_gap_samples) / rate
-        self.buf = np.zeros((config.window, 2))
-        self.sf = np.zeros(N_SF)
-        self.si = np.zeros(N_SI, dtype=np.int64)
-        reset_state(self.sf, self.si, float(config.lambda0))
-
-    def run(self, t, accel, gyro, T, lam, st, gate) -> None:
-        """Advance over ``t`` (m,), ``accel``/``gyro`` (m, 3) C-contiguous; outputs written in place."""
-        c = self.config
-        detector_kernel(t, accel, gyro, c.window, float(c.lambda0), float(c.gate_rate), bool(c.adaptive),
-                        self.max_gap, self.buf, self.sf, self.si, T, lam, st, gate)
-
-
-# --------------------------------------------------------------------------------------------------
-# small pure pieces (public for tests and for others)
-
-
-def moving_std(x: np.ndarray, window: int = 100) -> np.ndarray:
-    """Trailing moving standard deviation (ddof = 1) over ``window`` samples, paper Eq. (9).
-
-    ``x`` (n,) or (n, m); the first ``window − 1`` outputs are NaN. O(n) via the detector kernel.
-    """
-    x = np.asarray(x, dtype=float)
-    if x.ndim not in (1, 2):
-        raise DataError(f"moving_std: x must be (n,) or (n, m) samples, got shape {x.shape}")
-    one = x.ndim == 1
-    x2 = x[:, None] if one else x
-    n, m = x2.shape
-    out = np.empty((n, m))
-    cfg = DetectorConfig(window=window, lambda0=1.0, adaptive=False)
-    t = np.arange(n, dtype=float)
-    gyro = np.zeros((n, 3))
-    lam, st, gate = np.empty(n), np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.bool_)
-    for j in range(0, m, 2):
-        state = _KernelState(cfg, 1.0)
-        acc = np.zeros((n, 3))
-        acc[:, 0] = x2[:, j]
-        acc[:, 1] = x2[:, j + 1] if j + 1 < m else x2[:, j]
-        T = np.empty((n, 2))
-        state.run(t, acc, gyro, T, lam, st, gate)
-        out[:, j] = T[:, 0]
-        if j + 1 < m:
-            out[:, j + 1] = T[:, 1]
-    return out[:, 0] if one else out
-
-
-def adaptive_threshold(statistic: np.ndarray, lambda0: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
-    """Threshold λ_i and static decision of SPEC §7 (reading of paper Eq. 10) for a given statistic.
-
-    ``statistic`` (n, 2) (or (n,) for one axis, treated as both). Returns (λ (n,), static (n,) bool).
-    A NaN statistic is "not static" and resets λ to λ_0. Pure Python reference implementation, used
-    by the tests to check the kernel; O(n).
-    """
-    T = np.asarray(statistic, dtype=float)
-    if T.ndim == 1:
-        T = np.column_stack([T, T])
-    n = T.shape[0]
-    lam = np.empty(n)
-    st = np.zeros(n, dtype=bool)
-    k, prev_static, prev_T, prev_lam = 0, False, None, lambda0
-    for i in range(n):
-        if not np.all(np.isfinite(T[i])):
-            lam[i], st[i] = lambda0, False
-            k, prev_static, prev_T, prev_lam = 0, False, None, lambda0
-            continue
-        if prev_T is not None and prev_static:
-            jump = max(abs(T[i, 0] - prev_T[0]), abs(T[i, 1] - prev_T[1]))
-            li = min(max((k * prev_lam + 2.0 * lambda0 - jump) / (k + 1), 0.5 * lambda0), 2.0 * lambda0)
-        else:
-            li = lambda0
-        s = bool(T[i, 0] < li and T[i, 1] < li)
-        lam[i], st[i] = li, s
-        k = k + 1 if s else 0
-        prev_static, prev_T, prev_lam = s, T[i], li
-    return lam, st
-
-
-def angular_rate_gate(gyro: np.ndarray, gate_rate: float = float(np.deg2rad(30.0))) -> np.ndarray:
-    """Gate open where ‖ω‖ = ‖gyro‖ > ``gate_rate`` [rad/s] (SPEC §7, paper §2.3; NaN → open)."""
-    w = np.linalg.norm(np.atleast_2d(np.asarray(gyro, dtype=float)), axis=1)
-    return ~(w <= gate_rate)
-
-
-def learn_lambda0(
-    accel_xy_static: np.ndarray,
-    window: int = 100,
-    quantile: float = 0.5,
-    factor: float = 2.0,
-) -> float:
-    """Learn λ_0 [m/s²] for one sensor from accel samples recorded at a known stop (SPEC §7).
-
-    Rule: λ_0 = ``factor`` × the ``quantile`` of the Eq. (9) statistic T (moving std over ``window``
-    samples, accel x and y pooled) on the static samples; by default twice the median. At rest T
-    scatters around the noise (plus idle-vibration) σ with a relative spread ≈ 1/√(2(N−1)) (7 % at
-    N = 100), so λ_0 ≈ 2σ: a stop is entered when T < 2σ and, with the adaptive threshold, kept while
-    T < up to 4σ. The median, not a high quantile, because a "known stop" often holds a few
-    disturbances (a door, a passenger moving: on drive_0708 T reaches 6σ for a few seconds within the
-    first 30 s), and the median ignores them as long as they cover less than half of the windows.
-    ``accel_xy_static`` (n, ≥2), columns x, y first (m/s², body frame); needs at least 2·window samples
-    so that the quantile rests on ≥ window + 1 statistics.
-    """
-    a = np.asarray(accel_xy_static, dtype=float)
-    if a.ndim != 2 or a.shape[1] < 2:
-        raise DataError(f"learn_lambda0: accel must be (n, 2) or (n, 3) [m/s²], got shape {a.shape}")
-    if a.shape[0] < 2 * window:
-        raise DataError(
-            f"learn_lambda0: {a.shape[0]} static samples, need ≥ 2·window = {2 * window}; "
-            "give a longer known stop (e.g. --learn-from with more seconds)"
-        )
-    if not np.all(np.isfinite(a[:, :2])):
-        raise DataError(
-            "learn_lambda0: the static accel contains NaN/Inf; choose a known stop without gaps or fill them"
-        )
-    if not (0.0 < quantile <= 1.0) or not (factor > 0 and np.isfinite(factor)):
-        raise ModelError(
-            f"learn_lambda0: need 0 < quantile ≤ 1 and a finite factor > 0 (defaults 0.5 and 2), got "
-            f"quantile={quantile!r}, factor={factor!r}"
-        )
-    T = moving_std(a[:, :2], window)[window - 1 :]
-    lam0 = float(factor * np.quantile(T.ravel(), quantile))
-    if not lam0 > 0:
-        raise DataError("learn_lambda0: the static accel is constant (T = 0); λ_0 cannot be learned from it")
-    return lam0
 
 
 def _check_inputs(t, accel, gyro) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -442,7 +210,7 @@ class StaticDetector:
         if not isinstance(config, DetectorConfig):
             raise ModelError(f"StaticDetector: config must be a DetectorConfig, got {type(config).__name__}")
         self.config = config
-        self._state = _KernelState(config, rate_hz)
+        self._state = KernelState(config, rate_hz)
         k = self._state
         self._kargs = (config.window, float(config.lambda0), float(config.gate_rate), bool(config.adaptive),
                        k.max_gap, k.buf, k.sf, k.si)  # the kernel's settings and state, in its argument order
@@ -633,51 +401,3 @@ class StaticDetector:
         if i0 is None or end is None or end[0] < i0[0] or end[1] - i0[1] < c.min_duration_s:
             return []
         return [StaticSegment(float(i0[1]), float(end[1]), i0[0], end[0] + 1)]
-
-
-# --------------------------------------------------------------------------------------------------
-# using the result
-
-
-def segment_data(detection: Detection, data: np.ndarray, remove_bias: bool = True) -> list[np.ndarray]:
-    """Samples of ``data`` (n, k) inside each static segment, each minus its segment mean when
-    ``remove_bias`` (SPEC §7: the bias of a stop is removed before the GMWM)."""
-    data = np.asarray(data, dtype=float)
-    if data.shape[0] != detection.t.size:
-        raise DataError(
-            f"segment_data: data has {data.shape[0]} rows, the detection has {detection.t.size} epochs"
-        )
-    out = []
-    for s in detection.segments:
-        d = data[s.i0 : s.i1]
-        out.append(d - d.mean(axis=0) if remove_bias else d.copy())
-    return out
-
-
-def static_metrics(static_pred: np.ndarray, static_true: np.ndarray) -> dict[str, float]:
-    """Epoch-wise precision, recall and F1 of a static mask against the truth (NaN when undefined)."""
-    p = np.asarray(static_pred, dtype=bool)
-    q = np.asarray(static_true, dtype=bool)
-    if p.shape != q.shape:
-        raise DataError(f"static_metrics: shapes differ: {p.shape} vs {q.shape}")
-    tp = int(np.sum(p & q))
-    n_pred, n_true = int(p.sum()), int(q.sum())
-    precision = tp / n_pred if n_pred else float("nan")
-    recall = tp / n_true if n_true else float("nan")
-    if not (n_pred and n_true):
-        f1 = float("nan")
-    else:
-        f1 = 2 * precision * recall / (precision + recall) if tp else 0.0
-    return {"precision": precision, "recall": recall, "f1": f1, "n_true": n_true, "n_pred": n_pred}
-
-
-def static_truth_from_speed(
-    t: np.ndarray, t_ref: np.ndarray, vel_ref: np.ndarray, threshold: float = 0.2
-) -> np.ndarray:
-    """Reference static mask at epochs ``t``: speed ‖v‖ (3-D, from ``vel_ref`` (m, 3) m/s, or a speed
-    (m,)) linearly interpolated to ``t``, below ``threshold`` [m/s]. Epochs outside the reference span
-    are not static."""
-    v = np.asarray(vel_ref, dtype=float)
-    speed = np.linalg.norm(v, axis=1) if v.ndim == 2 else v
-    s = np.interp(t, t_ref, speed)
-    return (s < threshold) & (t >= t_ref[0]) & (t <= t_ref[-1])

@@ -13,23 +13,23 @@ Inside, everything is SI (radians, m, m/s, s). Time checks on every reader: time
 NaN/Inf value raises :class:`~imunoise.errors.DataError` naming the file line; duplicated stamps are
 dropped (the first kept) with a :class:`DataWarning` giving their count; gaps longer than
 ``gap_factor`` × the median step are reported with a :class:`DataWarning` (count and largest gap).
+
+The writers live in :mod:`imunoise.io.kfgins_write` and are importable from here.
 """
 
 from __future__ import annotations
 
-import gzip
-import io
 import warnings
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from imunoise.errors import DataError
-from imunoise.imu import LEGACY_AXES, ImuData, as_columns, as_time_column  # ImuData: re-exported, its old home
-from imunoise.io.atomic import atomic_write_bytes
+from imunoise.imu import LEGACY_AXES, ImuData  # ImuData: re-exported, its old home
 from imunoise.io.files import is_number, read_text
+from imunoise.io.kfgins_records import GnssData, Reference
+from imunoise.io.kfgins_write import write_gnss, write_imu, write_outages, write_reference
 from imunoise.io.navchecks import check_gnss_llh
 
 __all__ = [
@@ -57,85 +57,6 @@ GAP_FACTOR = 5.0
 
 class DataWarning(UserWarning):
     """A data problem that was handled (duplicates dropped, gaps found, default σ used)."""
-
-
-# ----------------------------------------------------------------------------------------------
-# containers
-# ----------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class GnssData:
-    """GNSS position fixes: ``llh`` = [lat rad, lon rad, h m] (antenna), ``sigma_ned`` in m."""
-
-    t: np.ndarray
-    llh: np.ndarray
-    sigma_ned: np.ndarray
-
-    def __post_init__(self) -> None:
-        t = as_time_column(self.t)
-        object.__setattr__(self, "t", t)
-        object.__setattr__(self, "llh", as_columns("llh", self.llh, t.size))
-        object.__setattr__(self, "sigma_ned", as_columns("sigma_ned", self.sigma_ned, t.size))
-
-    def __len__(self) -> int:
-        return int(self.t.size)
-
-    def _take(self, m: np.ndarray) -> GnssData:
-        return replace(self, t=self.t[m], llh=self.llh[m], sigma_ned=self.sigma_ned[m])
-
-    def slice(self, t0: float, t1: float) -> GnssData:
-        """Epochs with t0 ≤ t ≤ t1."""
-        return self._take((self.t >= t0) & (self.t <= t1))
-
-    def without(self, windows: Iterable[tuple[float, float]]) -> GnssData:
-        """Drop the epochs inside any outage window: start ≤ t < start + duration (SPEC §8)."""
-        keep = np.ones(self.t.size, dtype=bool)
-        for start, dur in windows:
-            keep &= ~((self.t >= start) & (self.t < start + dur))
-        return self._take(keep)
-
-
-@dataclass(frozen=True, eq=False)
-class Reference:
-    """Reference (or result) trajectory: llh [rad, rad, m], vel_ned [m/s], euler (roll, pitch, yaw) [rad]
-    (NaN when unknown), GPS ``week`` (0 when unknown)."""
-
-    t: np.ndarray
-    llh: np.ndarray
-    vel_ned: np.ndarray
-    euler: np.ndarray
-    week: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
-
-    def __post_init__(self) -> None:
-        t = as_time_column(self.t)
-        object.__setattr__(self, "t", t)
-        object.__setattr__(self, "llh", as_columns("llh", self.llh, t.size))
-        object.__setattr__(self, "vel_ned", as_columns("vel_ned", self.vel_ned, t.size))
-        object.__setattr__(self, "euler", as_columns("euler", self.euler, t.size))
-        week = np.asarray(self.week)
-        if week.size == 0 and t.size:
-            week = np.zeros(t.size, dtype=int)
-        elif week.ndim == 0:
-            week = np.full(t.size, int(week), dtype=int)
-        if week.shape != t.shape:
-            raise DataError(f"week must have shape {t.shape}, got {week.shape}")
-        object.__setattr__(self, "week", week.astype(int))
-
-    def __len__(self) -> int:
-        return int(self.t.size)
-
-    def slice(self, t0: float, t1: float) -> Reference:
-        """Epochs with t0 ≤ t ≤ t1."""
-        m = (self.t >= t0) & (self.t <= t1)
-        return replace(
-            self,
-            t=self.t[m],
-            llh=self.llh[m],
-            vel_ned=self.vel_ned[m],
-            euler=self.euler[m],
-            week=self.week[m],
-        )
 
 
 # ----------------------------------------------------------------------------------------------
@@ -418,50 +339,3 @@ def read_outages(path: str | Path) -> list[tuple[float, float]]:
             raise DataError(f"outage file {path}, line {i}: need finite start and duration > 0, got {line.strip()!r}")
         out.append((start, dur))
     return out
-
-
-# ----------------------------------------------------------------------------------------------
-# writers
-# ----------------------------------------------------------------------------------------------
-
-
-def _write_rows(path: str | Path, data: np.ndarray, fmt: Sequence[str], header: str | None = None) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    buf = io.StringIO()
-    if header:
-        buf.write("".join(f"# {h}\n" for h in header.splitlines()))
-    np.savetxt(buf, data, fmt=list(fmt), delimiter=" ")
-    data_bytes = buf.getvalue().encode("utf-8")
-    if path.suffix == ".gz":
-        # mtime=0 keeps the bytes reproducible for a given content
-        data_bytes = gzip.compress(data_bytes, mtime=0)
-    # temporary file + rename: an interrupted run never leaves a complete-looking truncated table
-    return atomic_write_bytes(path, data_bytes)
-
-
-def write_imu(path: str | Path, imu: ImuData) -> Path:
-    """Write KF-GINS IMU increments ``t dθxyz dvxyz`` (time to 1 ns, increments to 13 significant digits)."""
-    dth, dv = imu.increments()
-    return _write_rows(path, np.column_stack([imu.t, dth, dv]), ["%.9f"] + ["%.12e"] * 6)
-
-
-def write_gnss(path: str | Path, gnss: GnssData) -> Path:
-    """Write KF-GINS GNSS ``t lat lon [deg, 1e-12°] h σN σE σD [m, 1 µm]``."""
-    data = np.column_stack([gnss.t, np.degrees(gnss.llh[:, :2]), gnss.llh[:, 2], gnss.sigma_ned])
-    return _write_rows(path, data, ["%.9f", "%.12f", "%.12f", "%.6f", "%.6f", "%.6f", "%.6f"])
-
-
-def write_reference(path: str | Path, ref: Reference) -> Path:
-    """Write KF-GINS reference/result ``week t lat lon h vN vE vD roll pitch yaw`` (degrees)."""
-    data = np.column_stack(
-        [ref.week, ref.t, np.degrees(ref.llh[:, :2]), ref.llh[:, 2], ref.vel_ned, np.degrees(ref.euler)]
-    )
-    fmt = ["%d", "%.9f", "%.12f", "%.12f", "%.6f", "%.9f", "%.9f", "%.9f", "%.9f", "%.9f", "%.9f"]
-    return _write_rows(path, data, fmt)
-
-
-def write_outages(path: str | Path, windows: Iterable[tuple[float, float]], comment: str | None = None) -> Path:
-    """Write outage windows ``start duration`` [s], one per line."""
-    rows = np.asarray(list(windows), dtype=float).reshape(-1, 2)
-    return _write_rows(path, rows, ["%.6f", "%.6f"], header=comment or "start_s duration_s")

@@ -20,9 +20,8 @@ sign, so ``imunoise fit`` models the axes as recorded.
 
 from __future__ import annotations
 
-import itertools
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,6 +29,24 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import DataError
+
+# _decode_block and _ros1_blocks are module attributes here so that a test can switch the fast decoders off
+from imunoise.io.bag_decode import decode_block as _decode_block
+from imunoise.io.bag_decode import msg_values, verified
+from imunoise.io.bag_decode import ros1_blocks as _ros1_blocks
+from imunoise.io.bag_topics import (
+    BAG_SUFFIXES,
+    IMU_TYPES,
+    NAVSAT_TYPES,
+    BagTopic,
+    choose_topic,
+    imu_topic,
+    is_bag,
+    list_topics,
+    open_bag,
+    topics_of,
+)
+from imunoise.io.bag_write import write_imu_bag
 from imunoise.io.tabular import GAP_FACTOR, TimeReport, TimingWarning, clean_time
 
 __all__ = [
@@ -49,87 +66,9 @@ __all__ = [
     "write_imu_bag",
 ]
 
-BAG_SUFFIXES = (".bag", ".db3", ".mcap")
-IMU_TYPES = ("sensor_msgs/msg/Imu", "sensor_msgs/Imu")
-NAVSAT_TYPES = ("sensor_msgs/msg/NavSatFix", "sensor_msgs/NavSatFix")
+
 DEFAULT_NAVSAT_SIGMA_M = (5.0, 5.0, 10.0)
 """σ (N, E, D) in m used when a NavSatFix has COVARIANCE_TYPE_UNKNOWN."""
-
-
-def is_bag(path: str | Path) -> bool:
-    """True for a ROS 1 ``.bag``, a ROS 2 ``.db3``/``.mcap`` file, or a ROS 2 folder with metadata.yaml."""
-    p = Path(path)
-    return p.suffix in BAG_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").exists())
-
-
-@dataclass(frozen=True)
-class BagTopic:
-    name: str
-    msgtype: str
-    count: int
-
-    def __str__(self) -> str:
-        return f"{self.name} [{self.msgtype}, {self.count} messages]"
-
-
-def _reader(path: Path):
-    from rosbags.highlevel import AnyReader
-
-    if not path.exists():
-        raise FileNotFoundError(2, "No such file", str(path))
-    if not is_bag(path):
-        raise DataError(f"{path} is not a ROS bag (.bag, .db3, .mcap or a ROS 2 bag folder)")
-    return AnyReader([path])
-
-
-def _open(path: Path):
-    from rosbags.highlevel import AnyReaderError
-
-    reader = _reader(path)
-    try:
-        reader.open()
-    except (AnyReaderError, Exception) as exc:  # rosbags raises several unrelated types on bad files
-        if isinstance(exc, FileNotFoundError):
-            raise
-        raise DataError(f"cannot read ROS bag {path}: {exc}") from exc
-    return reader
-
-
-def _topics(reader) -> list[BagTopic]:
-    counts: dict[tuple[str, str], int] = {}
-    for c in reader.connections:
-        key = (c.topic, c.msgtype)
-        counts[key] = counts.get(key, 0) + max(int(c.msgcount), 0)
-    return [BagTopic(t, m, n) for (t, m), n in sorted(counts.items())]
-
-
-def list_topics(path: str | Path) -> list[BagTopic]:
-    """Topics of a bag with their message type and count."""
-    reader = _open(Path(path))
-    try:
-        return _topics(reader)
-    finally:
-        reader.close()
-
-
-def _choose_topic(path: Path, topics: list[BagTopic], topic: str | None, types: tuple[str, ...], what: str) -> str:
-    listing = "\n  ".join(str(t) for t in topics) or "(none)"
-    matching = [t for t in topics if t.msgtype in types]
-    if topic is None:
-        if len(matching) == 1:
-            return matching[0].name
-        if not matching:
-            raise DataError(f"{path} has no {what} topic ({types[0]}); its topics are:\n  {listing}")
-        raise DataError(f"{path} has {len(matching)} {what} topics; choose one with --topic. Topics:\n  {listing}")
-    names = {t.name: t for t in topics}
-    if topic not in names:
-        raise DataError(f"{path} has no topic {topic!r}; its topics are:\n  {listing}")
-    if names[topic].msgtype not in types:
-        raise DataError(
-            f"topic {topic!r} of {path} carries {names[topic].msgtype}, not {types[0]}; topics:\n  {listing}"
-        )
-    return topic
-
 
 # ----------------------------------------------------------------------------------------------
 # IMU
@@ -175,135 +114,6 @@ class BagImu:
         return ImuData(self.t, self.gyro * s, self.accel * s, kind="rates", frame=frame)
 
 
-def _ros1_offsets(frame_len: int) -> dict[str, int]:
-    # seq u32, sec u32, nsec u32, frame_id (u32 length + bytes), then packed float64 (no alignment)
-    q = 16 + frame_len
-    av = q + 32 + 72
-    return {"sec": 4, "nsec": 8, "av": av, "la": av + 24 + 72, "size": av + 24 + 72 + 24 + 72}
-
-
-def _cdr_offsets(frame_len_with_nul: int) -> dict[str, int]:
-    # 4-byte encapsulation header; then sec i32, nanosec u32, frame_id (u32 length incl. NUL + bytes),
-    # float64s aligned to 8 relative to the end of the encapsulation header
-    p = 12 + frame_len_with_nul
-    q = 4 + ((p + 7) // 8) * 8
-    av = q + 32 + 72
-    return {"sec": 4 + 0, "nsec": 4 + 4, "av": av, "la": av + 24 + 72, "size": av + 24 + 72 + 24 + 72}
-
-
-def _f8(block: np.ndarray, off: int, k: int) -> np.ndarray:
-    return np.ascontiguousarray(block[:, off : off + 8 * k]).view("<f8").reshape(-1, k)
-
-
-def _decode_block(block: np.ndarray, ros1: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
-    """(stamp_ns, gyro, accel, frame_len) for messages of one length, or None if the layout is not ours."""
-    n, length = block.shape
-    if ros1:
-        flen = int(block[0, 12:16].view("<u4")[0])
-        off = _ros1_offsets(flen)
-    else:
-        if block[0, 1] != 1:  # big-endian CDR: leave it to the generic deserialiser
-            return None
-        flen = int(block[0, 12:16].view("<u4")[0])
-        off = _cdr_offsets(flen)
-    if off["size"] != length:
-        return None
-    sec = np.ascontiguousarray(block[:, off["sec"] : off["sec"] + 4]).view("<u4" if ros1 else "<i4")
-    nsec = np.ascontiguousarray(block[:, off["nsec"] : off["nsec"] + 4]).view("<u4")
-    stamp = sec.astype(np.int64).ravel() * 1_000_000_000 + nsec.astype(np.int64).ravel()
-    return stamp, _f8(block, off["av"], 3), _f8(block, off["la"], 3), flen
-
-
-def _msg_values(msg) -> tuple[int, np.ndarray, np.ndarray]:
-    st = msg.header.stamp
-    ns = int(st.sec) * 1_000_000_000 + int(getattr(st, "nanosec", getattr(st, "nsec", 0)))
-    w, a = msg.angular_velocity, msg.linear_acceleration
-    return ns, np.array([w.x, w.y, w.z]), np.array([a.x, a.y, a.z])
-
-
-def _ros1_header_fields(header: bytes) -> dict[str, tuple[int, int]]:
-    """name -> (value offset, value length) inside a ROS 1 record header (u32-length-prefixed name=value)."""
-    out = {}
-    pos = 0
-    while pos + 4 <= len(header):
-        n = int.from_bytes(header[pos : pos + 4], "little")
-        field = header[pos + 4 : pos + 4 + n]
-        eq = field.index(b"=")
-        out[field[:eq].decode()] = (pos + 4 + eq + 1, n - eq - 1)
-        pos += 4 + n
-    return out
-
-
-def _ros1_blocks(reader, conns) -> tuple[np.ndarray, np.ndarray] | None:
-    """(bag time ns, messages (n, L) uint8) of a ROS 1 bag read chunk by chunk, or None to use the generic
-    reader. The per-message Python loop of the generic reader costs ~10 µs a message; here each chunk is
-    decompressed once and its records (fixed header and data length) are sliced with NumPy. Every record
-    is checked: op = message data, its connection is one of ``conns``, its time equals the index time."""
-    try:
-        if reader.is2 or len(reader.readers) != 1:
-            return None
-        r1 = reader.readers[0]
-        ids = np.array(sorted({int(c.id) for c in conns}))
-        entries = [r1.indexes[int(i)] for i in ids]
-        n = sum(len(e) for e in entries)
-        if n < 2:
-            return None
-        flat = itertools.chain.from_iterable(itertools.chain.from_iterable(entries))
-        idx = np.fromiter(flat, dtype=np.int64, count=3 * n).reshape(n, 3)  # time, chunk_pos, offset
-        idx = idx[np.lexsort((idx[:, 2], idx[:, 1]))]  # file order: by chunk, then offset
-        starts = np.flatnonzero(np.diff(idx[:, 1])) + 1
-        blocks = []
-        length = None
-        four = np.arange(4)
-        for rows in np.split(idx, starts):
-            chunk = r1.chunks[int(rows[0, 1])]
-            r1.bio.seek(chunk.datapos)
-            arr = np.frombuffer(chunk.decompressor(r1.bio.read(chunk.datasize)), dtype=np.uint8)
-            offs = rows[:, 2]
-            hlen = arr[offs[:, None] + four].copy().view("<u4").ravel()
-            if np.any(hlen != hlen[0]):
-                return None
-            h0 = int(hlen[0])
-            fields = _ros1_header_fields(arr[offs[0] + 4 : offs[0] + 4 + h0].tobytes())
-            if not {"op", "conn", "time"} <= set(fields):
-                return None
-            base = offs + 4
-            if np.any(arr[base + fields["op"][0]] != 2):  # 0x02 = message data record
-                return None
-            conn = arr[(base + fields["conn"][0])[:, None] + four].copy().view("<u4").ravel()
-            t = arr[(base + fields["time"][0])[:, None] + np.arange(8)].copy().view("<u4").reshape(-1, 2)
-            t_ns = t[:, 0].astype(np.int64) * 1_000_000_000 + t[:, 1].astype(np.int64)
-            if not (np.all(np.isin(conn, ids)) and np.array_equal(t_ns, rows[:, 0])):
-                return None
-            dpos = base + h0
-            dlen = arr[dpos[:, None] + four].copy().view("<u4").ravel()
-            if np.any(dlen != dlen[0]) or (length is not None and int(dlen[0]) != length):
-                return None
-            length = int(dlen[0])
-            stride = 4 + h0 + 4 + length
-            if int(dpos[-1]) + 4 + length > arr.size:  # truncated chunk
-                return None
-            if offs.size > 1 and np.all(np.diff(offs) == stride):  # back-to-back records: a strided view
-                view = np.lib.stride_tricks.as_strided(
-                    arr[int(dpos[0]) + 4 :], shape=(offs.size, length), strides=(stride, 1), writeable=False
-                )
-                blocks.append(view)
-            else:
-                blocks.append(arr[(dpos + 4)[:, None] + np.arange(length)])
-        order = np.argsort(idx[:, 0], kind="stable")
-        return idx[order, 0], np.concatenate(blocks)[order]
-    except Exception:  # noqa: BLE001 - any surprise in the private layout: use the generic reader
-        return None
-
-
-def _verified(reader, raws: list, msgtype: str, decoded: tuple, rows: list[int]) -> bool:
-    """The fast decoding of ``rows`` equals the library's deserialisation of ``raws`` (same order)."""
-    for raw, j in zip(raws, rows):
-        ns, w, a = _msg_values(reader.deserialize(raw, msgtype))
-        if ns != decoded[0][j] or not (np.array_equal(w, decoded[1][j]) and np.array_equal(a, decoded[2][j])):
-            return False
-    return True
-
 
 def _decode_imu(reader, raws: list[bytes], msgtype: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
     n = len(raws)
@@ -320,15 +130,16 @@ def _decode_imu(reader, raws: list[bytes], msgtype: str) -> tuple[np.ndarray, np
         ok = fast is not None
         if ok:
             # verify the layout against the library's deserialiser on the first and last message
-            ok = _verified(reader, [raws[idx[0]], raws[idx[-1]]], msgtype, fast, [0, idx.size - 1])
+            ok = verified(reader, [raws[idx[0]], raws[idx[-1]]], msgtype, fast, [0, idx.size - 1])
         if ok:
             stamp[idx], gyro[idx], accel[idx] = fast[0], fast[1], fast[2]
         else:
             for i in idx:
-                stamp[i], gyro[i], accel[i] = _msg_values(reader.deserialize(raws[i], msgtype))
+                stamp[i], gyro[i], accel[i] = msg_values(reader.deserialize(raws[i], msgtype))
         if not frame_id:
             frame_id = str(reader.deserialize(raws[idx[0]], msgtype).header.frame_id)
     return stamp, gyro, accel, frame_id
+
 
 
 def read_imu_bag(
@@ -345,10 +156,10 @@ def read_imu_bag(
     path = Path(path)
     if stamps not in ("header", "bag"):
         raise DataError(f"stamps must be 'header' or 'bag', got {stamps!r}")
-    reader = _open(path)
+    reader = open_bag(path)
     try:
-        topics = _topics(reader)
-        name = _choose_topic(path, topics, topic, IMU_TYPES, "IMU")
+        topics = topics_of(reader)
+        name = choose_topic(path, topics, topic, IMU_TYPES, "IMU")
         conns = [c for c in reader.connections if c.topic == name]
         msgtype = conns[0].msgtype
         fast = _ros1_blocks(reader, conns)
@@ -356,7 +167,7 @@ def read_imu_bag(
             bag_ns, block = fast
             raws = [block[0].tobytes(), block[-1].tobytes()]
             decoded = _decode_block(block, ros1=True)
-            if decoded is None or not _verified(reader, raws, msgtype, decoded, [0, -1]):
+            if decoded is None or not verified(reader, raws, msgtype, decoded, [0, -1]):
                 fast = None
         if fast is None:
             msgs = list(reader.messages(connections=conns))
@@ -403,13 +214,6 @@ def read_imu_bag(
     )
 
 
-def imu_topic(path: str | Path, topic: str | None = None) -> BagTopic:
-    """The ``sensor_msgs/Imu`` topic :func:`read_imu_bag` would read (name, type, message count)."""
-    path = Path(path)
-    topics = list_topics(path)
-    name = _choose_topic(path, topics, topic, IMU_TYPES, "IMU")
-    return next(t for t in topics if t.name == name)
-
 
 @dataclass(frozen=True, eq=False)
 class BagImuBlock:
@@ -428,9 +232,9 @@ def iter_imu_bag(path: str | Path, topic: str | None = None, *, batch: int = 1 <
     all held at once. Nothing is sorted or cleaned here: :func:`read_imu_bag` sorts by header stamp, a
     stream cannot (``imunoise.io.imu_stream`` refuses out-of-order stamps)."""
     path = Path(path)
-    reader = _open(path)
+    reader = open_bag(path)
     try:
-        name = _choose_topic(path, _topics(reader), topic, IMU_TYPES, "IMU")
+        name = choose_topic(path, topics_of(reader), topic, IMU_TYPES, "IMU")
         conns = [c for c in reader.connections if c.topic == name]
         msgtype = conns[0].msgtype
         bag_ns: list[int] = []
@@ -484,10 +288,10 @@ def read_navsat_bag(
 ) -> BagNavSat:
     """Read a ``sensor_msgs/NavSatFix`` topic; fixes without a fix (status −1) are dropped and counted."""
     path = Path(path)
-    reader = _open(path)
+    reader = open_bag(path)
     try:
-        topics = _topics(reader)
-        name = _choose_topic(path, topics, topic, NAVSAT_TYPES, "NavSatFix")
+        topics = topics_of(reader)
+        name = choose_topic(path, topics, topic, NAVSAT_TYPES, "NavSatFix")
         conns = [c for c in reader.connections if c.topic == name]
         rows = []
         for conn, _, raw in reader.messages(connections=conns):
@@ -536,131 +340,3 @@ def read_navsat_bag(
         n_default_sigma=n_default,
         stamp_ns=stamp[keep],
     )
-
-
-# ----------------------------------------------------------------------------------------------
-# writers (simulations, tests, converting CSV logs to bags)
-# ----------------------------------------------------------------------------------------------
-def _imu_records(stamp_ns: np.ndarray, gyro: np.ndarray, accel: np.ndarray, frame_id: str, ros1: bool) -> np.ndarray:
-    """Serialised sensor_msgs/Imu messages (n, size) for the fixed layout of :func:`_decode_block`."""
-    fid = frame_id.encode()
-    n = stamp_ns.size
-    sec = stamp_ns // 1_000_000_000
-    nsec = stamp_ns - sec * 1_000_000_000
-    if ros1:
-        off = _ros1_offsets(len(fid))
-        rec = np.zeros((n, off["size"]), dtype=np.uint8)
-        rec[:, 0:4] = np.arange(n, dtype="<u4").view(np.uint8).reshape(n, 4)  # seq
-        rec[:, 12:16] = np.frombuffer(np.uint32(len(fid)).astype("<u4").tobytes(), np.uint8)
-        rec[:, 16 : 16 + len(fid)] = np.frombuffer(fid, np.uint8)
-        sec_t = "<u4"
-        q = 16 + len(fid)
-    else:
-        off = _cdr_offsets(len(fid) + 1)
-        rec = np.zeros((n, off["size"]), dtype=np.uint8)
-        rec[:, 0:4] = np.frombuffer(b"\x00\x01\x00\x00", np.uint8)
-        rec[:, 12:16] = np.frombuffer(np.uint32(len(fid) + 1).astype("<u4").tobytes(), np.uint8)
-        rec[:, 16 : 16 + len(fid)] = np.frombuffer(fid, np.uint8)
-        sec_t = "<i4"
-        q = off["av"] - 104
-    rec[:, off["sec"] : off["sec"] + 4] = sec.astype(sec_t).view(np.uint8).reshape(n, 4)
-    rec[:, off["nsec"] : off["nsec"] + 4] = nsec.astype("<u4").view(np.uint8).reshape(n, 4)
-    rec[:, q + 24 : q + 32] = np.frombuffer(np.float64(1.0).astype("<f8").tobytes(), np.uint8)  # w = 1
-    # orientation unknown: orientation_covariance[0] = −1 (REP 145 convention)
-    rec[:, q + 32 : q + 40] = np.frombuffer(np.float64(-1.0).astype("<f8").tobytes(), np.uint8)
-    rec[:, off["av"] : off["av"] + 24] = np.ascontiguousarray(gyro, dtype="<f8").view(np.uint8).reshape(n, 24)
-    rec[:, off["la"] : off["la"] + 24] = np.ascontiguousarray(accel, dtype="<f8").view(np.uint8).reshape(n, 24)
-    return rec
-
-
-def _navsat_messages(typestore, navsat: Any, ros1: bool) -> Iterable[tuple[int, bytes]]:
-    t = np.asarray(navsat[0])
-    # integer stamps are ns (exact), as for the IMU
-    stamps = t.astype(np.int64) if np.issubdtype(t.dtype, np.integer) else np.round(t * 1e9).astype(np.int64)
-    lat, lon, alt = (np.asarray(a, dtype=float) for a in navsat[1:4])
-    cov = np.asarray(navsat[4], dtype=float) if len(navsat) > 4 and navsat[4] is not None else None
-    status = np.asarray(navsat[5], dtype=int) if len(navsat) > 5 and navsat[5] is not None else None
-    T = typestore.types
-    for i in range(stamps.size):
-        ns = int(stamps[i])
-        stamp = T["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
-        hdr = {"stamp": stamp, "frame_id": "gps"}
-        if ros1:
-            hdr["seq"] = i
-        c = np.zeros(9) if cov is None else cov[i]
-        msg = T["sensor_msgs/msg/NavSatFix"](
-            header=T["std_msgs/msg/Header"](**hdr),
-            status=T["sensor_msgs/msg/NavSatStatus"](status=0 if status is None else int(status[i]), service=1),
-            latitude=float(lat[i]),
-            longitude=float(lon[i]),
-            altitude=float(alt[i]),
-            position_covariance=c,
-            position_covariance_type=0 if cov is None else 2,
-        )
-        raw = (
-            typestore.serialize_ros1(msg, "sensor_msgs/msg/NavSatFix")
-            if ros1
-            else typestore.serialize_cdr(msg, "sensor_msgs/msg/NavSatFix")
-        )
-        yield ns, bytes(raw)
-
-
-def write_imu_bag(
-    path: str | Path,
-    t: np.ndarray,
-    gyro: np.ndarray,
-    accel: np.ndarray,
-    *,
-    topic: str = "/imu0",
-    frame_id: str = "imu",
-    navsat: tuple | None = None,
-    navsat_topic: str = "/fix",
-) -> Path:
-    """Write ``sensor_msgs/Imu`` messages (``t`` s as float, or integer ns; ``gyro`` rad/s, ``accel`` m/s²,
-    (n, 3)) to a bag whose format follows the suffix: ``.bag`` ROS 1 (Noetic types); ``.db3`` / ``.mcap``
-    a ROS 2 (Humble) bag folder ``<stem>/`` holding ``<stem>.db3`` / ``<stem>.mcap`` and metadata.yaml —
-    the storage file's path is returned; any other name: a ROS 2 sqlite3 bag folder. Header stamp = bag time = ``t``.
-    ``navsat`` = (t, lat_deg, lon_deg, alt_m[, cov (n, 9) ENU m²[, status (n,)]]) adds a NavSatFix topic
-    (``t`` s or integer ns; status 0 = fix, −1 = no fix)."""
-    from rosbags.rosbag1 import Writer as Writer1
-    from rosbags.rosbag2 import StoragePlugin
-    from rosbags.rosbag2 import Writer as Writer2
-    from rosbags.typesys import Stores, get_typestore
-
-    path = Path(path)
-    t = np.asarray(t)
-    # integer stamps are ns (exact); float seconds near the Unix epoch carry ~0.2 µs rounding
-    stamp = t.astype(np.int64) if np.issubdtype(t.dtype, np.integer) else np.round(t * 1e9).astype(np.int64)
-    gyro = np.asarray(gyro, dtype=float).reshape(-1, 3)
-    accel = np.asarray(accel, dtype=float).reshape(-1, 3)
-    if not (t.ndim == 1 and gyro.shape[0] == t.size == accel.shape[0]):
-        raise DataError(f"t {t.shape}, gyro {gyro.shape} and accel {accel.shape} must have the same length")
-    ros1 = path.suffix == ".bag"
-    target = path if ros1 or path.suffix not in (".db3", ".mcap") else path.with_suffix("")
-    if target.exists():
-        raise DataError(f"{target} exists already; bags are never overwritten — remove it or choose another name")
-    rec = _imu_records(stamp, gyro, accel, frame_id, ros1)
-    if ros1:
-        typestore = get_typestore(Stores.ROS1_NOETIC)
-        writer = Writer1(path)
-        result = path
-    else:
-        typestore = get_typestore(Stores.ROS2_HUMBLE)
-        plugin = StoragePlugin.MCAP if path.suffix == ".mcap" else StoragePlugin.SQLITE3
-        folder = path.with_suffix("") if path.suffix in (".db3", ".mcap") else path
-        writer = Writer2(folder, version=9, storage_plugin=plugin)
-        ext = ".mcap" if plugin == StoragePlugin.MCAP else ".db3"
-        result = folder / f"{folder.name}{ext}" if path.suffix in (".db3", ".mcap") else folder
-    with writer:
-        conn = writer.add_connection(topic, "sensor_msgs/msg/Imu", typestore=typestore)
-        if navsat is None:
-            for ns, row in zip(stamp.tolist(), rec):
-                writer.write(conn, ns, row.tobytes())
-            return result
-        nav_conn = writer.add_connection(navsat_topic, "sensor_msgs/msg/NavSatFix", typestore=typestore)
-        events: list[tuple[int, int, Any]] = [(ns, 0, i) for i, ns in enumerate(stamp.tolist())]
-        events += [(ns, 1, raw) for ns, raw in _navsat_messages(typestore, navsat, ros1)]
-        events.sort(key=lambda e: (e[0], e[1]))
-        for ns, kind, item in events:
-            writer.write(conn, ns, rec[item].tobytes()) if kind == 0 else writer.write(nav_conn, ns, item)
-    return result

@@ -28,6 +28,7 @@ from imunoise.nav.filter_loop import (
     nhc_due,
     nhc_update,
     run_batch,
+    run_span,
     zupt_update,
 )
 from imunoise.nav.measurements.gnss_velocity import GnssVelocity, as_gnss_velocity
@@ -255,6 +256,28 @@ class LooselyCoupledEKF:
             self.n_rejected += 1
             self.log_rejected(t, nis)
         return bool(ok)
+
+    def run_span(self, imu: ImuInput, fixes: Fixes, rows: np.ndarray, pv: np.ndarray) -> np.ndarray:
+        """Samples ``imu.t[1:]`` through the batch kernel's step sequence (:func:`imunoise.nav.filter_loop.run_span`:
+        propagation, NHC and GNSS fixes through the same update functions as :meth:`propagate` and
+        :meth:`update_gnss`), with the filter's clock, gate, sample and rejection counters following the span.
+
+        Returns
+        -------
+        numpy.ndarray
+            Boolean per fix: whether it was used (the kernel writes ``fixes.status``; rejected ones are logged).
+        """
+        carry = np.array([self._k, self._consecutive_reject, self._nhc_reject], dtype=np.int64)
+        model, settings = self.kernel_parts()
+        run_span(imu, self.arrays(), model, settings, self.nhc_settings(), fixes, carry, rows, pv)
+        self.t = float(imu.t[-1])
+        self.gate_open = bool(imu.gate[-1])
+        self._k, self._consecutive_reject, self._nhc_reject = int(carry[0]), int(carry[1]), int(carry[2])
+        used = fixes.status > 0
+        for k in np.flatnonzero(~used):
+            self.n_rejected += 1
+            self.log_rejected(float(fixes.t[k]), float(fixes.nis[k]))
+        return used
 
     def log_rejected(self, t: float, nis: float) -> None:
         """Log a GNSS fix the χ² gate rejected (here and for the online engine's kernel spans)."""

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import DataError
-from imunoise.nav.filter_loop import SPAN_COLS, Fixes, ImuInput, next_event, run_span
+from imunoise.nav.filter_loop import SPAN_COLS, Fixes, ImuInput, next_event
 from imunoise.online.result import EpochStore
 
 __all__ = ["chunked", "push_chunk", "replay", "run_chunk", "run_record"]
@@ -293,19 +293,10 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec) -> None:
     gin = np.concatenate([[ekf.gate_open], gate])
     imu = ImuInput(tin, np.concatenate([np.zeros((1, 3)), dth]), np.concatenate([np.zeros((1, 3)), dv]), gin,
                    np.zeros(m + 1, dtype=np.bool_))
-    carry = np.array([ekf._k, ekf._consecutive_reject, ekf._nhc_reject], dtype=np.int64)
     rows = np.empty((m, SPAN_COLS))
     guard = cfg.stop_guard == "nav" and bool(rec.any())
     pv = np.empty((m if guard else 1, 3, 3))
-    model, settings = ekf.kernel_parts()
-    run_span(imu, ekf.arrays(), model, settings, ekf.nhc_settings(), fixes, carry, rows, pv)
-    ekf.t = float(ts[-1])
-    ekf.gate_open = bool(gate[-1])
-    ekf._k, ekf._consecutive_reject, ekf._nhc_reject = int(carry[0]), int(carry[1]), int(carry[2])
-    used = fixes.status > 0
-    for k in np.flatnonzero(~used):
-        ekf.n_rejected += 1
-        ekf.log_rejected(ft[k], fixes.nis[k])
+    used = ekf.run_span(imu, fixes, rows, pv)
     # the sample each fix was applied at (the first with t ≥ the fix time)
     at = np.searchsorted(ts, ft, side="left")
     t_aided = np.full(m, nav._t_aided)

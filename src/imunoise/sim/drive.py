@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +29,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from imunoise.errors import ModelError
-from imunoise.imu import AXES, ImuData
+from imunoise.imu import ImuData
 from imunoise.io.jsonutil import json_default
 from imunoise.io.kfgins import (
     GnssData,
@@ -41,258 +41,20 @@ from imunoise.io.kfgins import (
 )
 from imunoise.model import Model
 from imunoise.nav.earth import OMEGA_E, radii
+from imunoise.sim.drive_config import DriveConfig
+from imunoise.sim.drive_plan import plan_drive
+from imunoise.sim.drive_truth import truth_record
 from imunoise.sim.imu_errors import models_to_json, resolve_imu_models, simulate_model_errors
 from imunoise.sim.law_schedule import LawSchedule, law_schedule
-from imunoise.sim.motion import NONE, MotionNoise, modulated_errors, oracle_models, resolve_motion
+from imunoise.sim.motion import NONE, modulated_errors, oracle_models, resolve_motion
 from imunoise.sim.replay import load_recording, stretch
-from imunoise.sim.trajectory import DrivePlan, Kinematics, Ramps, kinematics, simpson_increments
+from imunoise.sim.trajectory import kinematics, simpson_increments
 
 __all__ = ["DriveConfig", "SimulatedDrive", "simulate_drive", "plan_drive"]
 
-_DEG = math.pi / 180.0
 SUBSTEPS = 4  # Simpson sub-steps per IMU interval (even)
 STATIC_SPEED = 0.05  # m/s: slower than this and without rotation an epoch counts as static
 
-
-@dataclass
-class DriveConfig:
-    """Settings of a simulated drive (SI units; angles in degrees where the name says ``_deg``).
-
-    Timing: ``duration_s`` of recording starting with ``static_s`` at rest (alignment), ``n_stops``
-    traffic-light stops of ``stop_range_s`` each, and a final stop at the end.
-    """
-
-    duration_s: float = 600.0
-    n_stops: int = 3
-    stop_range_s: tuple[float, float] = (5.0, 90.0)
-    static_s: float = 60.0
-    imu_rate_hz: float = 100.0
-    gnss_rate_hz: float = 1.0
-    ref_rate_hz: float | None = 10.0  # None: reference at the IMU rate
-    gnss_sigma_m: tuple[float, float, float] = (1.0, 1.0, 2.0)  # N, E, D (reported and simulated)
-    outlier_rate: float = 0.0  # fraction of GNSS epochs with a gross error
-    outlier_range_m: tuple[float, float] = (10.0, 50.0)  # horizontal size of a gross error
-    gnss_noise_tau_s: float = 0.0  # correlation time of the GNSS noise (urban multipath); 0 = white
-    outages: list[tuple[float, float]] = field(default_factory=list)  # (start, duration), s from start
-    remove_outages: bool = False  # drop GNSS epochs inside the outages from ``gnss`` (``gnss_full`` keeps them)
-    start_llh: tuple[float, float, float] = (40.0966, -105.147, 1601.0)  # lat [deg], lon [deg], h [m]
-    start_yaw_deg: float | None = None  # None: random
-    gps_week: int = 2374
-    start_sow: float = 100000.0  # GPS seconds of week at the first sample
-    lever_arm_m: tuple[float, float, float] = (0.0, 0.0, 0.0)  # GNSS antenna in body FRD
-    seed: int = 0
-    # driving style
-    cruise_speed_mps: tuple[float, float] = (8.0, 14.0)
-    corner_speed_mps: tuple[float, float] = (4.0, 6.0)
-    corner_rate_deg_s: tuple[float, float] = (35.0, 50.0)  # peak yaw rate of tight 90° corners
-    max_lateral_mps2: float = 4.0
-    accel_mps2: float = 1.8
-    brake_mps2: float = 2.5
-    max_jerk_mps3: float = 3.0
-    max_grade_deg: float = 3.0
-    roll_gain_deg_per_mps2: float = 0.25  # body roll out of the turn per m/s² lateral acceleration
-    # IMU errors other than the stochastic model
-    gyro_bias_sigma: float = 200.0 * _DEG / 3600.0  # rad/s, turn-on bias σ (200 °/h)
-    accel_bias_sigma: float = 0.05  # m/s², turn-on bias σ (≈5 mg)
-    scale_factor_sigma: float = 0.0  # dimensionless σ (1e-3 = 1000 ppm)
-    gyro_vibration: float = 0.1 * _DEG  # rad/s std while moving at ≥ 3 m/s (0.1 °/s); only when motion_noise is None
-    accel_vibration: float = 0.05  # m/s² std while moving at ≥ 3 m/s; only when motion_noise is None
-    # motion law of the stochastic errors (imunoise.sim.motion): a preset ("none", "drive0708") or a
-    # MotionNoise; it replaces the vibration term. None: the vibration term alone (the earlier simulator).
-    motion_noise: str | MotionNoise | None = None
-    # real noise (imunoise.sim.replay): a static recording (.npz) whose stretch [d·n, (d+1)·n), d = seed −
-    # imu_noise_first, replaces the stochastic model errors; its last imu_noise_reserve_s s stay unused (the
-    # denial experiment's static recording). A law may add its additive terms on top, not scale the recording.
-    imu_noise: str | None = None
-    imu_noise_first: int = 0
-    imu_noise_reserve_s: float = 0.0
-
-    def __post_init__(self) -> None:
-        if self.duration_s <= 0 or self.static_s < 0 or self.static_s >= self.duration_s:
-            raise ModelError(
-                f"need 0 ≤ static_s < duration_s, got static_s={self.static_s}, duration_s={self.duration_s}"
-            )
-        if self.n_stops < 0:
-            raise ModelError(f"n_stops must be ≥ 0, got {self.n_stops}")
-        lo, hi = self.stop_range_s
-        if not 0 < lo <= hi:
-            raise ModelError(f"stop_range_s must be (min, max) with 0 < min ≤ max, got {self.stop_range_s}")
-        if not self.imu_rate_hz > 0 or not self.gnss_rate_hz > 0:
-            raise ModelError(
-                f"imu_rate_hz and gnss_rate_hz must be > 0 Hz, got {self.imu_rate_hz}, {self.gnss_rate_hz}")
-        if self.gnss_rate_hz > self.imu_rate_hz:
-            raise ModelError(
-                f"gnss_rate_hz {self.gnss_rate_hz:g} Hz exceeds imu_rate_hz {self.imu_rate_hz:g} Hz; "
-                "GNSS epochs are taken at IMU samples: lower it"
-            )
-        if not 0.0 <= self.outlier_rate <= 1.0:
-            raise ModelError(f"outlier_rate must be in [0, 1], got {self.outlier_rate}")
-        if min(self.gnss_sigma_m) <= 0:
-            raise ModelError(f"gnss_sigma_m must be > 0, got {self.gnss_sigma_m}")
-        self.outages = [(float(s), float(d)) for s, d in self.outages]
-        if self.motion_noise is not None:
-            law = resolve_motion(self.motion_noise)  # an unknown preset fails here, not after the trajectory
-            if self.imu_noise is not None and law.modulates:
-                raise ModelError(f"--motion-noise {law.name} scales the white and bias noise of the IMU model; a "
-                                 "replayed recording (--imu-noise) is used as it is: give a law with additive "
-                                 "terms only (none, gyro_departure_step, gyro_moving_gm, accel_moving_gm, warmup)")
-        if self.imu_noise is not None:
-            load_recording(self.imu_noise)  # a bad file fails here
-        for s, d in self.outages:
-            if d <= 0:
-                raise ModelError(f"outage ({s}, {d}): the duration (second value, s) must be > 0")
-
-    @classmethod
-    def noise_free(cls, **kw: Any) -> DriveConfig:
-        """A config without turn-on bias, scale factor, vibration or GNSS outliers."""
-        base = dict(
-            gyro_bias_sigma=0.0,
-            accel_bias_sigma=0.0,
-            scale_factor_sigma=0.0,
-            gyro_vibration=0.0,
-            accel_vibration=0.0,
-            outlier_rate=0.0,
-        )
-        base.update(kw)
-        return cls(**base)
-
-
-# ----------------------------------------------------------------------------------------------
-# manoeuvre planning
-# ----------------------------------------------------------------------------------------------
-
-
-def plan_drive(cfg: DriveConfig, rng: np.random.Generator) -> DrivePlan:
-    """Script the drive: static start, straights with grade changes, gentle curves, tight 90° corners,
-    speed changes, ``n_stops`` traffic-light stops spread over the drive, a final stop. All ramp
-    durations are whole IMU intervals so ramp ends fall on the integration grid."""
-    dt = 1.0 / cfg.imu_rate_hz
-    end = float(cfg.duration_s)
-
-    def q(T: float) -> float:
-        return max(1, math.ceil(T / dt - 1e-9)) * dt
-
-    yaw0 = rng.uniform(-math.pi, math.pi) if cfg.start_yaw_deg is None else math.radians(cfg.start_yaw_deg)
-    speed, yaw, pitch = Ramps(0.0), Ramps(yaw0), Ramps(0.0)
-
-    def speed_T(v0: float, v1: float, a: float) -> float:
-        dv = abs(v1 - v0)
-        return q(max(1.875 * dv / a, math.sqrt(5.7735 * dv / cfg.max_jerk_mps3), 0.5))
-
-    def go(t: float, v1: float, a: float) -> float:
-        return speed.add(t, speed_T(speed.level, v1, a), v1)
-
-    # stop durations: shrink if they would not leave enough driving time
-    n = cfg.n_stops
-    lo, hi = cfg.stop_range_s
-    durs = rng.uniform(lo, hi, n)
-    drive_time = end - cfg.static_s
-    per_stop = 25.0  # braking + starting again, s
-    reserve = 40.0  # final braking and stand
-    budget = drive_time - reserve - n * per_stop - 20.0 * (n + 1)
-    if budget < n * lo:
-        raise ModelError(
-            f"duration {end:g} s is too short for {n} stops of ≥ {lo:g} s after a {cfg.static_s:g} s static "
-            f"start; need about {cfg.static_s + reserve + n * (per_stop + lo) + 20.0 * (n + 1):.0f} s"
-        )
-    if durs.sum() > budget:
-        durs = lo + (durs - lo) * (budget - n * lo) / max((durs - lo).sum(), 1e-9)
-    durs = np.array([q(d) for d in durs])
-    moving = drive_time - reserve - durs.sum()
-    due = [cfg.static_s + (i + 1) * moving / (n + 1) + durs[:i].sum() for i in range(n)]
-
-    stops: list[tuple[float, float]] = []
-    statics: list[tuple[float, float]] = [(0.0, cfg.static_s)]
-    turns: list[dict] = []
-    t = float(cfg.static_s)
-    cruise = lambda: rng.uniform(*cfg.cruise_speed_mps)  # noqa: E731
-    t = go(t, cruise(), cfg.accel_mps2)
-    sharp_done = False
-    next_stop = 0
-
-    def straight(t: float, T: float) -> float:
-        T = q(T)
-        if T >= 6.0 and rng.random() < 0.6:  # grade change somewhere in the straight
-            Tg = q(rng.uniform(4.0, min(10.0, T - 1.0)))
-            t0 = t + q(rng.uniform(0.0, T - Tg))
-            if t0 >= pitch.end:
-                pitch.add(t0, Tg, math.radians(rng.uniform(-cfg.max_grade_deg, cfg.max_grade_deg)))
-        return t + T
-
-    def turn(t: float, angle: float, rate: float, kind: str) -> float:
-        T = q(1.875 * abs(angle) / rate)
-        turns.append(
-            {
-                "t0": t,
-                "duration": T,
-                "angle_deg": math.degrees(angle),
-                "peak_rate_deg_s": math.degrees(1.875 * abs(angle) / T),
-                "kind": kind,
-            }
-        )
-        return yaw.add(t, T, yaw.level + angle)
-
-    while True:
-        v = speed.level
-        remaining = end - t
-        pending = n - next_stop
-        need_final = speed_T(v, 0.0, cfg.brake_mps2) + 5.0
-        if pending:
-            need_stop = speed_T(v, 0.0, cfg.brake_mps2) + durs[next_stop] + per_stop
-            urgent = remaining < need_stop + (pending - 1) * (per_stop + lo) + need_final + 20.0
-            if t >= due[next_stop] or urgent:
-                t = go(t, 0.0, cfg.brake_mps2)
-                stops.append((t, t + durs[next_stop]))
-                statics.append(stops[-1])
-                t += durs[next_stop]
-                next_stop += 1
-                if t + per_stop + need_final >= end:
-                    break
-                t = go(t, cruise(), cfg.accel_mps2)
-                continue
-        if remaining < need_final + 25.0:
-            break
-        # a straight, cut short before a due stop
-        T = rng.uniform(3.0, 12.0)
-        if pending:
-            T = min(T, max(due[next_stop] - t, 1.0))
-        t = straight(t, T)
-        if end - t < need_final + 25.0:
-            continue
-        r = rng.random()
-        if not sharp_done or r < 0.35:  # tight 90° corner at an intersection
-            vt = rng.uniform(*cfg.corner_speed_mps)
-            rate = math.radians(rng.uniform(*cfg.corner_rate_deg_s))
-            vt = min(vt, cfg.max_lateral_mps2 / rate)
-            t = go(t, vt, cfg.brake_mps2)
-            t = turn(t, rng.choice([-1.0, 1.0]) * math.pi / 2, rate, "corner")
-            t = go(t, cruise(), cfg.accel_mps2)
-            sharp_done = True
-        elif r < 0.65:  # gentle curve at cruise speed
-            angle = math.radians(rng.uniform(10.0, 40.0)) * rng.choice([-1.0, 1.0])
-            rate = min(cfg.max_lateral_mps2 * 0.5 / max(v, 1.0), math.radians(25.0))
-            t = turn(t, angle, rate, "curve")
-        elif r < 0.85:  # change of cruise speed
-            t = go(t, cruise(), cfg.accel_mps2)
-        # else: keep going straight
-    if speed.level > 0.0:
-        t = go(t, 0.0, cfg.brake_mps2)
-    if t > end:
-        raise RuntimeError(f"internal planning error: manoeuvres end at {t:.2f} s after the duration {end:g} s")
-    statics.append((t, end))
-    return DrivePlan(
-        duration=end,
-        speed=speed,
-        yaw=yaw,
-        pitch=pitch,
-        roll_gain=math.radians(cfg.roll_gain_deg_per_mps2),
-        stops=stops,
-        static_intervals=statics,
-        turns=turns,
-    )
-
-
-# ----------------------------------------------------------------------------------------------
 # result container
 # ----------------------------------------------------------------------------------------------
 
@@ -579,7 +341,7 @@ def simulate_drive(
     gnss_full = GnssData(t=t[ig], llh=gllh, sigma_ned=np.tile(sig, (ig.size, 1)))
     gnss = gnss_full.without([(cfg.start_sow + s, d) for s, d in cfg.outages]) if cfg.remove_outages else gnss_full
 
-    truth = _truth(cfg, seed, plan, kin, at, models, bias, scale, t[ig][is_out], static_mask, t)
+    truth = truth_record(cfg, seed, plan, kin, at, models, bias, scale, t[ig][is_out], static_mask, t)
     truth["motion_noise"] = None if law is None else law.to_dict()
     truth["imu_noise"] = replay
     schedule = None if law is None else law_schedule(law, t, static_mask, m_white, m_bias)
@@ -604,70 +366,3 @@ def simulate_drive(
         moving_models=moving_models,
         law_schedule=schedule,
     )
-
-
-def _intervals(mask: np.ndarray, t: np.ndarray) -> list[list[float]]:
-    """[t_first, t_last] of each run of True in ``mask``."""
-    m = np.concatenate([[False], mask, [False]]).astype(np.int8)
-    d = np.diff(m)
-    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1
-    return [[float(t[a]), float(t[b])] for a, b in zip(starts, ends, strict=True)]
-
-
-def _truth(
-    cfg: DriveConfig,
-    seed: int,
-    plan: DrivePlan,
-    kin: Kinematics,
-    at: np.ndarray,
-    models: dict[str, Model],
-    bias: np.ndarray,
-    scale: np.ndarray,
-    outlier_t: np.ndarray,
-    static_mask: np.ndarray,
-    t: np.ndarray,
-) -> dict[str, Any]:
-    s0 = cfg.start_sow
-    step = max(1, int(round(cfg.imu_rate_hz)))
-    wz = np.degrees(kin.omega_ib_b[at, 2])
-    return {
-        "seed": seed,
-        "units": {
-            "time": "GPS seconds of week",
-            "gyro": "rad/s (model parameters per sample at imu_rate_hz)",
-            "accel": "m/s² (model parameters per sample at imu_rate_hz)",
-            "angles": "degrees unless the key says rad",
-        },
-        "imu_rate_hz": cfg.imu_rate_hz,
-        "error_equation": "rate_meas = (1 + scale) * rate_true + turn_on_bias + model_error + vibration; "
-        "increment = rate_meas * dt",
-        "models": models_to_json(models, cfg.imu_rate_hz),
-        "turn_on_bias": {"gyro_rad_s": bias[:3], "accel_m_s2": bias[3:], "axes": list(AXES)},
-        "scale_factor": {"gyro": scale[:3], "accel": scale[3:]},
-        "vibration_std_at_speed": {
-            "gyro_rad_s": cfg.gyro_vibration,
-            "accel_m_s2": cfg.accel_vibration,
-            "full_at_mps": 3.0,
-        },
-        "stops": [[s0 + a, s0 + b] for a, b in plan.stops],
-        "static_intervals": [[s0 + a, s0 + b] for a, b in plan.static_intervals],
-        "static_mask_intervals": _intervals(static_mask, t),
-        "turns": [{**tr, "t0": s0 + tr["t0"]} for tr in plan.turns],
-        "max_turn_rate_deg_s": float(np.abs(wz).max()),
-        "max_speed_mps": float(kin.speed.max()),
-        "distance_m": float(np.sum(kin.speed[at]) / cfg.imu_rate_hz),
-        "speed_profile": {"t": t[::step], "speed_mps": kin.speed[at][::step]},
-        "gnss_outliers_t": outlier_t,
-        "outages": [[s0 + s, d] for s, d in cfg.outages],
-        "initial_state": {
-            "t": float(t[0]),
-            "llh_deg_m": [
-                math.degrees(kin.llh[at[0], 0]),
-                math.degrees(kin.llh[at[0], 1]),
-                kin.llh[at[0], 2],
-            ],
-            "vel_ned_mps": kin.vel[at[0]],
-            "euler_deg": np.degrees(kin.euler[at[0]]),
-        },
-        "config": asdict(cfg),
-    }

@@ -13,21 +13,8 @@ Law. For sensor axis j (:data:`imunoise.imu.AXES`) and IMU sample k with speed v
     g_k = min(v_k / v_ref, 1),   h_k = min(ω_k / ω_ref, 1),
     m^w_{j,k} = 1 + a^w_j g_k + b^w_j h_k,       m^b_{j,k} = 1 + a^b_j g_k + b^b_j h_k,
 
-and m = 1 exactly on the static epochs (the static mask), so a stop is the static model. The axis' model
-components are driven with time-varying noise:
-
-    WN:   w_k = m^w_k σ ε_k,
-    RW:   x_k = x_{k−1} + m^b_k γ ε_k,
-    AR1:  x_k = φ x_{k−1} + m^b_k σ ε_k          (T_c unchanged; stationary σ_GM scales with m^b),
-    QN, DR: unchanged,
-
-with the same standard normals ε_k as the static simulation (a time-varying σ on a white sequence is exactly
-a per-sample scaling of its innovations), so the all-ones law reproduces the static path bit for bit.
-Speed and turn rate are smooth (quintic ramps), so the multipliers need no further smoothing.
-
-Moving regime (the oracle). The filter of the ``oracle`` method gets, per axis, the static model with
-σ²_WN·M_w², γ²_RW·M_b², σ²_AR1·M_b², where M² = mean of m² over the moving samples (the variance the law
-injects while moving); QN and DR stay. :func:`oracle_models`.
+and m = 1 exactly on the static epochs (the static mask), so a stop is the static model.
+How the multipliers drive the model's components, and the moving-regime models of the oracle: below.
 
 A third activity, acceleration: c_k = min(‖a_k‖ / a_ref, 1) with a_k = f_k − g_k the specific force with
 gravity removed (the vehicle's acceleration, computed from the trajectory as dv_n/dt), enters both
@@ -361,6 +348,30 @@ def motion_arg(spec: str) -> str:
     """
     resolve_motion(spec)
     return spec.lower() if spec.lower() in LAWS else str(Path(spec).resolve())
+
+# ----------------------------------------------------------------------------------------------
+# Motion-modulated error paths and the oracle's moving-regime models
+#
+# Motion-modulated IMU error paths and the oracle's moving-regime models (the multiplier law of
+# :mod:`imunoise.sim.motion`).
+#
+# With the law's multipliers m^w_{j,k}, m^b_{j,k} (1 exactly on the static epochs), the axis' model components are
+# driven with time-varying noise:
+#
+#     WN:   w_k = m^w_k σ ε_k,
+#     RW:   x_k = x_{k−1} + m^b_k γ ε_k,
+#     AR1:  x_k = φ x_{k−1} + m^b_k σ ε_k          (T_c unchanged; stationary σ_GM scales with m^b),
+#     QN, DR: unchanged,
+#
+# with the same standard normals ε_k as the static simulation (a time-varying σ on a white sequence is exactly
+# a per-sample scaling of its innovations), so the all-ones law reproduces the static path bit for bit.
+# Speed and turn rate are smooth (quintic ramps), so the multipliers need no further smoothing.
+#
+# Moving regime (the oracle). The filter of the ``oracle`` method gets, per axis, the static model with
+# σ²_WN·M_w², γ²_RW·M_b², σ²_AR1·M_b², where M² = mean of m² over the moving samples (the variance the law
+# injects while moving); QN and DR stay. :func:`oracle_models`.
+# ----------------------------------------------------------------------------------------------
+
 
 
 def _axis_path(model: Model, n: int, rng: np.random.Generator, mw: np.ndarray, mb: np.ndarray) -> np.ndarray:

@@ -1,11 +1,4 @@
-"""Allan-variance baseline: automated IEEE Std 952/1293 reading of the overlapping AV (SPEC §6).
-
-What practitioners do, made reproducible. The overlapping Allan variance at averaging time τ = mΔt is
-
-    AVAR(m) = Σ_k (ȳ_{k+m}(m) − ȳ_k(m))² / (2(N − 2m + 1)),
-
-computed from cumulative sums for any m (the dense log grid), and on the octave grid m = 2^{j−1} it is
-exactly 2ν²_j of the Haar wavelet variance (SPEC §1), so it comes from :func:`imunoise.wv.wavelet_variance`.
+"""Automated IEEE Std 952/1293 reading of the Allan deviation and the equivalent filter model (SPEC §6).
 
 Reading (Allan deviation AD = √AVAR, τ in seconds, data unit u):
 
@@ -42,29 +35,24 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numba import njit
 
-from imunoise.errors import DataError, FitError
+from imunoise.allan.variance import AllanVariance, allan_variance
+from imunoise.errors import FitError
 from imunoise.fitting.problem import prepare
 from imunoise.fitting.result import GMWMFit
 from imunoise.model import Model
 from imunoise.processes import AR1, DR, QN, RW, WN
-from imunoise.wv import WaveletVariance, scale_runs, wavelet_variance
+from imunoise.wv import scale_runs
 
 __all__ = [
-    "AllanVariance",
+    "BI_FACTOR",
+    "LINES",
+    "MIN_DOF",
     "AllanLine",
     "AllanReading",
-    "allan_variance",
+    "allan_fit",
     "read_allan",
     "reading_model",
-    "allan_fit",
-    "curve_from_fit",
-    "data_curve",
-    "curve_to_dict",
-    "plot_allan",
-    "BI_FACTOR",
-    "MIN_DOF",
     "reliable",
     "rw_bound",
 ]
@@ -74,112 +62,6 @@ LINES = {"Q": -1.0, "N": -0.5, "B": 0.0, "K": 0.5, "R": 1.0}
 #: Equivalent degrees of freedom an Allan point needs to be read (SPEC §3, η = max(M/(2m), 1)); the one
 #: definition of a "reliable" point, shared by the reading and the data's bound on K (:func:`rw_bound`).
 MIN_DOF = 3.0
-
-
-@dataclass(frozen=True)
-class AllanVariance:
-    """Overlapping Allan variance on a grid of averaging times (s), with η3 chi-square CIs."""
-
-    tau: np.ndarray  # averaging time, s
-    avar: np.ndarray
-    dof: np.ndarray  # equivalent degrees of freedom η = max(n_terms / (2m), 1)
-    ci_low: np.ndarray
-    ci_high: np.ndarray
-    freq: float
-    grid: str  # "octave" or "dense"
-
-    @property
-    def adev(self) -> np.ndarray:
-        return np.sqrt(self.avar)
-
-
-def _chi2_ci(avar: np.ndarray, eta: np.ndarray, alpha: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
-    from scipy.special import gammaincinv
-
-    lo = eta * avar / (2.0 * gammaincinv(eta / 2.0, 1.0 - alpha / 2.0))
-    hi = eta * avar / (2.0 * gammaincinv(eta / 2.0, alpha / 2.0))
-    return lo, hi
-
-
-@njit(cache=True)
-def _avar_sums(c, ms):  # pragma: no cover - compiled
-    # Σ_k (c[k+2m] − 2c[k+m] + c[k])² and the number of terms, per m; c = cumulative sum with c[0] = 0
-    n = c.shape[0] - 1
-    tot = np.zeros(ms.shape[0])
-    cnt = np.zeros(ms.shape[0])
-    for i in range(ms.shape[0]):
-        m = ms[i]
-        if n < 2 * m:
-            continue
-        s = 0.0
-        for k in range(n - 2 * m + 1):
-            d = c[k + 2 * m] - 2.0 * c[k + m] + c[k]
-            s += d * d
-        tot[i] = s
-        cnt[i] = n - 2 * m + 1
-    return tot, cnt
-
-
-def _segments(data: Any) -> list[np.ndarray]:
-    segs = data if isinstance(data, (list, tuple)) else [data]
-    out = []
-    for s in segs:
-        x = np.asarray(s, dtype=float).reshape(-1)
-        if not np.all(np.isfinite(x)):
-            raise DataError("the data contain NaN or Inf; remove or interpolate them before the Allan variance")
-        out.append(x - x.mean() if x.size else x)
-    return out
-
-
-def allan_variance(
-    data: Any,
-    *,
-    freq: float = 1.0,
-    grid: str = "octave",
-    points_per_decade: int = 10,
-    wv: WaveletVariance | None = None,
-) -> AllanVariance:
-    """Overlapping AVAR of a series or list of segments (pooled, never across a junction).
-
-    ``grid="octave"``: m = 2^{j−1} via the identity AVAR = 2ν²_j (a ready ``wv`` may be passed);
-    ``grid="dense"``: m on a log grid with ``points_per_decade`` points, from cumulative sums.
-    """
-    if not freq > 0:
-        raise DataError(f"sampling frequency must be > 0 Hz, got {freq}")
-    if grid == "octave":
-        if wv is None:
-            wv = wavelet_variance(data, freq=freq)
-        tau, avar = wv.scales / 2.0 / freq, 2.0 * wv.variance
-        eta = np.maximum(wv.n_coefficients / wv.scales, 1.0)
-        lo, hi = 2.0 * wv.ci_low, 2.0 * wv.ci_high
-        return AllanVariance(tau, avar, eta, lo, hi, float(freq), "octave")
-    if grid != "dense":
-        raise DataError(f"unknown Allan grid {grid!r}; use 'octave' or 'dense'")
-    segs = _segments(data)
-    n_max = max(s.size for s in segs)
-    if n_max < 4:
-        raise DataError("need at least 4 samples for an Allan variance")
-    m_all = np.unique(
-        np.round(
-            np.logspace(
-                0,
-                math.log10(n_max / 2),
-                max(int(points_per_decade * math.log10(n_max / 2)), 1) + 1,
-            )
-        ).astype(np.int64)
-    )
-    tot = np.zeros(m_all.size)
-    cnt = np.zeros(m_all.size)
-    for seg in segs:
-        t, c = _avar_sums(np.concatenate([[0.0], np.cumsum(seg)]), m_all)
-        tot += t
-        cnt += c
-    keep = cnt > 0
-    m_arr = m_all[keep].astype(float)
-    avar = tot[keep] / (2.0 * m_arr * m_arr * cnt[keep])
-    eta = np.maximum(cnt[keep] / (2.0 * m_arr), 1.0)
-    lo, hi = _chi2_ci(avar, eta)
-    return AllanVariance(m_arr / freq, avar, eta, lo, hi, float(freq), "dense")
 
 
 @dataclass(frozen=True)
@@ -424,114 +306,3 @@ def allan_fit(
     fit.elapsed_s = time.perf_counter() - t0
     return fit
 
-
-def curve_to_dict(av: AllanVariance) -> dict[str, Any]:
-    """JSON-ready points of an Allan curve (grid, τ [s], AVAR, η), read back by :func:`data_curve`."""
-    return {"grid": av.grid, "tau_s": av.tau.tolist(), "avar": av.avar.tolist(), "dof": av.dof.tolist()}
-
-
-def data_curve(fit: GMWMFit) -> AllanVariance | None:
-    """The data's Allan curve a fit carries, densest first: ``extra["data_allan"]`` (the dense grid stored by
-    :func:`imunoise.imu_model.fit_axis`), an AV fit's ``extra["allan_curve"]``, else the octave grid of the
-    fit's own WV (AVAR = 2ν²_j at τ = 2^(j−1)Δt, SPEC §1; η = M_j/2^j). None when the fit has no WV."""
-    c = fit.extra.get("data_allan")
-    if c:
-        tau, avar, eta = (np.asarray(c[k], dtype=float) for k in ("tau_s", "avar", "dof"))
-        lo, hi = _chi2_ci(avar, eta)
-        return AllanVariance(tau, avar, eta, lo, hi, float(fit.freq), str(c.get("grid", "dense")))
-    if fit.extra.get("allan_curve"):
-        return curve_from_fit(fit)
-    if getattr(fit, "wv", None) is None or len(fit.wv) == 0:
-        return None
-    return allan_variance(None, freq=fit.freq, grid="octave", wv=fit.wv)
-
-
-def curve_from_fit(fit: GMWMFit) -> AllanVariance:
-    """The AV points stored in an AV fit (``extra["allan_curve"]``)."""
-    c = fit.extra["allan_curve"]
-    tau, avar = np.asarray(c["tau_s"]), np.asarray(c["avar"])
-    m = tau * fit.freq
-    n = int(fit.extra.get("data_span", {}).get("n_samples", 0)) or int(fit.wv.n_coefficients[0] + 1)
-    eta = np.maximum((n - 2 * m + 1) / (2 * m), 1.0)
-    lo, hi = _chi2_ci(avar, eta)
-    return AllanVariance(tau, avar, eta, lo, hi, fit.freq, c["grid"])
-
-
-def plot_allan(
-    av: AllanVariance,
-    path: Any,
-    *,
-    reading: AllanReading | None = None,
-    models: list[tuple[str, Model]] | None = None,
-    unit: str = "u",
-    title: str = "",
-    colors: list[str] | None = None,
-) -> Any:
-    """Log-log Allan deviation with CI band, the fitted IEEE lines over their regions (shaded), and the
-    AD implied by any models (AVAR = 2ν² evaluated on the octave grid).
-
-    Legend: each line's coefficient with its unit; B is marked at its value (square at τ = T_BI) and
-    joined to the AD minimum it is read from (AD_min = 0.6643·B). Model curves take ``colors`` or the
-    method's colour (:data:`imunoise.plots.METHOD_COLORS`, from a label starting with GMWM/AV/EM); the
-    IEEE lines use colours none of the methods use.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from imunoise.plots import finish_figure, method_color
-
-    fig, ax = plt.subplots(figsize=(9.6, 5.2), layout="constrained")
-    ax.fill_between(av.tau, np.sqrt(av.ci_low), np.sqrt(av.ci_high), color="0.85", label="95% CI")
-    ax.loglog(
-        av.tau,
-        av.adev,
-        "o-" if av.grid == "octave" else ".-",
-        color="k",
-        ms=3,
-        lw=1,
-        label=f"overlapping AD ({av.grid} grid)",
-    )
-    # not blue/orange/purple: those are GMWM/AV/EM
-    colors_ieee = {"Q": "tab:pink", "N": "tab:green", "B": "tab:olive", "K": "tab:red", "R": "tab:brown"}
-    units = {"Q": f"{unit}·s", "N": f"{unit}/√Hz", "K": f"{unit}/s/√Hz", "R": f"{unit}/s"}
-    slope_text = {-1.0: "−1", -0.5: "−½", 0.5: "+½", 1.0: "+1"}
-    tt = np.geomspace(av.tau[0], av.tau[-1], 200)
-    if reading is not None:
-        for name, line in reading.lines.items():
-            c = colors_ieee[name]
-            if name == "B":
-                t_bi, floor = line.region[0], BI_FACTOR * line.value
-                ax.plot([t_bi, t_bi], [floor, line.value], ":", color=c, lw=1.2)
-                ax.plot([t_bi], [floor], "o", color=c, mfc="none", ms=7, label="AD minimum = 0.6643·B")
-                ax.plot([t_bi], [line.value], "s", color=c, ms=7,
-                        label=f"B = {line.value:.3g} {unit} at T_BI = {t_bi:.3g} s")
-                continue
-            if name == "N":
-                y = line.value / np.sqrt(tt)
-            elif name == "K":
-                y = line.value * np.sqrt(tt / 3.0)
-            elif name == "Q":
-                y = math.sqrt(3.0) * line.value / tt
-            else:
-                y = line.value * tt / math.sqrt(2.0)
-            ax.loglog(tt, y, "--", color=c, lw=1.2,
-                      label=f"{name} = {line.value:.3g} {units[name]} ({slope_text[line.slope]} line)")
-            ax.axvspan(line.region[0], line.region[1], color=c, alpha=0.08)
-    y_data = np.concatenate([np.sqrt(av.ci_low), np.sqrt(av.ci_high), av.adev])
-    y_data = y_data[np.isfinite(y_data) & (y_data > 0)]
-    for i, (label, model) in enumerate(models or []):
-        m = np.unique(np.round(np.geomspace(1, av.tau[-1] * av.freq, 60)))
-        scales = 2.0 * m
-        ad = np.sqrt(2.0 * model.wv(scales))
-        color = colors[i] if colors is not None else method_color(label, i)
-        ax.loglog(m / av.freq, ad, "-", lw=1.8, color=color, label=label)
-    if y_data.size:  # the data decide the range; lines and models far outside are named in a note
-        ax.set_ylim(y_data.min() / 3.0, y_data.max() * 3.0)
-    ax.set_xlim(av.tau[0] / 1.5, av.tau[-1] * 1.5)
-    ax.set_xlabel("averaging time τ [s]")
-    ax.set_ylabel(f"Allan deviation [{unit}]")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.set_title(title or "Allan deviation with automated IEEE reading")
-    return finish_figure(fig, ax, path)
