@@ -157,8 +157,6 @@ def run(args: argparse.Namespace) -> int:
 
     args.motion_noise = _motion_arg(args)  # checked before the output folder is made
     args.base = _base_config(args)
-    out = prepare_out_dir(args.out)
-    t0 = time.perf_counter()
     from imunoise.experiments.dense import parse_outages
 
     kind, outages = parse_outages(args.outages)
@@ -166,6 +164,8 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler and not (evidence and args.sim):
         raise ModelError("--scheduler runs the dense-window evidence on the simulator (--sim --outages dense:L:S); "
                          "drop it, or use --workers")
+    out = prepare_out_dir(args.out)
+    t0 = time.perf_counter()
     if evidence:
         if args.which != "online":
             raise ModelError("--outages dense:..., --gnss-regime, --pairs and --nhc belong to the online experiment")

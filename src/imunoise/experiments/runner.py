@@ -93,8 +93,9 @@ def _run_dask(job, jobs, workers: int, scheduler: str, units: int, progress) -> 
 
     cluster = None
     if scheduler in ("local", "threads"):
+        # ":0": the scheduler's HTTP endpoint on a free port, not the default 8787 another cluster may hold
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=scheduler == "local",
-                               dashboard_address=None, silence_logs=40)
+                               dashboard_address=":0", silence_logs=40)
         client = Client(cluster)
     else:
         try:
