@@ -336,9 +336,12 @@ def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None, cach
 # --------------------------------------------------------------------------------------------------
 def _fork(nav: OnlineNavigator, upd: _StopRefit | _Adaptive | None, shared: Sequence[Any]):
     # the branch keeps only its own epochs: the result converts every stored epoch to Euler angles; the aided
-    # run's store is shared rather than copied, since the fork replaces it with an empty one
+    # run's store is shared rather than copied, since the fork replaces it with an empty one. The finished
+    # modelling jobs (ModelUpdate, never changed once made; their fits and rankings are most of what a fork
+    # would copy) are shared too: the branch gets its own list of them.
     store = getattr(nav, "_store", None)
-    nav2, upd2 = nav.fork(upd, share=(*shared, *((store,) if store is not None else ())))
+    done = tuple(nav.updates)
+    nav2, upd2 = nav.fork(upd, share=(*shared, *((store,) if store is not None else ()), *done))
     return nav2, upd2
 
 
