@@ -87,7 +87,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "(imunoise.sim.replay; other rates than the simulator's are refused)")
     p.add_argument("--methods", help="comma-separated subset of the methods")
     p.add_argument("--start", type=float, help="real data: start time [s, data time base]")
-    p.add_argument("--workers", type=positive_int, default=2, help="local worker processes (parallel; default 2)")
+    p.add_argument("--workers", type=positive_int, default=2,
+                   help="worker processes (parallel drives; default 2; with --scheduler local the cluster's size)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="dense-window evidence on the simulator: run the drives on Dask, 'local' (a LocalCluster "
+                   "of --workers processes) or a scheduler address tcp://HOST:PORT whose workers have imunoise "
+                   "(default: --workers forked local processes); results are identical either way")
     p.add_argument("--latency", type=nonnegative_float, default=None,
                    help="online methods: fixed delay [s] from a stop's end to its model in the filter (a run "
                         "repeats to the bit; default: the measured compute time, as the paper; the hot-swap "
@@ -128,13 +133,15 @@ def select_methods(which: str, sim: bool, methods: str | None, evidence: bool = 
     return chosen
 
 
-def _progress(total: int, desc: str):
+def _progress(total: int, desc: str, unit: str = "job"):
+    """A tqdm bar with an ETA on stderr (off when stderr is not a terminal) and its step; ``step(n)`` with an
+    integer adds n units, any other argument (a seed, a method name) one."""
     from tqdm import tqdm
 
-    bar = tqdm(total=total, desc=desc, unit="job", disable=not sys.stderr.isatty())
+    bar = tqdm(total=total, desc=desc, unit=unit, disable=not sys.stderr.isatty())
 
-    def step(_name=None) -> None:
-        bar.update(1)
+    def step(n=None) -> None:
+        bar.update(n if isinstance(n, int) and not isinstance(n, bool) else 1)
 
     return bar, step
 
@@ -150,12 +157,15 @@ def run(args: argparse.Namespace) -> int:
 
     args.motion_noise = _motion_arg(args)  # checked before the output folder is made
     args.base = _base_config(args)
-    out = prepare_out_dir(args.out)
-    t0 = time.perf_counter()
     from imunoise.experiments.dense import parse_outages
 
     kind, outages = parse_outages(args.outages)
     evidence = kind == "dense" or bool(args.gnss_regime) or bool(args.pairs) or args.nhc
+    if args.scheduler and not (evidence and args.sim):
+        raise ModelError("--scheduler runs the dense-window evidence on the simulator (--sim --outages dense:L:S); "
+                         "drop it, or use --workers")
+    out = prepare_out_dir(args.out)
+    t0 = time.perf_counter()
     if evidence:
         if args.which != "online":
             raise ModelError("--outages dense:..., --gnss-regime, --pairs and --nhc belong to the online experiment")
@@ -296,7 +306,9 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
         if args.seeds < 1:
             raise ModelError(f"--seeds must be ≥ 1, got {args.seeds}")
         seeds = list(range(args.seed0, args.seed0 + args.seeds))
-        bar, step = _progress(len(seeds), "evidence Monte Carlo")
+        # one unit = one method on one GNSS realisation of one drive
+        bar, step = _progress(len(seeds) * dense.n_units(methods, regimes, noise_seeds), "evidence (drives × methods)",
+                              unit="run")
         scen = {"duration_s": args.duration, "n_stops": args.stops}
         if args.imu_model:
             scen["imu_models"] = args.imu_model
@@ -304,7 +316,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
         from imunoise.experiments.common import imu_noise_kwargs
 
         scen.update(imu_noise_kwargs(args.imu_noise, args.seed0, imu=args.imu_model))
-        res = dense.run_sim(seeds, progress=step, **kw, **scen)
+        res = dense.run_sim(seeds, progress=step, scheduler=args.scheduler, **kw, **scen)
         title = f"imunoise: dense-window evidence, {len(seeds)} simulated drives"
     else:
         data = args.data or str(repo_data_dir())

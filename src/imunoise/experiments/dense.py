@@ -67,6 +67,7 @@ import numpy as np
 from imunoise.errors import DataError, ModelError
 from imunoise.experiments.common import Scenario, baseline_fits, filter_models, static_segments
 from imunoise.experiments.gnss_regimes import GnssRegime
+from imunoise.experiments.runner import tick
 from imunoise.experiments.stats import default_block, n_independent, paired_entry
 from imunoise.nav.metrics import nav_errors
 from imunoise.online import MotionNoisePrior, OnlineConfig, OnlineNavigator
@@ -77,7 +78,7 @@ __all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "S
            "base_method", "with_nhc", "method_setup",
            "run_windows", "learn_prior", "earlier_prior", "earlier_stops", "WARM_METHODS", "STATIC_WARM_METHODS",
            "PRIOR_SEED_OFFSET",
-           "run_real", "run_sim", "paired_list", "METRICS"]
+           "run_real", "run_sim", "n_units", "paired_list", "METRICS"]
 
 EVIDENCE_METHODS = ("plain", "static_var", "av", "em", "av_online", "em_online", "gmwm", "gmwm_hindsight")
 SIM_EXTRA = ("oracle",)
@@ -334,8 +335,13 @@ def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None, cach
 # one aided run with a branch per window
 # --------------------------------------------------------------------------------------------------
 def _fork(nav: OnlineNavigator, upd: _StopRefit | _Adaptive | None, shared: Sequence[Any]):
-    # the branch keeps only its own epochs: the result converts every stored epoch to Euler angles
-    nav2, upd2 = nav.fork(upd, share=tuple(shared))
+    # the branch keeps only its own epochs: the result converts every stored epoch to Euler angles; the aided
+    # run's store is shared rather than copied, since the fork replaces it with an empty one. The finished
+    # modelling jobs (ModelUpdate, never changed once made; their fits and rankings are most of what a fork
+    # would copy) are shared too: the branch gets its own list of them.
+    store = getattr(nav, "_store", None)
+    done = tuple(nav.updates)
+    nav2, upd2 = nav.fork(upd, share=(*shared, *((store,) if store is not None else ()), *done))
     return nav2, upd2
 
 
@@ -577,19 +583,32 @@ def _sim_job(args: tuple) -> dict:
                 pooled = stops[n_stops[m]] if m in n_stops else None
                 runs.append((m, ri, ns, evaluate_method(sc, m, gnss, windows, base=base, cache=cache, prior=prior,
                                                         earlier_static=pooled)))
+                tick()
     return {"seed": seed, "name": sc.name, "windows": windows, "runs": runs}
+
+
+def n_units(methods: Sequence[str], regimes: Sequence[GnssRegime], noise_seeds: Sequence[int]) -> int:
+    """Runs per drive: methods × GNSS realisations (a regime with noise once per noise seed)."""
+    return len(methods) * sum(len(noise_seeds) if rg.random else 1 for rg in regimes)
 
 
 def run_sim(seeds: Sequence[int], *, spec: DenseSpec = DenseSpec(), regimes: Sequence[GnssRegime] = (GnssRegime(),),
             noise_seeds: Sequence[int] = (1,), methods: Sequence[str] = (*EVIDENCE_METHODS, *SIM_EXTRA),
             pairs: Sequence[tuple[str, str]] = (), workers: int = 2, base: OnlineConfig | None = None,
             n_boot: int = 2000, boot_seed: int = 0, progress: Callable[[int], None] | None = None,
-            **scen_kw: Any) -> dict:
-    """Dense-window evidence over simulated drives (``seeds``; drives are the bootstrap's clusters)."""
-    from imunoise.experiments.common import map_seeds
+            scheduler: str | None = None, **scen_kw: Any) -> dict:
+    """Dense-window evidence over simulated drives (``seeds``; drives are the bootstrap's clusters).
+
+    One job per drive (its scenario, GNSS draws and earlier drives made once for all methods), run by
+    :func:`imunoise.experiments.runner.run_jobs` in ``workers`` processes or on the Dask ``scheduler``;
+    ``progress(n)`` after every ``n`` runs of one method on one realisation of a drive
+    (:func:`n_units` per drive). The results do not depend on ``workers`` or ``scheduler``."""
+    from imunoise.experiments.runner import run_jobs
 
     jobs = [(int(s), tuple(methods), tuple(regimes), tuple(noise_seeds), spec, dict(scen_kw), base) for s in seeds]
-    drives = map_seeds(_sim_job, jobs, workers, progress)
+    drives = run_jobs(_sim_job, jobs, workers=workers, scheduler=scheduler,
+                      units=n_units(methods, regimes, noise_seeds), progress=progress)
+    drives.sort(key=lambda d: d["seed"])
     res = assemble(drives, methods, regimes, spec, pairs, n_paper=0, n_boot=n_boot, boot_seed=boot_seed)
     res["data"] = "sim"
     res["seeds"] = [d["seed"] for d in drives]
