@@ -57,6 +57,7 @@ METHOD_LABELS = {
     "gmwm_top3": "GMWM 3rd by GOF",
     "gmwm_top2": "GMWM 2nd by GOF",
     "oracle": "true IMU model (simulator only)",
+    "oracle_law": "true IMU model and motion law, per sample (simulator only)",
 }
 
 
