@@ -69,10 +69,14 @@ def test_injected_noise_integrates_to_the_schedule(drive):
                 + len(dep) * sched.step_var[a])
         assert want > 0
         assert P_end[b[a], b[a]] == pytest.approx(want, rel=1e-12)
-    # white PSD: Σ over pieces psd·mean(m_w²)·(piece length) = Σ_k psd·m_w²[k]·Δt
-    wpsd = lf.noise.base.wpsd
+    # white PSD: Σ over pieces psd·mean(m²)·(piece length) = Σ_k psd·m²[k]·Δt
+    # (the folded short-AR1 part of the PSD, bias noise, takes m_b²)
+    folded = lf.noise.bias_psd
+    assert folded[0] > 0
+    white = lf.noise.base.wpsd - folded
     got = sum(m.wpsd * (log[i + 1][0] - k) * dt for i, (k, _, _, m) in enumerate(log[:-1]))
-    want = wpsd * np.sum(sched.white_var_scale[steps], axis=0) * dt
+    want = (white * np.sum(sched.white_var_scale[steps], axis=0)
+            + folded * np.sum(sched.bias_var_scale[steps], axis=0)) * dt
     np.testing.assert_allclose(got, want, rtol=1e-12)
 
 

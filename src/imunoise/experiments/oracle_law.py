@@ -4,7 +4,8 @@ motion law injects — the ceiling of every error-model method under that law.
 From the drive's :class:`~imunoise.sim.law_schedule.LawSchedule` and the simulator's static (true) per-axis
 models, mapped to the filter as the ``oracle`` maps its models (no floor):
 
-* white PSD of axis j times m_w² and the driving noise of its RW/AR1 states times m_b², per piece the mean of
+* white PSD of axis j times m_w² and the driving noise of its RW/AR1 states times m_b² (the short AR1s the
+  mapping folds into white noise too: their part of the white PSD takes m_b²), per piece the mean of
   the schedule over the piece (so the injected variance integrated over the drive is the schedule's);
 * the moving Gauss–Markov (σ_j, τ_j) as an augmented AR1 state per axis with σ_j > 0 (H = 1, P0 = σ²),
   evolving while moving and frozen at stops;
@@ -65,6 +66,20 @@ def law_models(sc, base=None) -> list:
     return out
 
 
+def _folded_psd(sc, models: list) -> np.ndarray:
+    """Per axis the part of the filter's white PSD that is folded short AR1 noise (filter white − true white)."""
+    from imunoise.model import Model
+    from imunoise.processes import WN
+
+    none = Model([WN(sigma2=1e-30)])
+    static = sc.extra["static_models"]
+    out = np.zeros(6)
+    for a, (m, f) in enumerate(models):
+        true_white = static.get(AXES[a], none).white_variance() / f
+        out[a] = max(m.white_variance() / f - true_white, 0.0)
+    return out
+
+
 def _gm_index(ekf: LooselyCoupledEKF, models: list, sched) -> np.ndarray:
     """Layout index of each axis' moving GM state (the AR1 whose φ and σ² are the GM's), −1 where none."""
     idx = np.full(6, -1, dtype=np.int64)
@@ -102,11 +117,12 @@ class LawFilter:
         return self.noise.arrays()
 
 
-def law_filter(sc, extra_bounds_t=(), base=None) -> LawFilter:
+def law_filter(sc, extra_bounds_t=(), base=None, *, models: list | None = None) -> LawFilter:
     """The ``oracle_law`` filter of scenario ``sc`` from its start ``sc.init``; ``extra_bounds_t``: times where a
-    piece must start (window starts: the piece starts at the last sample before each)."""
-    sched = sc.extra["law_schedule"]
-    models = law_models(sc, base)
+    piece must start (window starts: the piece starts at the last sample before each). ``models``: fixed
+    (model, freq) pairs with the schedule off (a constant-model filter through the same batch path)."""
+    sched = sc.extra["law_schedule"] if models is None else None
+    models = law_models(sc, base) if models is None else models
     init = sc.init
     t_all = np.asarray(sc.imu.t, dtype=float)
     dth_all, dv_all = sc.imu.increments()
@@ -124,11 +140,18 @@ def law_filter(sc, extra_bounds_t=(), base=None) -> LawFilter:
     ekf = LooselyCoupledEKF(sc.ekf_config(), models, init, imu_rate_hz=sc.rate)
     ekf.prime(dth[0], dv[0])
     model, _ = ekf.kernel_parts()
-    noise = NoiseControl(ekf.layout, model, ekf.dt_nom, _gm_index(ekf, models, sched), sched.warmup_rw_q)
+    extra = np.searchsorted(t, np.asarray(extra_bounds_t, dtype=float), side="left") - 1
+    if sched is None:
+        bounds = np.unique(np.clip(np.concatenate([[0, n - 1], extra]), 0, n - 1)).astype(np.int64)
+        k = bounds.size - 1
+        return LawFilter(ekf, NoiseControl(ekf.layout, model, ekf.dt_nom), ImuInput(
+            t, dth, dv, np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.bool_)), bounds[:-1], np.ones((k, 6)),
+            np.ones((k, 6)), np.ones(k, dtype=bool), np.zeros(k, dtype=bool), np.zeros(6))
+    noise = NoiseControl(ekf.layout, model, ekf.dt_nom, _gm_index(ekf, models, sched), sched.warmup_rw_q,
+                         _folded_psd(sc, models))
     # schedule index of filter sample k (the step into k): k + i0 (schedule.t are the drive's IMU samples)
     off = i0
     cps = sched.change_points() - off - 1
-    extra = np.searchsorted(t, np.asarray(extra_bounds_t, dtype=float), side="left") - 1
     bounds = np.unique(np.clip(np.concatenate([[0, n - 1], cps, extra]), 0, n - 1)).astype(np.int64)
     ns = sched.t.size
     white, bias, moving, bump = [], [], [], []
@@ -175,14 +198,15 @@ def _run(lf: LawFilter, f: FilterArrays, fx: Fixes, out, a: int, b: int, off: in
                    lambda k: lf.before_piece(f, k))
 
 
-def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False) -> dict[str, Any]:
+def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models: list | None = None) -> dict[str, Any]:
     """:func:`imunoise.experiments.dense.run_windows` for ``oracle_law``: the same keys (``windows`` with
-    ``drift``, ``rms``, ``drift_v``, ``aided_rms``; ``horizontal_rms_m``, ``vertical_rms_m``)."""
+    ``drift``, ``rms``, ``drift_v``, ``aided_rms``; ``horizontal_rms_m``, ``vertical_rms_m``). ``models``: a
+    constant-model filter instead (:func:`law_filter`)."""
     from imunoise.experiments.dense import _branch_errors, window_metrics
     from imunoise.nav.metrics import nav_errors
 
     starts = [s for s, _ in windows]
-    lf = law_filter(sc, starts, base)
+    lf = law_filter(sc, starts, base, models=models)
     ekf, t = lf.ekf, lf.imu.t
     n = t.size
     has_sf = bool(np.all(ekf.layout.scale_index >= 0))

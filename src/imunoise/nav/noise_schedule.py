@@ -5,6 +5,8 @@ The filter of the law-aware oracle is told, piece by piece, what a simulated mot
 
 * :meth:`NoiseControl.set_noise_scale` ``(white, bias)``: the white PSD of axis a times ``white[a]``
   (Q_white = C diag(psd·m_w²) Cᵀ Δt) and the driving noise of every RW/AR1 state of axis a times ``bias[a]``.
+  The part of an axis' white PSD that stands for short AR1 processes folded into white noise (``bias_psd``,
+  :func:`imunoise.online.to_filter.ekf_axis_model`) is bias driving noise and scales by ``bias[a]``.
   Exact on the k-step tables Q_m^(k) = Σ Φ^i Q Φ^iᵀ because Φ_m is block-diagonal per axis: the block of axis
   a scales by ``bias[a]`` (entries (i, j) by √(c_i c_j), zero across axes). Scale-factor states and the moving
   Gauss–Markov are not scaled.
@@ -41,11 +43,13 @@ class NoiseControl:
 
     ``base``: the arrays of the filter's layout (moving Gauss–Markov evolving, scales 1); ``gm_index``: per axis
     the layout index of its moving Gauss–Markov state or −1; ``extra_rw_q``: per axis an unscaled random-walk
-    PSD added to the bias state [unit²/s]; ``dt``: the nominal step [s].
+    PSD added to the bias state [unit²/s]; ``bias_psd``: per axis the part of ``base.wpsd`` that is folded bias
+    noise (scaled by the bias scale, not the white one); ``dt``: the nominal step [s].
     """
 
     def __init__(self, layout: ModelLayout, base: ModelArrays, dt: float, gm_index: Sequence[int] | None = None,
-                 extra_rw_q: Sequence[float] | None = None) -> None:
+                 extra_rw_q: Sequence[float] | None = None, bias_psd: Sequence[float] | None = None) -> None:
+        self.bias_psd = np.zeros(6) if bias_psd is None else np.asarray(bias_psd, dtype=float)
         self.layout, self.base, self.dt = layout, base, float(dt)
         nm = layout.nm
         self.gm_index = np.full(6, -1, dtype=np.int64) if gm_index is None else np.asarray(gm_index, dtype=np.int64)
@@ -95,8 +99,8 @@ class NoiseControl:
             r = np.sqrt(c)
             phi, q = (b.phi_pow, b.q_pow) if self._moving else (self.phi_frozen, self.q_frozen)
             q = q * np.outer(r, r)[None, :, :] + self.extra_q
-            self._cache = ModelArrays(phi, np.ascontiguousarray(q), b.hvec, b.axis_of, b.wpsd * self._white,
-                                      b.wpsd_fb, b.sf_idx)
+            wpsd = (b.wpsd - self.bias_psd) * self._white + self.bias_psd * self._bias
+            self._cache = ModelArrays(phi, np.ascontiguousarray(q), b.hvec, b.axis_of, wpsd, b.wpsd_fb, b.sf_idx)
         return self._cache
 
 
