@@ -37,3 +37,14 @@ def test_oracle_law_beats_oracle_beats_plain_on_the_default_law():
             assert _mean_drift(dense.evaluate_method(sc, "oracle_law", sc.gnss, windows)) == rows[-1][0]
     law, oracle, plain = np.mean(rows, axis=0)
     assert law <= oracle <= plain, rows
+
+
+def test_oracle_law_in_the_online_monte_carlo():
+    from imunoise.experiments.online_exp import MC_METHODS, _sim_job_clean
+
+    assert MC_METHODS.index("oracle_law") == MC_METHODS.index("oracle") - 1  # the ceiling, then the constant oracle
+    r = _sim_job_clean(1000, ("oracle_law",), {"duration_s": 300.0, "n_stops": 2, "n_outages": 2}, -1, None)
+    m = r["methods"]["oracle_law"]
+    assert len(m["outage_end_horizontal_m"]) == 2 and all(0 < x < 1000 for x in m["outage_end_horizontal_m"])
+    assert m["mean_outage_end_horizontal_m"] == np.mean(m["outage_end_horizontal_m"])
+    assert m["horizontal_rms_m"] < 3.0  # aided by meter-level fixes throughout

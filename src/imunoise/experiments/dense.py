@@ -80,7 +80,7 @@ __all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "S
            "run_real", "run_sim", "paired_list", "METRICS"]
 
 EVIDENCE_METHODS = ("plain", "static_var", "av", "em", "av_online", "em_online", "gmwm", "gmwm_hindsight")
-SIM_EXTRA = ("oracle", "oracle_law")
+SIM_EXTRA = ("oracle_law", "oracle")
 ONLINE_BASELINES = {"static_var": "static_var", "av_online": "av", "em_online": "em"}
 SF_SUFFIX = "+sf"  # a method with the scale-factor states in the filter
 NHC_SUFFIX = "+nhc"  # a method with the non-holonomic constraints in the filter

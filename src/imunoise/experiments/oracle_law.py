@@ -36,7 +36,7 @@ from imunoise.nav.solution import NavSolution
 from imunoise.nav.state import N_NAV
 from imunoise.nav.step_filter import LooselyCoupledEKF, new_outputs, velocity_fixes
 
-__all__ = ["LawFilter", "law_filter", "law_models", "run_windows_law"]
+__all__ = ["LawFilter", "evaluate_law", "law_filter", "law_models", "run_windows_law"]
 
 BRANCH_MARGIN_S = 1.0
 
@@ -247,3 +247,40 @@ def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models:
     if keep:
         res["_full"] = full
     return res
+
+
+def _drive_run(sc, gnss, base=None) -> tuple[NavSolution, float]:
+    """One run of the whole drive with ``gnss``: the solution and the filter's wall time [s]."""
+    import time
+
+    lf = law_filter(sc, (), base)
+    ekf, n = lf.ekf, lf.imu.t.size
+    out = new_outputs(n, store_cov=False, has_sf=bool(np.all(ekf.layout.scale_index >= 0)))
+    out.pos[0], out.vel[0], out.att[0] = sc.init.llh, sc.init.vel_ned, sc.init.euler
+    out.err[0] = ekf.sensor_errors()
+    out.std[0] = np.sqrt(np.diag(ekf.P)[:N_NAV])
+    t0 = time.perf_counter()
+    _run(lf, ekf.arrays(), _fixes(gnss, ekf.lever), out, 0, n - 1)
+    return _solution(lf.imu, out, 0, n - 1), time.perf_counter() - t0
+
+
+def evaluate_law(sc, *, base=None) -> dict[str, Any]:
+    """:func:`imunoise.experiments.common.evaluate` for ``oracle_law``: the full-GNSS run (position RMS) and the
+    outage run(s) (end-of-outage drift), the same keys."""
+    from imunoise.experiments.common import combine
+    from imunoise.nav.metrics import nav_errors, summarize
+
+    full, elapsed = _drive_run(sc, sc.gnss, base)
+    err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
+    m = summarize(err, elapsed_s=elapsed, duration_s=sc.duration)
+    res = {k: m[k] for k in ("horizontal_rms_m", "vertical_rms_m", "ecef_rms_m", "horizontal_max_m",
+                             "realtime_factor")}
+    res.update(elapsed_s=elapsed, timing={}, n_updates=0)
+    parts = []
+    if sc.windows:
+        for g in ([[w] for w in sc.windows] if sc.outage_runs else [list(sc.windows)]):
+            r, _ = _drive_run(sc, sc.gnss.without(g), base)
+            e = nav_errors(r.t, r.antenna_llh(sc.lever), r.vel_ned, r.euler, sc.ref)
+            outs = summarize(e, outages=g)["outages"]
+            parts.append({"ends": [o["end_horizontal_m"] for o in outs], "ends_v": [o["end_vertical_m"] for o in outs]})
+    return combine(res, parts)
