@@ -3,8 +3,8 @@ constant-model oracle next, the plain filter most (mean end-of-window drift over
 
 The three rows run through the same batch path here (imunoise.experiments.oracle_law.run_windows_law with the
 models of each method), on four 5-minute development drives (one drive can rank them otherwise: seed 1000 alone has
-oracle_law 161 m, oracle 149 m), to keep the test fast; the 10-drive check with the
-experiment's own methods is in the closing note of issue 21."""
+oracle_law 161 m, oracle 149 m), to keep the test fast; the 10-drive check (10-minute drives, seeds 1000–1009) is
+``python benchmarks/bench_oracle_law.py drive0708 --seed0 1000``."""
 
 from __future__ import annotations
 
