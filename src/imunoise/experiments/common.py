@@ -57,6 +57,7 @@ METHOD_LABELS = {
     "gmwm_top3": "GMWM 3rd by GOF",
     "gmwm_top2": "GMWM 2nd by GOF",
     "oracle": "true IMU model (simulator only)",
+    "oracle_law": "true IMU model and motion law, per sample (simulator only)",
 }
 
 
@@ -189,12 +190,13 @@ def imu_noise_kwargs(path: str | None, seed0: int, *, imu: Any = None, reserve_s
 
 
 def replay_methods(methods: Sequence[str], explicit: bool) -> tuple[str, ...]:
-    """The methods of a replayed-noise run: ``oracle`` needs true models, which a real recording has not; it
-    is dropped from a default list and refused when asked for."""
-    if "oracle" in methods and explicit:
-        raise ModelError("--methods oracle needs the simulator's true IMU models; with --imu-noise the errors are a "
-                         "real recording (no true model): leave oracle out")
-    return tuple(m for m in methods if m != "oracle")
+    """The methods of a replayed-noise run: ``oracle`` and ``oracle_law`` need true models, which a real
+    recording has not; they are dropped from a default list and refused when asked for."""
+    for m in ("oracle", "oracle_law"):
+        if m in methods and explicit:
+            raise ModelError(f"--methods {m} needs the simulator's true IMU models; with --imu-noise the errors are "
+                             f"a real recording (no true model): leave {m} out")
+    return tuple(m for m in methods if m not in ("oracle", "oracle_law"))
 
 
 # --------------------------------------------------------------------------------------------------

@@ -81,7 +81,7 @@ __all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "S
            "run_real", "run_sim", "n_units", "paired_list", "METRICS"]
 
 EVIDENCE_METHODS = ("plain", "static_var", "av", "em", "av_online", "em_online", "gmwm", "gmwm_hindsight")
-SIM_EXTRA = ("oracle",)
+SIM_EXTRA = ("oracle_law", "oracle")
 ONLINE_BASELINES = {"static_var": "static_var", "av_online": "av", "em_online": "em"}
 SF_SUFFIX = "+sf"  # a method with the scale-factor states in the filter
 NHC_SUFFIX = "+nhc"  # a method with the non-holonomic constraints in the filter
@@ -438,6 +438,10 @@ def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfi
     if (base_method(name) in STATIC_WARM_METHODS) != (earlier_static is not None):
         raise ModelError(f"{name}: earlier drives' stops are for {', '.join(STATIC_WARM_METHODS)} only, and those "
                          "need them (the simulator makes them: run_sim)")
+    if name == "oracle_law":  # the batch filter told the law's schedule (imunoise.experiments.oracle_law)
+        from imunoise.experiments.oracle_law import run_windows_law
+
+        return run_windows_law(sc, gnss, windows, base=base)
     cfg, models, upd = method_setup(name, sc, base, cache, prior=prior)
     return run_windows(sc, cfg, gnss, windows, initial_models=models, updater=upd, earlier_static=earlier_static)
 

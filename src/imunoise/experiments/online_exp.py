@@ -5,7 +5,9 @@ the record, in hindsight, as the paper's Table 5 baselines), ``gmwm`` (online, t
 (online, WVIC), ``gmwm_raw`` (online without the plain-default floor), ``gmwm_qndrop`` (QN not
 used as filter noise, see :mod:`imunoise.online`), ``gmwm_zupt`` and
 ``plain_zupt`` (with ZUPT/ZARU while static), and on the simulator ``oracle`` (the true IMU model in the
-filter: the ceiling of what any error model can gain against ``plain``). Each method gets a full-GNSS run
+filter: the ceiling of what any error model can gain against ``plain``) and ``oracle_law`` (the true model and
+the motion law per sample, :mod:`imunoise.experiments.oracle_law`: the ceiling under any law).
+Each method gets a full-GNSS run
 (position RMS, ECEF and horizontal/vertical; the real drive's RTK reference is the aiding GNSS itself, so
 those are residuals) and the outage runs (end-of-outage drift). Monte Carlo over simulator seeds runs seeds in parallel
 processes; the differences to ``plain`` and ``av`` get paired 95 % CIs.
@@ -44,7 +46,7 @@ __all__ = ["METHODS", "MC_METHODS", "DEMO_METHODS", "method_config", "run_real",
            "window_paired"]
 
 METHODS = ("plain", "av", "em", "gmwm", "gmwm_wvic", "gmwm_raw", "gmwm_qndrop", "gmwm_zupt", "plain_zupt")
-MC_METHODS = ("plain", "av", "em", "gmwm", "gmwm_wvic", "gmwm_zupt", "plain_zupt", "oracle")
+MC_METHODS = ("plain", "av", "em", "gmwm", "gmwm_wvic", "gmwm_zupt", "plain_zupt", "oracle_law", "oracle")
 DEMO_METHODS = ("plain", "av", "em", "gmwm", "gmwm_zupt")
 METRIC_KEYS = ("horizontal_rms_m", "vertical_rms_m", "mean_outage_end_horizontal_m")
 
@@ -271,6 +273,11 @@ def _sim_job_clean(seed: int, methods: Sequence[str], kw: dict, keep_seed: int, 
     cache: dict = {}
     out: dict[str, Any] = {"seed": seed, "methods": {}, "windows": [list(w) for w in sc.windows]}
     for name in methods:
+        if name == "oracle_law":  # the batch filter told the law's schedule (imunoise.experiments.oracle_law)
+            from imunoise.experiments.oracle_law import evaluate_law
+
+            out["methods"][name] = evaluate_law(sc, base=base)
+            continue
         cfg, models = method_config(name, sc, base, fits_cache=cache)
         res = evaluate(sc, cfg, initial_models=models, keep=(seed == keep_seed and name == "gmwm"))
         if "_full" in res:

@@ -1,0 +1,286 @@
+"""The law-aware oracle ``oracle_law`` (issue 21 §2): the filter is told, sample by sample, what the simulator's
+motion law injects — the ceiling of every error-model method under that law.
+
+From the drive's :class:`~imunoise.sim.law_schedule.LawSchedule` and the simulator's static (true) per-axis
+models, mapped to the filter as the ``oracle`` maps its models (no floor):
+
+* white PSD of axis j times m_w² and the driving noise of its RW/AR1 states times m_b² (the short AR1s the
+  mapping folds into white noise too: their part of the white PSD takes m_b²), per piece the mean of
+  the schedule over the piece (so the injected variance integrated over the drive is the schedule's);
+* the moving Gauss–Markov (σ_j, τ_j) as an augmented AR1 state per axis with σ_j > 0 (H = 1, P0 = σ²),
+  evolving while moving and frozen at stops;
+* at each departure from a stop, σ²_step,j added to the covariance of the axis' bias state;
+* the warm-up b(t) = A(1 − e^{−t/τ}) is deterministic and the filter has no state for it: it gets the closest
+  random walk over the drive, q_j = A_j²(1 − e^{−T/τ})²/T (:func:`~imunoise.sim.law_schedule.warmup_random_walk`),
+  an approximation (the only one here).
+
+The filter is the batch kernel run piece by piece (:func:`imunoise.nav.noise_schedule.run_pieces`), not the
+online engine: the oracle needs no stops and no modelling. The dense-window protocol is the one of
+:func:`imunoise.experiments.dense.run_windows` (one aided run, a GNSS-free branch from each window's start).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from imunoise.errors import ModelError
+from imunoise.imu import AXES
+from imunoise.nav.ekf import _check_imu
+from imunoise.nav.filter_loop import FilterArrays, Fixes, ImuInput
+from imunoise.nav.noise_schedule import NoiseControl, add_bias_variance, run_pieces
+from imunoise.nav.solution import NavSolution
+from imunoise.nav.state import N_NAV
+from imunoise.nav.step_filter import LooselyCoupledEKF, new_outputs, velocity_fixes
+
+__all__ = ["LawFilter", "evaluate_law", "law_filter", "law_models", "run_windows_law"]
+
+BRANCH_MARGIN_S = 1.0
+
+
+def law_models(sc, base=None) -> list:
+    """The six (model, freq) filter pairs of ``oracle_law``: the static true models through the oracle's mapping
+    (no floor), each axis with σ_j > 0 plus its moving Gauss–Markov as an AR1 (φ = e^{−1/(τ f)}, σ²(1 − φ²))."""
+    from imunoise.experiments.common import filter_models
+    from imunoise.model import Model
+    from imunoise.online import OnlineConfig
+    from imunoise.processes import AR1, WN
+
+    sched = sc.extra.get("law_schedule")
+    static = sc.extra.get("static_models")
+    if sched is None or not static:
+        raise ModelError("the oracle_law method needs a simulated scenario with its motion law (law_schedule)")
+    none = Model([WN(sigma2=1e-30)])
+    cfg = (base or OnlineConfig()).with_(ekf=sc.ekf_config(), floor="none")
+    pairs = filter_models([static.get(ax, none) for ax in AXES], sc.rate, cfg)
+    out = []
+    for a, (m, f) in enumerate(pairs):
+        sig, tau = float(sched.gm_sigma[a]), float(sched.gm_tau_s[a])
+        if sig > 0:
+            phi = math.exp(-1.0 / (tau * f))
+            m = Model([*m.components, AR1(phi=phi, sigma2=sig * sig * (1.0 - phi * phi))])
+        out.append((m, f))
+    return out
+
+
+def _folded_psd(sc, models: list) -> np.ndarray:
+    """Per axis the part of the filter's white PSD that is folded short AR1 noise (filter white − true white)."""
+    from imunoise.model import Model
+    from imunoise.processes import WN
+
+    none = Model([WN(sigma2=1e-30)])
+    static = sc.extra["static_models"]
+    out = np.zeros(6)
+    for a, (m, f) in enumerate(models):
+        true_white = static.get(AXES[a], none).white_variance() / f
+        out[a] = max(m.white_variance() / f - true_white, 0.0)
+    return out
+
+
+def _gm_index(ekf: LooselyCoupledEKF, models: list, sched) -> np.ndarray:
+    """Layout index of each axis' moving GM state (the AR1 whose φ and σ² are the GM's), −1 where none."""
+    idx = np.full(6, -1, dtype=np.int64)
+    for a, (m, f) in enumerate(models):
+        if not sched.gm_sigma[a] > 0:
+            continue
+        ar1 = [c for c in m.components if c.kind == "AR1"]
+        phi = math.exp(-1.0 / (float(sched.gm_tau_s[a]) * f))
+        i = max(i for i, c in enumerate(ar1) if c.values[0] == phi)
+        idx[a] = ekf.layout.labels.index(f"{AXES[a]}.AR1_{i + 1}")
+    return idx
+
+
+@dataclass
+class LawFilter:
+    """A filter ready to run a drive under its law: kernel inputs and the schedule on the filter's samples."""
+
+    ekf: LooselyCoupledEKF
+    noise: NoiseControl
+    imu: ImuInput
+    bounds: np.ndarray  # piece starts (filter sample indices), 0 and n − 1 included
+    white: np.ndarray  # (pieces, 6) mean m_w² over each piece
+    bias: np.ndarray  # (pieces, 6) mean m_b²
+    moving: np.ndarray  # (pieces,)
+    bump: np.ndarray  # (pieces,) bool: a departure opens the piece
+    step_var: np.ndarray
+
+    def before_piece(self, f: FilterArrays, a: int):
+        """Set the controls of the piece starting at sample ``a`` (bump the bias covariance at a departure)."""
+        i = int(np.searchsorted(self.bounds, a, side="right")) - 1
+        self.noise.set_noise_scale(self.white[i], self.bias[i])
+        self.noise.set_moving(bool(self.moving[i]))
+        if self.bump[i] and self.bounds[i] == a:
+            add_bias_variance(f.P, self.noise.bias_index, self.step_var)
+        return self.noise.arrays()
+
+
+def law_filter(sc, extra_bounds_t=(), base=None, *, models: list | None = None) -> LawFilter:
+    """The ``oracle_law`` filter of scenario ``sc`` from its start ``sc.init``; ``extra_bounds_t``: times where a
+    piece must start (window starts: the piece starts at the last sample before each). ``models``: fixed
+    (model, freq) pairs with the schedule off (a constant-model filter through the same batch path)."""
+    sched = sc.extra["law_schedule"] if models is None else None
+    models = law_models(sc, base) if models is None else models
+    init = sc.init
+    t_all = np.asarray(sc.imu.t, dtype=float)
+    dth_all, dv_all = sc.imu.increments()
+    i0 = int(np.searchsorted(t_all, init.t, side="right")) - 1
+    t = t_all[i0:].copy()
+    t[0] = init.t
+    dth = np.ascontiguousarray(dth_all[i0:], dtype=float)
+    dv = np.ascontiguousarray(dv_all[i0:], dtype=float)
+    if t_all[i0] < init.t and dth.shape[0] > 1:  # the first increment after init.t covers part of its interval
+        frac = (t_all[i0 + 1] - init.t) / (t_all[i0 + 1] - t_all[i0])
+        dth[1] *= frac
+        dv[1] *= frac
+    t, dth, dv = _check_imu(t, dth, dv)
+    n = t.size
+    ekf = LooselyCoupledEKF(sc.ekf_config(), models, init, imu_rate_hz=sc.rate)
+    ekf.prime(dth[0], dv[0])
+    model, _ = ekf.kernel_parts()
+    extra = np.searchsorted(t, np.asarray(extra_bounds_t, dtype=float), side="left") - 1
+    if sched is None:
+        bounds = np.unique(np.clip(np.concatenate([[0, n - 1], extra]), 0, n - 1)).astype(np.int64)
+        k = bounds.size - 1
+        return LawFilter(ekf, NoiseControl(ekf.layout, model, ekf.dt_nom), ImuInput(
+            t, dth, dv, np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.bool_)), bounds[:-1], np.ones((k, 6)),
+            np.ones((k, 6)), np.ones(k, dtype=bool), np.zeros(k, dtype=bool), np.zeros(6))
+    noise = NoiseControl(ekf.layout, model, ekf.dt_nom, _gm_index(ekf, models, sched), sched.warmup_rw_q,
+                         _folded_psd(sc, models))
+    # schedule index of filter sample k (the step into k): k + i0 (schedule.t are the drive's IMU samples)
+    off = i0
+    cps = sched.change_points() - off - 1
+    bounds = np.unique(np.clip(np.concatenate([[0, n - 1], cps, extra]), 0, n - 1)).astype(np.int64)
+    ns = sched.t.size
+    white, bias, moving, bump = [], [], [], []
+    deps = set(int(d) for d in sched.departure_index)
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        lo, hi = min(a + 1 + off, ns - 1), min(b + 1 + off, ns)
+        white.append(sched.white_var_scale[lo:hi].mean(axis=0))
+        bias.append(sched.bias_var_scale[lo:hi].mean(axis=0))
+        moving.append(bool(sched.moving[lo]))
+        bump.append(lo in deps)
+    imu = ImuInput(t, dth, dv, np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.bool_))
+    return LawFilter(ekf, noise, imu, bounds[:-1], np.array(white), np.array(bias), np.array(moving),
+                     np.array(bump), np.asarray(sched.step_var, dtype=float))
+
+
+def _fixes(gnss, lever: np.ndarray, keep=None) -> Fixes:
+    gt = np.asarray(gnss.t, dtype=float)
+    llh, sig = np.asarray(gnss.llh, dtype=float), np.asarray(gnss.sigma_ned, dtype=float)
+    ok = np.isfinite(gt) & np.all(np.isfinite(llh), axis=1) & np.all(np.isfinite(sig), axis=1)
+    if keep is not None:
+        ok &= keep(gt)
+    order = np.argsort(gt[ok], kind="stable")
+    gt, llh, sig = gt[ok][order], llh[ok][order], sig[ok][order]
+    return Fixes(gt, np.ascontiguousarray(llh), np.ascontiguousarray(sig), lever,
+                 np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan))
+
+
+def _solution(imu: ImuInput, out, a: int, b: int) -> NavSolution:
+    return NavSolution(imu.t[a : b + 1], out.pos[a : b + 1], out.vel[a : b + 1], out.att[a : b + 1],
+                       out.err[a : b + 1, :3], out.err[a : b + 1, 3:], out.std[a : b + 1])
+
+
+def _run(lf: LawFilter, f: FilterArrays, fx: Fixes, out, a: int, b: int, off: int = 0) -> None:
+    """Samples a → b of the drive on state ``f``; ``out`` rows are drive samples − ``off``."""
+    ekf = lf.ekf
+    _, settings = ekf.kernel_parts()
+    bounds = [a, *[int(x) for x in lf.bounds if a < x < b], b]
+    if off:
+        imu = ImuInput(*(x[off : b + 1] for x in lf.imu))
+        run_pieces(imu, f, settings, ekf.nhc_settings(), fx, velocity_fixes(None, ekf.lever), out,
+                   [x - off for x in bounds], lambda k: lf.before_piece(f, k + off))
+    else:
+        run_pieces(lf.imu, f, settings, ekf.nhc_settings(), fx, velocity_fixes(None, ekf.lever), out, bounds,
+                   lambda k: lf.before_piece(f, k))
+
+
+def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models: list | None = None) -> dict[str, Any]:
+    """:func:`imunoise.experiments.dense.run_windows` for ``oracle_law``: the same keys (``windows`` with
+    ``drift``, ``rms``, ``drift_v``, ``aided_rms``; ``horizontal_rms_m``, ``vertical_rms_m``). ``models``: a
+    constant-model filter instead (:func:`law_filter`)."""
+    from imunoise.experiments.dense import _branch_errors, window_metrics
+    from imunoise.nav.metrics import nav_errors
+
+    starts = [s for s, _ in windows]
+    lf = law_filter(sc, starts, base, models=models)
+    ekf, t = lf.ekf, lf.imu.t
+    n = t.size
+    has_sf = bool(np.all(ekf.layout.scale_index >= 0))
+    out = new_outputs(n, store_cov=False, has_sf=has_sf)
+    out.pos[0], out.vel[0], out.att[0] = sc.init.llh, sc.init.vel_ned, sc.init.euler
+    out.err[0] = ekf.sensor_errors()
+    out.std[0] = np.sqrt(np.diag(ekf.P)[:N_NAV])
+    fx = _fixes(gnss, ekf.lever)
+    f = ekf.arrays()
+    res_w: list[dict | None] = [None] * len(windows)
+    k = 0
+    for j in sorted(range(len(windows)), key=lambda j: windows[j][0]):
+        s, length = windows[j]
+        w = max(int(np.searchsorted(t, s, side="left")) - 1, 0)
+        if w > k:
+            _run(lf, f, fx, out, k, w)
+            k = w
+        e = min(int(np.searchsorted(t, s + length + BRANCH_MARGIN_S, side="left")), n - 1)
+        if e <= w:
+            res_w[j] = {"drift": None, "rms": None, "drift_v": None}
+            continue
+        fb = FilterArrays(*(x.copy() for x in f))
+        bfx = _fixes(gnss, ekf.lever, keep=lambda g, s=s, L=length: (g < s) | (g >= s + L))
+        bout = new_outputs(e - w + 1, store_cov=False, has_sf=has_sf)
+        _run(lf, fb, bfx, bout, w, e, off=w)
+        sol = _solution(ImuInput(*(x[w:] for x in lf.imu)), bout, 1, e - w)
+        res_w[j] = window_metrics(_branch_errors(sol, sc, s), s, length)
+    if k < n - 1:
+        _run(lf, f, fx, out, k, n - 1)
+    full = _solution(lf.imu, out, 0, n - 1)
+    err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
+    for j, (s, length) in enumerate(windows):
+        m = (err.t >= s) & (err.t < s + length)
+        h = err.horizontal[m]
+        res_w[j]["aided_rms"] = float(np.sqrt(np.mean(h * h))) if h.size else None
+    res: dict[str, Any] = {"windows": res_w, "horizontal_rms_m": float(np.sqrt(np.mean(err.horizontal ** 2))),
+                           "vertical_rms_m": float(np.sqrt(np.mean(err.vertical ** 2)))}
+    if keep:
+        res["_full"] = full
+    return res
+
+
+def _drive_run(sc, gnss, base=None) -> tuple[NavSolution, float]:
+    """One run of the whole drive with ``gnss``: the solution and the filter's wall time [s]."""
+    import time
+
+    lf = law_filter(sc, (), base)
+    ekf, n = lf.ekf, lf.imu.t.size
+    out = new_outputs(n, store_cov=False, has_sf=bool(np.all(ekf.layout.scale_index >= 0)))
+    out.pos[0], out.vel[0], out.att[0] = sc.init.llh, sc.init.vel_ned, sc.init.euler
+    out.err[0] = ekf.sensor_errors()
+    out.std[0] = np.sqrt(np.diag(ekf.P)[:N_NAV])
+    t0 = time.perf_counter()
+    _run(lf, ekf.arrays(), _fixes(gnss, ekf.lever), out, 0, n - 1)
+    return _solution(lf.imu, out, 0, n - 1), time.perf_counter() - t0
+
+
+def evaluate_law(sc, *, base=None) -> dict[str, Any]:
+    """:func:`imunoise.experiments.common.evaluate` for ``oracle_law``: the full-GNSS run (position RMS) and the
+    outage run(s) (end-of-outage drift), the same keys."""
+    from imunoise.experiments.common import combine
+    from imunoise.nav.metrics import nav_errors, summarize
+
+    full, elapsed = _drive_run(sc, sc.gnss, base)
+    err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
+    m = summarize(err, elapsed_s=elapsed, duration_s=sc.duration)
+    res = {k: m[k] for k in ("horizontal_rms_m", "vertical_rms_m", "ecef_rms_m", "horizontal_max_m",
+                             "realtime_factor")}
+    res.update(elapsed_s=elapsed, timing={}, n_updates=0)
+    parts = []
+    if sc.windows:
+        for g in ([[w] for w in sc.windows] if sc.outage_runs else [list(sc.windows)]):
+            r, _ = _drive_run(sc, sc.gnss.without(g), base)
+            e = nav_errors(r.t, r.antenna_llh(sc.lever), r.vel_ned, r.euler, sc.ref)
+            outs = summarize(e, outages=g)["outages"]
+            parts.append({"ends": [o["end_horizontal_m"] for o in outs], "ends_v": [o["end_vertical_m"] for o in outs]})
+    return combine(res, parts)

@@ -1,0 +1,112 @@
+"""The law-aware filter's process noise (imunoise.nav.noise_schedule, issue 21 §2): what it injects over a drive
+is what the law's schedule says, the moving Gauss–Markov is frozen at stops, the departure bump is exact."""
+
+from __future__ import annotations
+
+import json
+import math
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from imunoise.experiments.common import simulate_scenario
+from imunoise.experiments.oracle_law import _fixes, law_filter, law_models
+from imunoise.nav.noise_schedule import run_pieces
+from imunoise.nav.state import N_NAV
+from imunoise.nav.step_filter import new_outputs, velocity_fixes
+
+GM_SIGMA, GM_TAU, STEP = 6e-4, 40.0, 7e-4
+
+
+@pytest.fixture(scope="module")
+def drive(tmp_path_factory):
+    """A short drive under the default law plus every time-structured term (moving GM, departure step, warm-up)."""
+    law = json.loads(resources.files("imunoise.sim").joinpath("laws/drive0708.json").read_text())
+    law.update({"name": "all_terms", "moving_gm": {"sigma": [GM_SIGMA] * 3 + [0.0] * 3, "tau_s": [GM_TAU] * 6},
+                "departure_step": [STEP] * 3 + [0.0] * 3,
+                "warmup": {"amplitude": [1e-3, -5e-4, 2e-4, 0.02, 0.0, -0.01], "tau_s": 300.0}})
+    path = tmp_path_factory.mktemp("law") / "all_terms.json"
+    path.write_text(json.dumps(law))
+    sc = simulate_scenario(5, duration_s=240.0, n_stops=2, n_outages=0, motion_noise=str(path))
+    lf = law_filter(sc)
+    assert np.any(lf.bump) and np.any(~lf.moving[1:]) and np.all(lf.noise.gm_index[:3] >= 0)
+    # open loop (no fixes): the model block of P then evolves as Φ_m P Φ_mᵀ + Q_m alone
+    f = lf.ekf.arrays()
+    nm = lf.ekf.layout.nm
+    f.P[N_NAV:, N_NAV:] = 0.0
+    log = []
+
+    def before(k):
+        P0 = f.P.copy()
+        m = lf.before_piece(f, k)
+        log.append((k, P0, f.P.copy(), m))
+        return m
+
+    n = lf.imu.t.size
+    empty = _fixes(sc.gnss, lf.ekf.lever, keep=lambda g: g < -1.0)
+    bounds = [*map(int, lf.bounds), n - 1]
+    _, settings = lf.ekf.kernel_parts()
+    run_pieces(lf.imu, f, settings, lf.ekf.nhc_settings(), empty, velocity_fixes(None, lf.ekf.lever),
+               new_outputs(n, store_cov=False, has_sf=False), bounds, before)
+    log.append((n - 1, f.P.copy(), f.P.copy(), None))
+    assert nm == f.P.shape[0] - N_NAV
+    return sc, lf, log
+
+
+def test_injected_noise_integrates_to_the_schedule(drive):
+    sc, lf, log = drive
+    sched = sc.extra["law_schedule"]
+    i0 = int(np.searchsorted(sc.imu.t, sc.init.t, side="right")) - 1
+    steps = slice(i0 + 1, i0 + lf.imu.t.size)  # the schedule's samples of the filter's steps
+    dt = lf.ekf.dt_nom
+    rw = [sum(c.values[0] for c in m.components if c.kind == "RW") for m, _ in law_models(sc)]
+    b = lf.noise.bias_index + N_NAV
+    P_end = log[-1][1]
+    dep = set(int(d) for d in sched.departure_index) & set(range(steps.start, steps.stop))
+    for a in range(6):
+        want = (rw[a] * np.sum(sched.bias_var_scale[steps, a]) + sched.warmup_rw_q[a] * dt * (lf.imu.t.size - 1)
+                + len(dep) * sched.step_var[a])
+        assert want > 0
+        assert P_end[b[a], b[a]] == pytest.approx(want, rel=1e-12)
+    # white PSD: Σ over pieces psd·mean(m²)·(piece length) = Σ_k psd·m²[k]·Δt
+    # (the folded short-AR1 part of the PSD, bias noise, takes m_b²)
+    folded = lf.noise.bias_psd
+    assert folded[0] > 0
+    white = lf.noise.base.wpsd - folded
+    got = sum(m.wpsd * (log[i + 1][0] - k) * dt for i, (k, _, _, m) in enumerate(log[:-1]))
+    want = (white * np.sum(sched.white_var_scale[steps], axis=0)
+            + folded * np.sum(sched.bias_var_scale[steps], axis=0)) * dt
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+
+
+def test_moving_gm_frozen_at_stops_and_gm_while_moving(drive):
+    _, lf, log = drive
+    phi = math.exp(-lf.ekf.dt_nom / GM_TAU)
+    n_static = n_moving = 0
+    for i, (_, _, after, m) in enumerate(log[:-1]):
+        P_next = log[i + 1][1]
+        for g in lf.noise.gm_index[:3]:
+            G = g + N_NAV
+            if not lf.moving[i]:
+                assert P_next[G, G] == after[G, G]  # frozen: not a bit of change
+                assert m.phi_pow[5][g, g] == 1.0 and m.q_pow[5][g, g] == 0.0
+                n_static += 1
+            else:
+                # one step: φ = e^{−Δt/τ}, q = σ²(1 − φ²), unscaled by the bias multiplier
+                assert m.phi_pow[1][g, g] == pytest.approx(phi, rel=1e-14)
+                assert m.q_pow[1][g, g] == pytest.approx(GM_SIGMA ** 2 * (1 - phi * phi), rel=1e-12)
+                assert after[G, G] < P_next[G, G] < GM_SIGMA ** 2
+                n_moving += 1
+    assert n_static > 0 and n_moving > 0
+
+
+def test_departure_bump_exact(drive):
+    _, lf, log = drive
+    bumps = [(before, after) for k, before, after, _ in log[:-1] if lf.bump[list(lf.bounds).index(k)]]
+    assert bumps
+    b = lf.noise.bias_index + N_NAV
+    for before, after in bumps:
+        want = before.copy()
+        want[b[:3], b[:3]] += STEP ** 2  # the bias variances of the gyros, nothing else
+        np.testing.assert_array_equal(after, want)
