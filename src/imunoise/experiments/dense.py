@@ -69,6 +69,7 @@ from imunoise.experiments.common import Scenario, baseline_fits, filter_models, 
 from imunoise.experiments.gnss_regimes import GnssRegime
 from imunoise.experiments.runner import tick
 from imunoise.experiments.stats import default_block, n_independent, paired_entry
+from imunoise.experiments.window_errors import branch_errors, window_metrics
 from imunoise.nav.metrics import nav_errors
 from imunoise.online import MotionNoisePrior, OnlineConfig, OnlineNavigator
 
@@ -78,7 +79,7 @@ __all__ = ["DenseSpec", "parse_outages", "dense_windows", "EVIDENCE_METHODS", "S
            "base_method", "with_nhc", "method_setup",
            "run_windows", "learn_prior", "earlier_prior", "earlier_stops", "WARM_METHODS", "STATIC_WARM_METHODS",
            "PRIOR_SEED_OFFSET",
-           "run_real", "run_sim", "n_units", "paired_list", "METRICS"]
+           "run_real", "run_sim", "n_units", "paired_list", "METRICS", "branch_errors", "window_metrics"]
 
 EVIDENCE_METHODS = ("plain", "static_var", "av", "em", "av_online", "em_online", "gmwm", "gmwm_hindsight")
 SIM_EXTRA = ("oracle_law", "oracle")
@@ -345,24 +346,6 @@ def _fork(nav: OnlineNavigator, upd: _StopRefit | _Adaptive | None, shared: Sequ
     return nav2, upd2
 
 
-def window_metrics(err, start: float, length: float) -> dict:
-    """End drift (last reference epoch with start ≤ t < start + length) and horizontal RMS inside."""
-    m = (err.t >= start) & (err.t < start + length)
-    if not np.any(m):
-        return {"drift": None, "rms": None, "drift_v": None}
-    h = err.horizontal[m]
-    return {"drift": float(h[-1]), "rms": float(np.sqrt(np.mean(h * h))), "drift_v": float(err.vertical[m][-1])}
-
-
-def _branch_errors(res, sc: Scenario, start: float):
-    # a copy of the first epoch just before the window start: nav_errors keeps only reference epochs from
-    # the first estimate on, and the epochs in [start, t_first] belong to the first sample of the branch
-    t = np.concatenate([[start - 1e-6], res.t])
-    llh = res.antenna_llh(sc.lever)
-    return nav_errors(t, np.vstack([llh[:1], llh]), np.vstack([res.vel_ned[:1], res.vel_ned]),
-                      np.vstack([res.euler[:1], res.euler]), sc.ref)
-
-
 def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tuple[float, float]], *,
                 initial_models=None, updater: _StopRefit | _Adaptive | None = None, keep: bool = False,
                 earlier_static: Sequence[np.ndarray] | None = None) -> dict:
@@ -406,7 +389,7 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
                 if bu is not None:
                     bu.step(br)
                 ib += 1
-            out[j] = window_metrics(_branch_errors(br.finish(), sc, s), s, length)
+            out[j] = window_metrics(branch_errors(br.finish(), sc, s), s, length)
             wi += 1
         while k < ng and gt[k] <= ti:
             nav.push_gnss(gt[k], gllh[k], gsig[k])

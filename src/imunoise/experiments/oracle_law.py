@@ -29,7 +29,7 @@ import numpy as np
 
 from imunoise.errors import ModelError
 from imunoise.imu import AXES
-from imunoise.nav.ekf import _check_imu
+from imunoise.nav.ekf import check_imu
 from imunoise.nav.filter_loop import FilterArrays, Fixes, ImuInput
 from imunoise.nav.noise_schedule import NoiseControl, add_bias_variance, run_pieces
 from imunoise.nav.solution import NavSolution
@@ -135,7 +135,7 @@ def law_filter(sc, extra_bounds_t=(), base=None, *, models: list | None = None) 
         frac = (t_all[i0 + 1] - init.t) / (t_all[i0 + 1] - t_all[i0])
         dth[1] *= frac
         dv[1] *= frac
-    t, dth, dv = _check_imu(t, dth, dv)
+    t, dth, dv = check_imu(t, dth, dv)
     n = t.size
     ekf = LooselyCoupledEKF(sc.ekf_config(), models, init, imu_rate_hz=sc.rate)
     ekf.prime(dth[0], dv[0])
@@ -202,7 +202,7 @@ def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models:
     """:func:`imunoise.experiments.dense.run_windows` for ``oracle_law``: the same keys (``windows`` with
     ``drift``, ``rms``, ``drift_v``, ``aided_rms``; ``horizontal_rms_m``, ``vertical_rms_m``). ``models``: a
     constant-model filter instead (:func:`law_filter`)."""
-    from imunoise.experiments.dense import _branch_errors, window_metrics
+    from imunoise.experiments.window_errors import branch_errors, window_metrics
     from imunoise.nav.metrics import nav_errors
 
     starts = [s for s, _ in windows]
@@ -233,7 +233,7 @@ def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models:
         bout = new_outputs(e - w + 1, store_cov=False, has_sf=has_sf)
         _run(lf, fb, bfx, bout, w, e, off=w)
         sol = _solution(ImuInput(*(x[w:] for x in lf.imu)), bout, 1, e - w)
-        res_w[j] = window_metrics(_branch_errors(sol, sc, s), s, length)
+        res_w[j] = window_metrics(branch_errors(sol, sc, s), s, length)
     if k < n - 1:
         _run(lf, f, fx, out, k, n - 1)
     full = _solution(lf.imu, out, 0, n - 1)

@@ -61,7 +61,7 @@ log = logging.getLogger(__name__)
 
 __all__ = [
     "AXES", "InitialState", "ModelLayout", "LooselyCoupledEKF", "Innovation", "EkfResult", "run_ekf",
-    "normalize_axis_models",
+    "normalize_axis_models", "check_imu",
 ]
 
 
@@ -118,7 +118,7 @@ class EkfResult(NavSolution):
     gnss_vel_status: np.ndarray | None = None
 
 
-def _check_imu(t: np.ndarray, dth: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def check_imu(t: np.ndarray, dth: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Reject backwards time, drop exact duplicates (logged), replace non-finite samples (logged)."""
     d = np.diff(t)
     if np.any(d < 0):
@@ -237,7 +237,7 @@ def run_ekf(
         if dth.shape[0] > 1:
             dth[1] *= frac
             dv[1] *= frac
-    t, dth, dv = _check_imu(t, dth, dv)
+    t, dth, dv = check_imu(t, dth, dv)
     if t.size < 2:
         raise DataError(f"no IMU samples between the start {init.t:.3f} and the end {t1:.3f}")
     rate = 1.0 / float(np.median(np.diff(t)))
