@@ -35,11 +35,22 @@ def base_fit() -> GMWMFit:
 
 
 def _with(fit: GMWMFit, text: str, params: dict, unit: str) -> GMWMFit:
+    """``fit`` with another model and parameters, its empirical WV (and band, at the same relative width) set
+    to that model's WV: the export gate checks a fit against its data, and these are exact-model fits."""
     d = fit.to_dict()
     d["model"] = text
     d["params"] = params
     d["unit"] = unit
     d["param_cov_u"] = None
+    g = GMWMFit.from_dict(d)
+    ratio = g.theoretical_wv / g.wv.variance
+    wv = dict(d["wv"])
+    for key in ("variance", "ci_low", "ci_high"):
+        wv[key] = list(np.asarray(wv[key], dtype=float) * ratio)
+    if wv.get("cov") is not None:  # the covariance of ν̂ scaled alike: r_i r_j cov_ij
+        n = ratio.size
+        wv["cov"] = list((np.asarray(wv["cov"], dtype=float).reshape(n, n) * np.outer(ratio, ratio)).ravel())
+    d["wv"] = wv
     return GMWMFit.from_dict(d)
 
 

@@ -57,7 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--scheduler",
         default="local",
-        help="'local' (LocalCluster of processes, default), 'sequential' (plain loop) or a scheduler address",
+        help="Dask scheduler (where the files are modelled): 'local' (LocalCluster of processes, default), "
+        "'sequential' (plain loop) or a scheduler address tcp://HOST:PORT",
     )
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
     add_out(p)

@@ -88,11 +88,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--methods", help="comma-separated subset of the methods")
     p.add_argument("--start", type=float, help="real data: start time [s, data time base]")
     p.add_argument("--workers", type=positive_int, default=2,
-                   help="worker processes (parallel drives; default 2; with --scheduler local the cluster's size)")
+                   help="local worker processes (parallel drives; default 2; with --scheduler local the cluster's "
+                   "size)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="dense-window evidence on the simulator: run the drives on Dask, 'local' (a LocalCluster "
-                   "of --workers processes) or a scheduler address tcp://HOST:PORT whose workers have imunoise "
-                   "(default: --workers forked local processes); results are identical either way")
+                   help="Dask scheduler (dense-window evidence on the simulator: the drives run on Dask): 'local' "
+                   "(a LocalCluster of --workers processes) or a scheduler address tcp://HOST:PORT whose workers "
+                   "have imunoise; default: --workers forked local processes; results are identical either way")
     p.add_argument("--latency", type=nonnegative_float, default=None,
                    help="online methods: fixed delay [s] from a stop's end to its model in the filter (a run "
                         "repeats to the bit; default: the measured compute time, as the paper; the hot-swap "
