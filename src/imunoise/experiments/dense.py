@@ -363,6 +363,67 @@ def _branch_errors(res, sc: Scenario, start: float):
                       np.vstack([res.euler[:1], res.euler]), sc.ref)
 
 
+def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, shared, out: list) -> None:
+    """The aided run and its branches in kernel spans (:meth:`OnlineNavigator.push_chunk`): the aided run is
+    pushed from one window start to the next and each branch in one chunk, with the fixes :func:`_aided_samples`
+    pushes in the same places (push_chunk equals push_imu/push_gnss in time order to the bit)."""
+    t, dth, dv, gt, gllh, gsig = data
+    n = t.size
+    i0 = k = 0
+    for j in order_w:
+        s, length = windows[j]
+        i = int(np.searchsorted(t, s, side="left"))  # the first sample with t ≥ s: the branch starts there
+        if i >= n:
+            break
+        ks = max(int(np.searchsorted(gt, s, side="left")), k)  # the fixes before the window start
+        nav.push_chunk(t[i0:i], dth[i0:i], dv[i0:i], gt[k:ks], gllh[k:ks], gsig[k:ks])
+        i0, k = i, ks
+        br, _ = _fork(nav, None, shared)
+        ie = max(int(np.searchsorted(t, s + length + BRANCH_MARGIN_S, side="left")), i)
+        # inside the window no fix; after its end those up to the branch's last sample
+        kb = int(np.searchsorted(gt, s + length, side="left"))
+        ke = max(int(np.searchsorted(gt, t[ie - 1], side="right")), kb) if ie > i else kb
+        br.push_chunk(t[i:ie], dth[i:ie], dv[i:ie], gt[kb:ke], gllh[kb:ke], gsig[kb:ke])
+        out[j] = window_metrics(_branch_errors(br.finish(), sc, s), s, length)
+    ke = max(int(np.searchsorted(gt, t[-1], side="right")), k)  # fixes after the last sample are never pushed
+    nav.push_chunk(t[i0:], dth[i0:], dv[i0:], gt[k:ke], gllh[k:ke], gsig[k:ke])
+
+
+def _aided_samples(nav: OnlineNavigator, updater: _StopRefit | _Adaptive, sc: Scenario, windows, order_w, data,
+                   shared, out: list) -> None:
+    """The aided run and its branches sample by sample, the ``updater`` after every sample (its policy acts
+    between samples)."""
+    t, dth, dv, gt, gllh, gsig = data
+    n, ng = t.size, gt.size
+    k = 0
+    wi = 0
+    for i in range(n):
+        ti = t[i]
+        while wi < len(order_w) and windows[order_w[wi]][0] <= ti:
+            j = order_w[wi]
+            s, length = windows[j]
+            while k < ng and gt[k] < s:
+                nav.push_gnss(gt[k], gllh[k], gsig[k])
+                k += 1
+            br, bu = _fork(nav, updater, shared)
+            kb = int(np.searchsorted(gt, s + length, side="left"))
+            ib = i
+            while ib < n and t[ib] < s + length + BRANCH_MARGIN_S:
+                while kb < ng and gt[kb] <= t[ib]:
+                    br.push_gnss(gt[kb], gllh[kb], gsig[kb])
+                    kb += 1
+                br.push_imu(t[ib], dth[ib], dv[ib])
+                bu.step(br)
+                ib += 1
+            out[j] = window_metrics(_branch_errors(br.finish(), sc, s), s, length)
+            wi += 1
+        while k < ng and gt[k] <= ti:
+            nav.push_gnss(gt[k], gllh[k], gsig[k])
+            k += 1
+        nav.push_imu(ti, dth[i], dv[i])
+        updater.step(nav)
+
+
 def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tuple[float, float]], *,
                 initial_models=None, updater: _StopRefit | _Adaptive | None = None, keep: bool = False,
                 earlier_static: Sequence[np.ndarray] | None = None) -> dict:
@@ -384,36 +445,11 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
         shared += list(updater.shared())
     order_w = sorted(range(len(windows)), key=lambda j: windows[j][0])
     out: list[dict | None] = [None] * len(windows)
-    n, ng = t.size, gt.size
-    k = 0
-    wi = 0
-    for i in range(n):
-        ti = t[i]
-        while wi < len(order_w) and windows[order_w[wi]][0] <= ti:
-            j = order_w[wi]
-            s, length = windows[j]
-            while k < ng and gt[k] < s:
-                nav.push_gnss(gt[k], gllh[k], gsig[k])
-                k += 1
-            br, bu = _fork(nav, updater, shared)
-            kb = int(np.searchsorted(gt, s + length, side="left"))
-            ib = i
-            while ib < n and t[ib] < s + length + BRANCH_MARGIN_S:
-                while kb < ng and gt[kb] <= t[ib]:
-                    br.push_gnss(gt[kb], gllh[kb], gsig[kb])
-                    kb += 1
-                br.push_imu(t[ib], dth[ib], dv[ib])
-                if bu is not None:
-                    bu.step(br)
-                ib += 1
-            out[j] = window_metrics(_branch_errors(br.finish(), sc, s), s, length)
-            wi += 1
-        while k < ng and gt[k] <= ti:
-            nav.push_gnss(gt[k], gllh[k], gsig[k])
-            k += 1
-        nav.push_imu(ti, dth[i], dv[i])
-        if updater is not None:
-            updater.step(nav)
+    data = (t, dth, dv, gt, gllh, gsig)
+    if updater is None:
+        _aided_chunks(nav, sc, windows, order_w, data, shared, out)
+    else:
+        _aided_samples(nav, updater, sc, windows, order_w, data, shared, out)
     full = nav.finish()
     err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
     for j, (s, length) in enumerate(windows):
