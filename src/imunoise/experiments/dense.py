@@ -6,11 +6,13 @@ available for the preceding ``lead`` s (default 60 s; no gap between aiding fixe
 uses the same windows (``--outages dense:L:S[:LEAD]``).
 
 One run per window from the same aided state, at the cost of L s per window. Each method runs once through
-the drive with GNSS everywhere, in streaming mode (:meth:`OnlineNavigator.push_imu`/``push_gnss``). When
-the stream reaches a window's start the navigator is copied (``copy.deepcopy``; inline worker, so there is
-no thread to copy; the modelling-job cache and the IMU arrays are shared, not copied) and the copy continues
-with the window's IMU and no GNSS inside the window, to L + 1 s. The copy *is* a full run with that
-window's GNSS removed, up to the window end: tests/test_experiments_dense.py checks it to 1e-9 m. Per
+the drive with GNSS everywhere, in streaming mode: :meth:`OnlineNavigator.push_chunk` from one window start
+to the next (the filter in kernel spans between events; equal to ``push_imu``/``push_gnss`` sample by sample
+to the bit, which a method with a per-sample policy, the stop refits and the adaptive noise, still uses). When
+the stream reaches a window's start the navigator is copied (:meth:`OnlineNavigator.fork`; inline worker, so
+there is no thread to copy; the modelling-job cache and the IMU arrays are shared, not copied) and the copy
+continues with the window's IMU and no GNSS inside the window, to L + 1 s, in one chunk. The copy *is* a full
+run with that window's GNSS removed, up to the window end: tests/test_experiments_dense.py checks it to 1e-9 m. Per
 window: the end drift (horizontal error at the last reference epoch inside the window, as
 :func:`imunoise.nav.metrics.outage_drift`), the horizontal RMS inside the window, and the aided run's
 horizontal RMS over the same span (``aided_rms``: the GNSS-available metric of the paper's Table 5, per
