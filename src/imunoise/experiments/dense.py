@@ -371,6 +371,12 @@ def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, sh
     pushes in the same places (push_chunk equals push_imu/push_gnss in time order to the bit)."""
     t, dth, dv, gt, gllh, gsig = data
     n = t.size
+    if nav.detector is None and n:
+        # λ_0 from the first learn_lambda0_s of the record at once, as OnlineNavigator.run does (push_imu holds
+        # those samples, learns from the same accelerations at the first later sample, then replays them one by
+        # one): the detector exists before the first chunk, so no sample takes the per-sample path for it
+        dt = np.diff(t, prepend=t[0] - nav.dt_nom)
+        nav._learn_from((dv / dt[:, None])[t < t[0] + nav.config.learn_lambda0_s], t[0])
     i0 = k = 0
     for j in order_w:
         s, length = windows[j]
