@@ -6,11 +6,13 @@ available for the preceding ``lead`` s (default 60 s; no gap between aiding fixe
 uses the same windows (``--outages dense:L:S[:LEAD]``).
 
 One run per window from the same aided state, at the cost of L s per window. Each method runs once through
-the drive with GNSS everywhere, in streaming mode (:meth:`OnlineNavigator.push_imu`/``push_gnss``). When
-the stream reaches a window's start the navigator is copied (``copy.deepcopy``; inline worker, so there is
-no thread to copy; the modelling-job cache and the IMU arrays are shared, not copied) and the copy continues
-with the window's IMU and no GNSS inside the window, to L + 1 s. The copy *is* a full run with that
-window's GNSS removed, up to the window end: tests/test_experiments_dense.py checks it to 1e-9 m. Per
+the drive with GNSS everywhere, in streaming mode: :meth:`OnlineNavigator.push_chunk` from one window start
+to the next (the filter in kernel spans between events; equal to ``push_imu``/``push_gnss`` sample by sample
+to the bit, which a method with a per-sample policy, the stop refits and the adaptive noise, still uses). When
+the stream reaches a window's start the navigator is copied (:meth:`OnlineNavigator.fork`; inline worker, so
+there is no thread to copy; the modelling-job cache and the IMU arrays are shared, not copied) and the copy
+continues with the window's IMU and no GNSS inside the window, to L + 1 s, in one chunk. The copy *is* a full
+run with that window's GNSS removed, up to the window end: tests/test_experiments_dense.py checks it to 1e-9 m. Per
 window: the end drift (horizontal error at the last reference epoch inside the window, as
 :func:`imunoise.nav.metrics.outage_drift`), the horizontal RMS inside the window, and the aided run's
 horizontal RMS over the same span (``aided_rms``: the GNSS-available metric of the paper's Table 5, per
@@ -346,6 +348,73 @@ def _fork(nav: OnlineNavigator, upd: _StopRefit | _Adaptive | None, shared: Sequ
     return nav2, upd2
 
 
+def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, shared, out: list) -> None:
+    """The aided run and its branches in kernel spans (:meth:`OnlineNavigator.push_chunk`): the aided run is
+    pushed from one window start to the next and each branch in one chunk, with the fixes :func:`_aided_samples`
+    pushes in the same places (push_chunk equals push_imu/push_gnss in time order to the bit)."""
+    t, dth, dv, gt, gllh, gsig = data
+    n = t.size
+    if nav.detector is None and n:
+        # λ_0 from the first learn_lambda0_s of the record at once, as OnlineNavigator.run does (push_imu holds
+        # those samples, learns from the same accelerations at the first later sample, then replays them one by
+        # one): the detector exists before the first chunk, so no sample takes the per-sample path for it
+        dt = np.diff(t, prepend=t[0] - nav.dt_nom)
+        nav._learn_from((dv / dt[:, None])[t < t[0] + nav.config.learn_lambda0_s], t[0])
+    i0 = k = 0
+    for j in order_w:
+        s, length = windows[j]
+        i = int(np.searchsorted(t, s, side="left"))  # the first sample with t ≥ s: the branch starts there
+        if i >= n:
+            break
+        ks = max(int(np.searchsorted(gt, s, side="left")), k)  # the fixes before the window start
+        nav.push_chunk(t[i0:i], dth[i0:i], dv[i0:i], gt[k:ks], gllh[k:ks], gsig[k:ks])
+        i0, k = i, ks
+        br, _ = _fork(nav, None, shared)
+        ie = max(int(np.searchsorted(t, s + length + BRANCH_MARGIN_S, side="left")), i)
+        # inside the window no fix; after its end those up to the branch's last sample
+        kb = int(np.searchsorted(gt, s + length, side="left"))
+        ke = max(int(np.searchsorted(gt, t[ie - 1], side="right")), kb) if ie > i else kb
+        br.push_chunk(t[i:ie], dth[i:ie], dv[i:ie], gt[kb:ke], gllh[kb:ke], gsig[kb:ke])
+        out[j] = window_metrics(branch_errors(br.finish(), sc, s), s, length)
+    ke = max(int(np.searchsorted(gt, t[-1], side="right")), k)  # fixes after the last sample are never pushed
+    nav.push_chunk(t[i0:], dth[i0:], dv[i0:], gt[k:ke], gllh[k:ke], gsig[k:ke])
+
+
+def _aided_samples(nav: OnlineNavigator, updater: _StopRefit | _Adaptive, sc: Scenario, windows, order_w, data,
+                   shared, out: list) -> None:
+    """The aided run and its branches sample by sample, the ``updater`` after every sample (its policy acts
+    between samples)."""
+    t, dth, dv, gt, gllh, gsig = data
+    n, ng = t.size, gt.size
+    k = 0
+    wi = 0
+    for i in range(n):
+        ti = t[i]
+        while wi < len(order_w) and windows[order_w[wi]][0] <= ti:
+            j = order_w[wi]
+            s, length = windows[j]
+            while k < ng and gt[k] < s:
+                nav.push_gnss(gt[k], gllh[k], gsig[k])
+                k += 1
+            br, bu = _fork(nav, updater, shared)
+            kb = int(np.searchsorted(gt, s + length, side="left"))
+            ib = i
+            while ib < n and t[ib] < s + length + BRANCH_MARGIN_S:
+                while kb < ng and gt[kb] <= t[ib]:
+                    br.push_gnss(gt[kb], gllh[kb], gsig[kb])
+                    kb += 1
+                br.push_imu(t[ib], dth[ib], dv[ib])
+                bu.step(br)
+                ib += 1
+            out[j] = window_metrics(branch_errors(br.finish(), sc, s), s, length)
+            wi += 1
+        while k < ng and gt[k] <= ti:
+            nav.push_gnss(gt[k], gllh[k], gsig[k])
+            k += 1
+        nav.push_imu(ti, dth[i], dv[i])
+        updater.step(nav)
+
+
 def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tuple[float, float]], *,
                 initial_models=None, updater: _StopRefit | _Adaptive | None = None, keep: bool = False,
                 earlier_static: Sequence[np.ndarray] | None = None) -> dict:
@@ -367,36 +436,11 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
         shared += list(updater.shared())
     order_w = sorted(range(len(windows)), key=lambda j: windows[j][0])
     out: list[dict | None] = [None] * len(windows)
-    n, ng = t.size, gt.size
-    k = 0
-    wi = 0
-    for i in range(n):
-        ti = t[i]
-        while wi < len(order_w) and windows[order_w[wi]][0] <= ti:
-            j = order_w[wi]
-            s, length = windows[j]
-            while k < ng and gt[k] < s:
-                nav.push_gnss(gt[k], gllh[k], gsig[k])
-                k += 1
-            br, bu = _fork(nav, updater, shared)
-            kb = int(np.searchsorted(gt, s + length, side="left"))
-            ib = i
-            while ib < n and t[ib] < s + length + BRANCH_MARGIN_S:
-                while kb < ng and gt[kb] <= t[ib]:
-                    br.push_gnss(gt[kb], gllh[kb], gsig[kb])
-                    kb += 1
-                br.push_imu(t[ib], dth[ib], dv[ib])
-                if bu is not None:
-                    bu.step(br)
-                ib += 1
-            out[j] = window_metrics(branch_errors(br.finish(), sc, s), s, length)
-            wi += 1
-        while k < ng and gt[k] <= ti:
-            nav.push_gnss(gt[k], gllh[k], gsig[k])
-            k += 1
-        nav.push_imu(ti, dth[i], dv[i])
-        if updater is not None:
-            updater.step(nav)
+    data = (t, dth, dv, gt, gllh, gsig)
+    if updater is None:
+        _aided_chunks(nav, sc, windows, order_w, data, shared, out)
+    else:
+        _aided_samples(nav, updater, sc, windows, order_w, data, shared, out)
     full = nav.finish()
     err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
     for j, (s, length) in enumerate(windows):

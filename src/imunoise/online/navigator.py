@@ -333,6 +333,11 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
         memo = {id(o): o for o in share}
         if self.modeller.job_cache is not None:
             memo[id(self.modeller.job_cache)] = self.modeller.job_cache
+        # the per-sample logs get their own lists (both runs append and trim them) holding the same elements:
+        # floats, bools and raw-sample rows that nothing writes into once appended (they are only read,
+        # sliced and copied), so a shallow copy is the deep one without copying a row per sample
+        for seq in (self._gate_log, self._sample_t, self._static_raw, self._rows):
+            memo[id(seq)] = list(seq)
         nav, *rest = copy.deepcopy((self, *others), memo)
         if nav._store is not None:
             nav._store = EpochStore()
