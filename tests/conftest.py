@@ -26,3 +26,14 @@ def shared_path(*parts: str) -> Path:
 def shared_data():
     """Callable fixture: ``shared_data("simts_reference", "reference.json")`` -> Path or skip."""
     return shared_path
+
+
+def one_line_error(code: int, err: str, *names: str) -> str:
+    """Exit 2, exactly one 'error:' line naming every string in ``names``, no traceback (the bad-input batteries)."""
+    assert code == 2, err
+    assert "Traceback" not in err
+    lines = [ln for ln in err.splitlines() if ": error: " in ln]
+    assert len(lines) == 1, err
+    for name in names:
+        assert str(name) in lines[0], (name, lines[0])
+    return lines[0]

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import one_line_error
 from imunoise.cli import main
 from imunoise.errors import DataError, ImunoiseError, ModelError
 from imunoise.io.imu_input import read_imu_source
@@ -27,17 +28,6 @@ def run_cli(argv: list, capsys) -> tuple[int, str, str]:
         code = e.code
     cap = capsys.readouterr()
     return code, cap.out, cap.err
-
-
-def one_line_error(code: int, err: str, *names: str) -> str:
-    """Exit 2, exactly one 'error:' line naming every string in ``names``, no traceback."""
-    assert code == 2, err
-    assert "Traceback" not in err
-    lines = [ln for ln in err.splitlines() if ": error: " in ln]
-    assert len(lines) == 1, err
-    for name in names:
-        assert str(name) in lines[0], (name, lines[0])
-    return lines[0]
 
 
 def write(path: Path, text: str, encoding: str = "utf-8") -> Path:

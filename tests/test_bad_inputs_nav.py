@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import one_line_error
 from imunoise.cli import build_parser, interrupted, main
 from imunoise.errors import DataError
 from imunoise.io.atomic import staged_run
@@ -66,17 +67,6 @@ def run_cli(argv: list, capsys) -> tuple[int, str]:
     return code, capsys.readouterr().err
 
 
-def one_error(code: int, err: str, *names: str) -> str:
-    """Exit 2, exactly one error line naming every string in ``names``, no traceback."""
-    assert code == 2, err
-    assert "Traceback" not in err
-    lines = [ln for ln in err.splitlines() if ": error: " in ln]
-    assert len(lines) == 1, err
-    for name in names:
-        assert str(name) in lines[0], (name, lines[0])
-    return lines[0]
-
-
 def files_in(folder: Path) -> list[Path]:
     return sorted(p.relative_to(folder) for p in folder.rglob("*") if p.is_file()) if folder.exists() else []
 
@@ -92,19 +82,19 @@ def nav_argv(sim, out, *extra, imu=None, gnss=None) -> list:
 def test_gnss_in_radians_is_refused_with_the_fix(cmd, sim, tmp_path, capsys):
     out = tmp_path / "o"
     code, err = run_cli([cmd, "--imu", sim["imu"], "--gnss", sim["gnss_rad"], "--out", out], capsys)
-    line = one_error(code, err, "gnss_rad.txt", "radians", "180/π")
+    line = one_line_error(code, err, "gnss_rad.txt", "radians", "180/π")
     assert "yaw" not in line  # no longer diagnosed as a missing initial heading
     assert files_in(out) == []
 
 
 def test_latitude_beyond_90_is_refused_naming_the_line(sim, tmp_path, capsys):
     code, err = run_cli(nav_argv(sim, tmp_path / "o", gnss=sim["gnss_lat105"]), capsys)
-    one_error(code, err, "gnss_lat105.txt", "line 6", "latitude -105°", "±90°")
+    one_line_error(code, err, "gnss_lat105.txt", "line 6", "latitude -105°", "±90°")
 
 
 def test_imu_gap_is_refused_with_the_flag_that_allows_it(sim, tmp_path, capsys):
     code, err = run_cli(nav_argv(sim, tmp_path / "o", imu=sim["imu_gap"]), capsys)
-    one_error(code, err, "imu_gap.txt", "10 s time gap", "--max-imu-gap 11", "split the file")
+    one_line_error(code, err, "imu_gap.txt", "10 s time gap", "--max-imu-gap 11", "split the file")
     t = read_imu(sim["imu_gap"]).t
     check_imu_gaps(t, 11.0, "imu_gap.txt")  # the value the message suggests lets it through
     with pytest.raises(DataError, match="--max-imu-gap"):
@@ -134,7 +124,7 @@ def test_the_true_gyros_raise_no_unit_warning(sim, tmp_path, capsys):
 def test_levelling_over_driving_is_refused_with_the_motion(sim, tmp_path, capsys):
     out = tmp_path / "o"
     code, err = run_cli(nav_argv(sim, out, "--static-duration", 80), capsys)
-    line = one_error(code, err, "--static-duration 80", "not still", "2λ0", "give the length of the stop")
+    line = one_line_error(code, err, "--static-duration 80", "not still", "2λ0", "give the length of the stop")
     first = float(line.split("first at ")[1].split(" s")[0])
     assert 30.0 < first < 40.0  # the simulated drive leaves its 35 s stop
     assert files_in(out) == []
@@ -143,13 +133,13 @@ def test_levelling_over_driving_is_refused_with_the_motion(sim, tmp_path, capsys
 def test_simulate_start_latitude_95_is_refused(tmp_path, capsys):
     out = tmp_path / "o"
     code, err = run_cli(["simulate", "--start-llh", 95, 0, 0, "--duration", 60, "--out", out], capsys)
-    one_error(code, err, "--start-llh", "latitude 95°", "±90°")
+    one_line_error(code, err, "--start-llh", "latitude 95°", "±90°")
     assert files_in(out) == []
 
 
 def test_different_time_bases_name_both_ranges(sim, tmp_path, capsys):
     code, err = run_cli(nav_argv(sim, tmp_path / "o", gnss=sim["gnss_unix"]), capsys)
-    line = one_error(code, err, "different time bases", "imu.txt", "gnss_unix.txt", "--imu-time-offset")
+    line = one_line_error(code, err, "different time bases", "imu.txt", "gnss_unix.txt", "--imu-time-offset")
     assert "--start" not in line  # no --start was given
     assert "[100000." in line and "[1700100000." in line
 
@@ -167,7 +157,7 @@ def test_online_takes_yaw_like_nav(sim, tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(align, "coarse_align", stop)
     for cmd in ("nav", "online"):
         code, err = run_cli([cmd, "--data", sim["dir"], "--yaw", 30, "--out", tmp_path / cmd], capsys)
-        one_error(code, err, "stopped after")
+        one_line_error(code, err, "stopped after")
         assert seen.pop("yaw") == pytest.approx(math.radians(30.0))
 
 
@@ -179,7 +169,7 @@ def test_online_takes_yaw_like_nav(sim, tmp_path, capsys, monkeypatch):
 def test_non_finite_numbers_are_refused_at_parse_time(cmd, flag, values, sim, tmp_path, capsys):
     out = tmp_path / "o"
     code, err = run_cli([cmd, "--data", sim["dir"], flag, *values, "--out", out], capsys)
-    one_error(code, err, f"argument {flag}", "must be a finite number")
+    one_line_error(code, err, f"argument {flag}", "must be a finite number")
     assert not out.exists()
 
 
@@ -213,7 +203,7 @@ def test_every_float_option_of_every_command_refuses_nan():
 )
 def test_impossible_counts_and_thresholds_are_refused(argv, flag, tmp_path, capsys):
     code, err = run_cli([*argv, "--out", tmp_path / "o"], capsys)
-    one_error(code, err, f"argument {flag}")
+    one_line_error(code, err, f"argument {flag}")
     assert not (tmp_path / "o").exists()
 
 
@@ -234,7 +224,7 @@ def test_errors_name_the_flag_not_the_python_field(message, said, tmp_path, caps
 
     monkeypatch.setattr(detect, "run", fail)  # registered afresh by main(): the handler raises the message
     code, err = run_cli(["detect", "--imu", "x", "--out", tmp_path / "o"], capsys)
-    line = one_error(code, err, said)
+    line = one_line_error(code, err, said)
     assert "min_static_s" not in line and "DetectorConfig" not in line
 
 
