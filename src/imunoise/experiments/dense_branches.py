@@ -1,0 +1,157 @@
+"""One aided run with a GNSS-free branch per window (the dense-window protocol of
+:mod:`imunoise.experiments.dense`): the aided run in kernel spans from one window start to the next and each
+branch in one chunk (:meth:`OnlineNavigator.push_chunk`), or sample by sample when a method's updater acts
+between samples; the per-window metrics (:mod:`imunoise.experiments.window_errors`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from imunoise.errors import ModelError
+from imunoise.experiments.common import Scenario
+from imunoise.experiments.dense_methods import STATIC_WARM_METHODS, Updater, base_method, method_setup
+from imunoise.experiments.dense_spec import BRANCH_MARGIN_S
+from imunoise.experiments.window_errors import branch_errors, window_metrics
+from imunoise.nav.metrics import nav_errors
+from imunoise.online import MotionNoisePrior, OnlineConfig, OnlineNavigator
+
+__all__ = ["run_windows", "evaluate_method"]
+
+
+def _fork(nav: OnlineNavigator, upd: Updater | None, shared: Sequence[Any]):
+    # the branch keeps only its own epochs: the result converts every stored epoch to Euler angles; the aided
+    # run's store is shared rather than copied, since the fork replaces it with an empty one. The finished
+    # modelling jobs (ModelUpdate, never changed once made; their fits and rankings are most of what a fork
+    # would copy) are shared too: the branch gets its own list of them.
+    store = getattr(nav, "_store", None)
+    done = tuple(nav.updates)
+    nav2, upd2 = nav.fork(upd, share=(*shared, *((store,) if store is not None else ()), *done))
+    return nav2, upd2
+
+
+def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, shared, out: list) -> None:
+    """The aided run and its branches in kernel spans (:meth:`OnlineNavigator.push_chunk`): the aided run is
+    pushed from one window start to the next and each branch in one chunk, with the fixes :func:`_aided_samples`
+    pushes in the same places (push_chunk equals push_imu/push_gnss in time order to the bit)."""
+    t, dth, dv, gt, gllh, gsig = data
+    n = t.size
+    if nav.detector is None and n:
+        # λ_0 from the first learn_lambda0_s of the record at once, as OnlineNavigator.run does (push_imu holds
+        # those samples, learns from the same accelerations at the first later sample, then replays them one by
+        # one): the detector exists before the first chunk, so no sample takes the per-sample path for it
+        dt = np.diff(t, prepend=t[0] - nav.dt_nom)
+        nav._learn_from((dv / dt[:, None])[t < t[0] + nav.config.learn_lambda0_s], t[0])
+    i0 = k = 0
+    for j in order_w:
+        s, length = windows[j]
+        i = int(np.searchsorted(t, s, side="left"))  # the first sample with t ≥ s: the branch starts there
+        if i >= n:
+            break
+        ks = max(int(np.searchsorted(gt, s, side="left")), k)  # the fixes before the window start
+        nav.push_chunk(t[i0:i], dth[i0:i], dv[i0:i], gt[k:ks], gllh[k:ks], gsig[k:ks])
+        i0, k = i, ks
+        br, _ = _fork(nav, None, shared)
+        ie = max(int(np.searchsorted(t, s + length + BRANCH_MARGIN_S, side="left")), i)
+        # inside the window no fix; after its end those up to the branch's last sample
+        kb = int(np.searchsorted(gt, s + length, side="left"))
+        ke = max(int(np.searchsorted(gt, t[ie - 1], side="right")), kb) if ie > i else kb
+        br.push_chunk(t[i:ie], dth[i:ie], dv[i:ie], gt[kb:ke], gllh[kb:ke], gsig[kb:ke])
+        out[j] = window_metrics(branch_errors(br.finish(), sc, s), s, length)
+    ke = max(int(np.searchsorted(gt, t[-1], side="right")), k)  # fixes after the last sample are never pushed
+    nav.push_chunk(t[i0:], dth[i0:], dv[i0:], gt[k:ke], gllh[k:ke], gsig[k:ke])
+
+
+def _aided_samples(nav: OnlineNavigator, updater: Updater, sc: Scenario, windows, order_w, data,
+                   shared, out: list) -> None:
+    """The aided run and its branches sample by sample, the ``updater`` after every sample (its policy acts
+    between samples)."""
+    t, dth, dv, gt, gllh, gsig = data
+    n, ng = t.size, gt.size
+    k = 0
+    wi = 0
+    for i in range(n):
+        ti = t[i]
+        while wi < len(order_w) and windows[order_w[wi]][0] <= ti:
+            j = order_w[wi]
+            s, length = windows[j]
+            while k < ng and gt[k] < s:
+                nav.push_gnss(gt[k], gllh[k], gsig[k])
+                k += 1
+            br, bu = _fork(nav, updater, shared)
+            kb = int(np.searchsorted(gt, s + length, side="left"))
+            ib = i
+            while ib < n and t[ib] < s + length + BRANCH_MARGIN_S:
+                while kb < ng and gt[kb] <= t[ib]:
+                    br.push_gnss(gt[kb], gllh[kb], gsig[kb])
+                    kb += 1
+                br.push_imu(t[ib], dth[ib], dv[ib])
+                bu.step(br)
+                ib += 1
+            out[j] = window_metrics(branch_errors(br.finish(), sc, s), s, length)
+            wi += 1
+        while k < ng and gt[k] <= ti:
+            nav.push_gnss(gt[k], gllh[k], gsig[k])
+            k += 1
+        nav.push_imu(ti, dth[i], dv[i])
+        updater.step(nav)
+
+
+def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tuple[float, float]], *,
+                initial_models=None, updater: Updater | None = None, keep: bool = False,
+                earlier_static: Sequence[np.ndarray] | None = None) -> dict:
+    """One aided run (``gnss`` everywhere) with a GNSS-free branch per window (module docstring);
+    ``earlier_static``: the navigator's (static pieces of earlier drives of the same IMU).
+
+    Returns ``windows`` (per window ``drift``, ``rms``, ``drift_v``, ``aided_rms``) and the aided run's
+    ``horizontal_rms_m``/``vertical_rms_m``; ``_full`` (the aided OnlineResult) when ``keep``."""
+    t = np.asarray(sc.imu.t, dtype=float)
+    dth, dv = sc.imu.increments()
+    gt = np.asarray(gnss.t, dtype=float)
+    order = np.argsort(gt, kind="stable")
+    gt, gllh, gsig = gt[order], np.asarray(gnss.llh)[order], np.asarray(gnss.sigma_ned)[order]
+    cache = sc.extra.setdefault("job_cache", {})
+    nav = OnlineNavigator(config, sc.init, imu_rate_hz=sc.rate, initial_models=initial_models, job_cache=cache,
+                          earlier_static=earlier_static)
+    shared = [cache, sc, t, dth, dv, gt, gllh, gsig, sc.imu, sc.ref, config]
+    if updater is not None:
+        shared += list(updater.shared())
+    order_w = sorted(range(len(windows)), key=lambda j: windows[j][0])
+    out: list[dict | None] = [None] * len(windows)
+    data = (t, dth, dv, gt, gllh, gsig)
+    if updater is None:
+        _aided_chunks(nav, sc, windows, order_w, data, shared, out)
+    else:
+        _aided_samples(nav, updater, sc, windows, order_w, data, shared, out)
+    full = nav.finish()
+    err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
+    for j, (s, length) in enumerate(windows):
+        m = (err.t >= s) & (err.t < s + length)
+        h = err.horizontal[m]
+        if out[j] is None:
+            out[j] = {"drift": None, "rms": None, "drift_v": None}
+        out[j]["aided_rms"] = float(np.sqrt(np.mean(h * h))) if h.size else None
+    res: dict[str, Any] = {"windows": out,
+                           "horizontal_rms_m": float(np.sqrt(np.mean(err.horizontal ** 2))),
+                           "vertical_rms_m": float(np.sqrt(np.mean(err.vertical ** 2)))}
+    if keep:
+        res["_full"] = full
+    return res
+
+
+def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfig | None = None,
+                    cache: dict | None = None, prior: MotionNoisePrior | None = None,
+                    earlier_static: Sequence[np.ndarray] | None = None) -> dict:
+    """:func:`run_windows` for one method (:func:`method_setup`); ``earlier_static`` the earlier drives' stops
+    a ``gmwm_warm`` method pools (:func:`~imunoise.experiments.dense_warm.earlier_stops`)."""
+    if (base_method(name) in STATIC_WARM_METHODS) != (earlier_static is not None):
+        raise ModelError(f"{name}: earlier drives' stops are for {', '.join(STATIC_WARM_METHODS)} only, and those "
+                         "need them (the simulator makes them: run_sim)")
+    if name == "oracle_law":  # the batch filter told the law's schedule (imunoise.experiments.oracle_law)
+        from imunoise.experiments.oracle_law import run_windows_law
+
+        return run_windows_law(sc, gnss, windows, base=base)
+    cfg, models, upd = method_setup(name, sc, base, cache, prior=prior)
+    return run_windows(sc, cfg, gnss, windows, initial_models=models, updater=upd, earlier_static=earlier_static)
