@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 from imunoise.cli import main as cli_main
-from imunoise.em import _estep, _to_state, em_fit, kalman_loglik
+from imunoise.em import em_fit, kalman_loglik
+from imunoise.em_kalman import kalman_estep as _estep
+from imunoise.em_kalman import state_form as _to_state
 from imunoise.errors import ModelError
 from imunoise.model import Model
 
