@@ -26,3 +26,26 @@ class UnitError(ImunoiseError, ValueError):
 
 class FitError(ImunoiseError, RuntimeError):
     """An estimator could not produce a usable result (the message says why)."""
+
+
+class ImunoiseWarning(UserWarning):
+    """Base class of the warnings imunoise gives about a problem it handled (``warnings.warn`` with one of the
+    classes below; the CLI shows each as one line). Filter them all with
+    ``warnings.simplefilter("ignore", ImunoiseWarning)``."""
+
+
+class DataWarning(ImunoiseWarning):
+    """A data problem that was handled (duplicates dropped, gaps found, default σ used)."""
+
+
+class TimingWarning(ImunoiseWarning):
+    """A time-stamp problem that was handled: unsorted stamps sorted, duplicates dropped, gaps found."""
+
+
+class UnitWarning(ImunoiseWarning):
+    """The units of the data are doubtful: no unit given and the values cannot be SI, or the file and
+    the command line disagree."""
+
+
+class CutLineWarning(ImunoiseWarning):
+    """A cut first or last line of a table (a logger started or stopped mid-write) was skipped."""

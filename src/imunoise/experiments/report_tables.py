@@ -4,6 +4,7 @@ CSV tables, the headline and outage rows, and the seed-role sentence."""
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 from collections.abc import Sequence
@@ -13,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.experiments.common import METHOD_LABELS
+from imunoise.io.atomic import atomic_write_text
 from imunoise.io.jsonutil import json_default
 from imunoise.report import fmt
 
@@ -64,19 +66,18 @@ def short_floats(o: Any) -> Any:
 
 
 def write_results(results: dict, out: Path) -> Path:
-    """``results.json`` without the in-memory objects (keys starting with ``_``)."""
-    p = out / "results.json"
-    p.write_text(json.dumps(clean_json(results), indent=1, default=json_default))
-    return p
+    """``results.json`` without the in-memory objects (keys starting with ``_``), written atomically."""
+    return atomic_write_text(out / "results.json", json.dumps(clean_json(results), indent=1, default=json_default))
 
 
 def write_csv(path: Path, headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> Path:
-    """A CSV table with a header row, numbers as :func:`imunoise.report.fmt` prints them."""
-    with path.open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(headers)
-        for r in rows:
-            w.writerow([fmt(c) if not isinstance(c, str) else c for c in r])
+    """A CSV table with a header row, numbers as :func:`imunoise.report.fmt` prints them (written atomically)."""
+    buf = io.StringIO(newline="")
+    w = csv.writer(buf)
+    w.writerow(headers)
+    for r in rows:
+        w.writerow([fmt(c) if not isinstance(c, str) else c for c in r])
+    atomic_write_text(path, buf.getvalue())
     return path
 
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from imunoise.errors import DataError, UnitError
+from imunoise.errors import DataError, UnitError, UnitWarning
 from imunoise.io.files import read_text
 from imunoise.io.table import Table, read_table
 from imunoise.io.time_column import find_time_column, infer_time_unit, stated_time_unit
@@ -28,11 +28,6 @@ __all__ = [
     "time_index",
     "unit_for",
 ]
-
-
-class UnitWarning(UserWarning):
-    """The units of the data are doubtful: no unit given and the values cannot be SI, or the file and
-    the command line disagree."""
 
 
 def unit_for(name: str, column: str, units: str | Mapping[str, str] | None) -> str | None:

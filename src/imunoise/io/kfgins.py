@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from imunoise.errors import DataError
+from imunoise.errors import DataError, DataWarning
 from imunoise.imu import LEGACY_AXES, ImuData  # ImuData: re-exported, its old home
 from imunoise.io.files import is_number, read_text
 from imunoise.io.kfgins_records import GnssData, Reference
@@ -53,10 +53,6 @@ DEFAULT_GNSS_SIGMA_M = (1.0, 1.0, 2.0)
 
 GAP_FACTOR = 5.0
 """A time step longer than this many median steps is reported as a gap (issue 4: gaps > 5 samples)."""
-
-
-class DataWarning(UserWarning):
-    """A data problem that was handled (duplicates dropped, gaps found, default σ used)."""
 
 
 # ----------------------------------------------------------------------------------------------

@@ -17,17 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
-from imunoise.errors import DataError
+from imunoise.errors import CutLineWarning, DataError
 from imunoise.io.files import is_number, read_text
 from imunoise.io.text_layout import text_layout
 from imunoise.units import si_unit, to_si
 
 __all__ = ["CutLineWarning", "Series", "Table", "parse_rows", "read_series", "read_table"]
-
-
-class CutLineWarning(UserWarning):
-    """A cut first or last line of a table (a logger started or stopped mid-write) was skipped."""
-
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from imunoise.errors import DataError
+from imunoise.errors import DataError, TimingWarning
 
 __all__ = ["GAP_FACTOR", "RATE_TOLERANCE", "TimeReport", "TimingWarning", "clean_time"]
 
@@ -18,10 +18,6 @@ GAP_FACTOR = 5.0
 
 RATE_TOLERANCE = 0.01
 """Relative difference allowed between a given --freq and the rate of the time stamps."""
-
-
-class TimingWarning(UserWarning):
-    """A time-stamp problem that was handled: unsorted stamps sorted, duplicates dropped, gaps found."""
 
 
 @dataclass(frozen=True)
