@@ -12,8 +12,8 @@ to the bit, which a method with a per-sample policy, the stop refits and the ada
 the stream reaches a window's start the navigator is copied (:meth:`OnlineNavigator.fork`; inline worker, so
 there is no thread to copy; the modelling-job cache and the IMU arrays are shared, not copied) and the copy
 continues with the window's IMU and no GNSS inside the window, to L + 1 s, in one chunk. The copy *is* a full
-run with that window's GNSS removed, up to the window end: tests/test_experiments_dense.py checks it to 1e-9 m. Per
-window: the end drift (horizontal error at the last reference epoch inside the window, as
+run with that window's GNSS removed, up to the window end: tests/experiments/test_experiments_dense.py checks it
+to 1e-9 m. Per window: the end drift (horizontal error at the last reference epoch inside the window, as
 :func:`imunoise.nav.metrics.outage_drift`), the horizontal RMS inside the window, and the aided run's
 horizontal RMS over the same span (``aided_rms``: the GNSS-available metric of the paper's Table 5, per
 window, so it can be paired too).

@@ -11,7 +11,7 @@ import pytest
 from scipy import stats
 
 _SPEC = importlib.util.spec_from_file_location(
-    "unit_tables", Path(__file__).resolve().parents[1] / "scripts" / "unit_tables.py")
+    "unit_tables", Path(__file__).resolve().parents[2] / "scripts" / "unit_tables.py")
 unit_tables = importlib.util.module_from_spec(_SPEC)
 _SPEC.loader.exec_module(unit_tables)
 

@@ -97,7 +97,7 @@ def short_files(tmp_path_factory):
     import gzip
     from pathlib import Path
 
-    drive_dir = Path(__file__).resolve().parents[1] / "data" / "drive_0708"
+    drive_dir = Path(__file__).resolve().parents[2] / "data" / "drive_0708"
     if not (drive_dir / "imu_body_inc.txt.gz").is_file():
         pytest.skip("data/drive_0708 is not in this checkout")
     d = tmp_path_factory.mktemp("short")

@@ -40,7 +40,7 @@ from imunoise.model import Model
 cv2 = pytest.importorskip("cv2")
 
 F = 200.0
-FIX = Path(__file__).parent / "fixtures"
+FIX = Path(__file__).resolve().parents[1] / "fixtures"
 AXES = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
 ORB_KEYS = ("IMU.NoiseGyro", "IMU.NoiseAcc", "IMU.GyroWalk", "IMU.AccWalk")
 KALIBR_KEYS = ("gyroscope_noise_density", "accelerometer_noise_density", "gyroscope_random_walk",

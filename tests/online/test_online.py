@@ -333,7 +333,7 @@ def test_cli_online_on_the_shipped_drive(tmp_path):
 
     from imunoise.cli import main
 
-    data = Path(__file__).resolve().parents[1] / "data" / "drive_0708"
+    data = Path(__file__).resolve().parents[2] / "data" / "drive_0708"
     assert main(["online", "--data", str(data), "--out", str(tmp_path)]) == 0
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["horizontal_rms_m"] < 0.05  # residual against the RTK that aids the filter

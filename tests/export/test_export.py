@@ -244,7 +244,7 @@ def test_write_export_into_updates_in_place(tmp_path, imu_model):
     """``write_export(..., into=FILE)``: the additive keyword of the one writer the fit/calibrate plumbing calls."""
     from pathlib import Path
 
-    src = Path(__file__).parent / "fixtures" / "kalibr_imu.yaml"
+    src = Path(__file__).resolve().parents[1] / "fixtures" / "kalibr_imu.yaml"
     path = tmp_path / "imu.yaml"
     path.write_bytes(src.read_bytes())
     assert write_export(imu_model, "kalibr", tmp_path / "ignored.yaml", into=path, source="x") == path

@@ -13,7 +13,7 @@ import pytest
 from imunoise.detect import Detection, DetectorConfig, StaticDetector, StaticSegment, detect_static, learn_lambda0
 from imunoise.errors import DataError, ModelError
 
-DRIVE = Path(__file__).resolve().parents[1] / "data" / "drive_0708"
+DRIVE = Path(__file__).resolve().parents[2] / "data" / "drive_0708"
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,7 @@ from imunoise.io.rosbag import write_imu_bag
 from imunoise.io.rtklib import read_pos
 from imunoise.nav.earth import llh_to_ned
 
-DRIVE = Path(__file__).resolve().parents[1] / "data" / "drive_0708"
+DRIVE = Path(__file__).resolve().parents[2] / "data" / "drive_0708"
 WEEK = 2374  # the drive's GPS week (2025-07-08)
 START = 243263.0  # the KF-GINS reference start, inside the initial stop
 LEVER = ["0", "-0.05", "0"]

@@ -209,7 +209,7 @@ def test_nav_and_online_start_at_the_manifest_start(tmp_path, capsys):
     import json
     from pathlib import Path
 
-    repo = Path(__file__).resolve().parents[1] / "data" / "drive_0708"
+    repo = Path(__file__).resolve().parents[2] / "data" / "drive_0708"
     man = json.loads((repo / "dataset.json").read_text())
     d = tmp_path / "ds"
     d.mkdir()

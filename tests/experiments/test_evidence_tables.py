@@ -12,7 +12,7 @@ import pytest
 from imunoise.experiments.stats import paired_entry
 
 _SPEC = importlib.util.spec_from_file_location(
-    "evidence_tables", Path(__file__).resolve().parents[1] / "scripts" / "evidence_tables.py")
+    "evidence_tables", Path(__file__).resolve().parents[2] / "scripts" / "evidence_tables.py")
 evidence_tables = importlib.util.module_from_spec(_SPEC)
 _SPEC.loader.exec_module(evidence_tables)
 

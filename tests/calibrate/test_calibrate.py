@@ -121,7 +121,7 @@ def test_bag_input_with_exports_names_the_topic_read(tmp_path, capsys):
     assert "horizon" in html and "Stops" in html and "Fit against the data" in html
 
 
-DRIVE = Path(__file__).resolve().parents[1] / "data" / "drive_0708"
+DRIVE = Path(__file__).resolve().parents[2] / "data" / "drive_0708"
 
 
 def test_drive_accel_z_white_level_matches_the_allan_reading_of_its_stops():

@@ -16,7 +16,7 @@ from imunoise.nav.ekf import LooselyCoupledEKF, run_ekf
 from imunoise.nav.measurements.nhc import NhcConfig
 from imunoise.nav.mechanization import nav_euler
 
-SRC = Path(__file__).resolve().parents[1] / "src" / "imunoise"
+SRC = Path(__file__).resolve().parents[2] / "src" / "imunoise"
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 _SPEC = importlib.util.spec_from_file_location(
-    "coverage_study", Path(__file__).resolve().parents[1] / "scripts" / "coverage_study.py")
+    "coverage_study", Path(__file__).resolve().parents[2] / "scripts" / "coverage_study.py")
 coverage_study = importlib.util.module_from_spec(_SPEC)
 _SPEC.loader.exec_module(coverage_study)
 

@@ -20,7 +20,7 @@ from imunoise.io.atomic import atomic_path, atomic_write_text, staged_dir
 from imunoise.io.imu_input import read_imu_source
 from imunoise.io.tabular import UnitWarning
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 DRIVE = REPO / "data" / "drive_0708"
 JUNK = bytes(range(256)) * 8 + b"\x00\xff\xfe" * 100  # binary junk: NUL and invalid UTF-8
 
