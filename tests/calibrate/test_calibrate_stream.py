@@ -59,7 +59,6 @@ def test_streamed_csv_equals_whole_log(drive, tmp_path):
 
 @pytest.mark.slow
 def test_streamed_bag_with_gnss_equals_whole_log_cli(drive, tmp_path, capsys):
-    pytest.importorskip("rosbags")
     from imunoise.io.navinput import write_nav_bag
 
     bag = write_nav_bag(tmp_path / "drive.bag", drive.imu, drive.gnss, week=CFG.gps_week)

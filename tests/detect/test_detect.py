@@ -417,7 +417,7 @@ def test_real_drive_learned_lambda0(shared_data):
 def test_simulated_drives_precision_and_recall():
     """SPEC §10 simulator, IMU errors 3*AR1+WN+RW (mems preset), truth = speed < 0.05 m/s and no rotation.
     Issue acceptance on 20 drives is measured by benchmarks/bench_detect.py; here 5 drives."""
-    sim = pytest.importorskip("imunoise.sim")
+    from imunoise import sim
     tp = n_pred = n_true = 0
     for seed in range(5):
         d = sim.simulate_drive(sim.DriveConfig(), "3*AR1+WN+RW", seed=seed)

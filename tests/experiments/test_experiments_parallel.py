@@ -35,7 +35,6 @@ def test_two_workers_give_the_inline_per_window_values_to_the_bit(inline):
 
 
 def test_dask_scheduler_gives_the_inline_per_window_values(inline):
-    pytest.importorskip("distributed")
     ref, _ = inline
     units: list[int] = []
     res = dense.run_sim(SEEDS[::-1], workers=2, scheduler="threads", progress=units.append, **TINY)
