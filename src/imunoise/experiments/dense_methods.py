@@ -55,8 +55,7 @@ def base_method(name: str) -> str:
 def with_nhc(methods: Sequence[str]) -> tuple[tuple[str, ...], list[tuple[str, str]]]:
     """Every method and its ``+nhc`` twin, with the pairs twin/method and twin/``plain+nhc``,
     twin/``static_var+nhc`` where run (the ranking of the noise methods with the constraints on, as
-    :func:`~imunoise.experiments.dense_paired.paired_list` ranks them
-    without)."""
+    :func:`~imunoise.experiments.dense_paired.paired_list` ranks them without)."""
     twins = tuple(m + NHC_SUFFIX for m in methods if not m.endswith(NHC_SUFFIX))
     all_ = tuple(dict.fromkeys((*methods, *twins)))
     pairs = [(t, t.removesuffix(NHC_SUFFIX)) for t in twins]
