@@ -20,6 +20,7 @@ def test_every_guide_page_is_in_the_table_of_contents():
     assert listed == present, f"pages not in docs/index.rst: {present - listed}; listed but absent: {listed - present}"
 
 
+@pytest.mark.slow  # the guide's examples end to end (several minutes); make test runs them
 @pytest.mark.timeout(TEST_TIMEOUT_S)
 def test_guide_examples(tmp_path):
     """The untagged blocks of every page, in the guide's order."""

@@ -9,6 +9,7 @@ oracle_law 161 m, oracle 149 m), to keep the test fast; the 10-drive check (10-m
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from imunoise.experiments import dense
 from imunoise.experiments.common import simulate_scenario
@@ -21,6 +22,7 @@ def _mean_drift(res: dict) -> float:
     return float(np.mean([w["drift"] for w in res["windows"] if w["drift"] is not None]))
 
 
+@pytest.mark.slow  # evidence on four simulated drives
 def test_oracle_law_beats_oracle_beats_plain_on_the_default_law():
     rows = []
     for seed in (1000, 1001, 1002, 1003):

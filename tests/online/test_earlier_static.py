@@ -158,6 +158,7 @@ def test_cli_refuses_a_static_file_of_another_rate_before_writing(short_files, t
     assert not out.exists() or not any(out.rglob("*"))  # nothing written
 
 
+@pytest.mark.slow  # the warm methods' evidence path on two simulated drives
 def test_experiment_methods_pool_the_earlier_drives_stops():
     """gmwm_warm / gmwm_warm3 get the stops of their earlier drives, and only they; two earlier drives pool
     more than one (chained as a user would)."""
