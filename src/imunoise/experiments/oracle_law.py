@@ -19,8 +19,9 @@ online engine: the oracle needs no stops and no modelling. It keeps what the onl
 filter, ``oracle`` included: the 30 °/s angular-rate gate (SPEC §7; conservative noise in sharp turns), so that under
 the law ``none`` ``oracle_law`` and ``oracle`` are one filter (window drifts equal to 1e-5) and any difference
 between them elsewhere is the law's. (Without it, on 10 drives of the law ``none``, ``oracle_law``/``oracle`` was
-0.991 [0.968, 1.014], per window 0.69–1.05: a difference of paths, not of knowledge.) The dense-window protocol is the one of
-:func:`imunoise.experiments.dense.run_windows` (one aided run, a GNSS-free branch from each window's start).
+0.991 [0.968, 1.014], per window 0.69–1.05: a difference of paths, not of knowledge.) The dense-window protocol
+is the one of :func:`imunoise.experiments.dense.run_windows` (one aided run, a GNSS-free branch from each window's
+start).
 """
 
 from __future__ import annotations
