@@ -87,8 +87,8 @@ def paper_table(results: list[dict], labels: list[str], metric: str = "drift") -
         allm = {m: _mean([d for r in results for d in _drive_values(r)[key][m]]) for m in methods}
         for m in methods:
             pct = "–" if m == "plain" or "plain" not in allm else f"{100.0 * (allm[m] / allm['plain'] - 1.0):+.1f}"
-            lines.append(f"| {key[0]} | {m} | {allm[m]:.1f} | {pct} | "
-                         + " | ".join("–" if x is None else f"{x:.1f}" for x in per[m]) + " |")
+            lines.append(f"| {key[0]} | {m} | {allm[m]:.4g} | {pct} | "
+                         + " | ".join("–" if x is None else f"{x:.4g}" for x in per[m]) + " |")
     return "\n".join(lines)
 
 

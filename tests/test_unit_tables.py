@@ -57,4 +57,4 @@ def test_extra_pairs_and_the_paper_style_table():
     assert ga["ratio"] == pytest.approx(gp["ratio"] / 1.5, rel=1e-12) and ga["n_clusters"] == 3
     text = unit_tables.paper_table(res, ["a", "b", "c"])
     plain = np.mean([v for r in res for d in r["per_seed"]["plain"] for v in d["outage_end_horizontal_m"]])
-    assert f"| sim | plain | {plain:.1f} | – |" in text and "| sim | av | " in text and "| +50.0 |" in text
+    assert f"| sim | plain | {plain:.4g} | – |" in text and "| sim | av | " in text and "| +50.0 |" in text
