@@ -9,6 +9,7 @@ units as clusters (df = units − 1; :func:`imunoise.experiments.stats.paired_en
 counts. Also the paper-style means per method (over all drives and windows).
 
 Usage: python scripts/unit_tables.py unit1/results.json unit2/results.json ... [--labels u1,u2,...]
+       [--pairs gmwm/av,gmwm/em]
 """
 
 from __future__ import annotations
@@ -37,8 +38,10 @@ def _drive_values(res: dict) -> dict[tuple[str, str], dict[str, list]]:
     return out
 
 
-def pooled(results: list[dict], labels: list[str], n_boot: int = 2000) -> list[dict]:
-    """Paired entries of every method against plain / static_var over all units' drives, units as clusters."""
+def pooled(results: list[dict], labels: list[str], n_boot: int = 2000,
+           pairs: list[tuple[str, str]] | None = None) -> list[dict]:
+    """Paired entries of every method against plain / static_var over all units' drives, units as clusters, then
+    the extra ``pairs`` (method, baseline) where both were run (e.g. the paper's gmwm/av, gmwm/em)."""
     keys = set.intersection(*(set(_drive_values(r)) for r in results))
     methods = [m for m in results[0].get("methods", []) if all(m in r.get("methods", []) for r in results)]
     out = []
@@ -59,7 +62,34 @@ def pooled(results: list[dict], labels: list[str], n_boot: int = 2000) -> list[d
                     continue
                 e = paired_entry(m, base, met, vals, 1, units=units, n_boot=n_boot)
                 out.append(dict(e, gnss=g))
+        for m, base in pairs or []:
+            if m in methods and base in methods and base not in ("plain", "static_var"):
+                out.append(dict(paired_entry(m, base, met, vals, 1, units=units, n_boot=n_boot), gnss=g))
     return out
+
+
+def _mean(drives: list) -> float | None:
+    """Mean over drives, realisations and windows (None values left out)."""
+    v = [x for d in drives for x in np.ravel(np.array(d, dtype=object)) if x is not None]
+    return float(np.mean(np.array(v, dtype=float))) if v else None
+
+
+def paper_table(results: list[dict], labels: list[str], metric: str = "drift") -> str:
+    """The paper-style table (paper Tables 1, 5–6): per GNSS regime and method the mean of ``metric`` [m] over every
+    drive and window of every unit, its change against ``plain`` [%], and each unit's own mean (not a test: the
+    paired ratios are)."""
+    keys = sorted(k for k in set.intersection(*(set(_drive_values(r)) for r in results)) if k[1] == metric)
+    methods = [m for m in results[0].get("methods", []) if all(m in r.get("methods", []) for r in results)]
+    lines = [f"| GNSS | method | mean {metric} [m] | vs plain [%] | " + " | ".join(labels) + " |",
+             "|---|---|---|---|" + "---|" * len(labels)]
+    for key in keys:
+        per = {m: [_mean(_drive_values(r)[key][m]) for r in results] for m in methods}
+        allm = {m: _mean([d for r in results for d in _drive_values(r)[key][m]]) for m in methods}
+        for m in methods:
+            pct = "–" if m == "plain" or "plain" not in allm else f"{100.0 * (allm[m] / allm['plain'] - 1.0):+.1f}"
+            lines.append(f"| {key[0]} | {m} | {allm[m]:.4g} | {pct} | "
+                         + " | ".join("–" if x is None else f"{x:.4g}" for x in per[m]) + " |")
+    return "\n".join(lines)
 
 
 def means(results: list[dict]) -> dict[str, float]:
@@ -95,7 +125,9 @@ def main(argv: list[str]) -> int:
     p.add_argument("results", nargs="+", help="one results.json per unit")
     p.add_argument("--labels", help="unit labels, comma-separated (default: the folder names)")
     p.add_argument("--bootstrap", type=int, default=2000)
+    p.add_argument("--pairs", default="", help="extra comparisons method/baseline,... (e.g. gmwm/av,gmwm/em)")
     a = p.parse_args(argv)
+    pairs = [tuple(x.strip().split("/", 1)) for x in a.pairs.split(",") if x.strip()]
     results = [json.loads(Path(f).read_text()) for f in a.results]
     labels = a.labels.split(",") if a.labels else [Path(f).resolve().parent.name for f in a.results]
     if len(labels) != len(results) or len(set(labels)) != len(labels):
@@ -107,7 +139,10 @@ def main(argv: list[str]) -> int:
     print(f"{len(results)} units ({', '.join(labels)}); seeds: {', '.join(roles)}\n")
     print("mean end drift per method [m] (all drives and windows, first GNSS regime; not a test): "
           + ", ".join(f"{m} {v:.1f}" for m, v in means(results).items()) + "\n")
-    print(table(pooled(results, labels, a.bootstrap)))
+    for metric in ("drift", "aided_rms"):
+        if any(k[1] == metric for k in set.intersection(*(set(_drive_values(r)) for r in results))):
+            print(paper_table(results, labels, metric) + "\n")
+    print(table(pooled(results, labels, a.bootstrap, pairs)))
     return 0
 
 

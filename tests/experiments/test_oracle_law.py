@@ -50,3 +50,20 @@ def test_oracle_law_in_the_online_monte_carlo():
     assert len(m["outage_end_horizontal_m"]) == 2 and all(0 < x < 1000 for x in m["outage_end_horizontal_m"])
     assert m["mean_outage_end_horizontal_m"] == np.mean(m["outage_end_horizontal_m"])
     assert m["horizontal_rms_m"] < 3.0  # aided by meter-level fixes throughout
+
+
+def test_oracle_law_is_the_oracle_when_the_law_adds_nothing():
+    """Under the law ``none`` the two oracles are one filter (the same models, the online engine's 30 °/s
+    angular-rate gate on both), so the only difference ``oracle_law`` can make elsewhere is the law."""
+    from imunoise.experiments.oracle_law import law_filter
+    from imunoise.online import OnlineConfig
+
+    sc = simulate_scenario(1004, duration_s=300.0, n_stops=2, n_outages=0, motion_noise="none")
+    windows = dense.dense_windows(sc, dense.parse_outages("dense:60:20")[1])
+    base = OnlineConfig(latency=1.0)
+    assert np.any(law_filter(sc, base=base).imu.gate)  # corners of 35-50 °/s open the gate
+    o = dense.evaluate_method(sc, "oracle", sc.gnss, windows, base=base)["windows"]
+    law = dense.evaluate_method(sc, "oracle_law", sc.gnss, windows, base=base)["windows"]
+    for a, b in zip(law, o, strict=True):
+        assert a["drift"] == pytest.approx(b["drift"], rel=1e-4)
+    assert not np.any(law_filter(sc, base=base.with_(gate=False)).imu.gate)

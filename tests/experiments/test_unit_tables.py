@@ -42,3 +42,19 @@ def test_units_are_the_clusters():
     assert math.log(e["ratio"]) == pytest.approx(m, rel=1e-12)
     assert [math.log(x) for x in e["ci"]] == pytest.approx([m - half, m + half], rel=1e-10)
     assert "| sim | drift | gmwm | plain |" in unit_tables.table([e])
+
+
+def test_extra_pairs_and_the_paper_style_table():
+    rng = np.random.default_rng(1)
+    res = [_mc(rng, e) for e in (-0.2, -0.1, 0.0)]
+    for r in res:  # a third method: av = plain × 1.5 on every window
+        r["methods"].append("av")
+        r["per_seed"]["av"] = [{"outage_end_horizontal_m": [1.5 * v for v in d["outage_end_horizontal_m"]]}
+                               for d in r["per_seed"]["plain"]]
+    entries = unit_tables.pooled(res, ["a", "b", "c"], n_boot=100, pairs=[("gmwm", "av"), ("x", "av")])
+    (ga,) = [e for e in entries if (e["method"], e["baseline"]) == ("gmwm", "av")]
+    (gp,) = [e for e in entries if (e["method"], e["baseline"]) == ("gmwm", "plain")]
+    assert ga["ratio"] == pytest.approx(gp["ratio"] / 1.5, rel=1e-12) and ga["n_clusters"] == 3
+    text = unit_tables.paper_table(res, ["a", "b", "c"])
+    plain = np.mean([v for r in res for d in r["per_seed"]["plain"] for v in d["outage_end_horizontal_m"]])
+    assert f"| sim | plain | {plain:.4g} | – |" in text and "| sim | av | " in text and "| +50.0 |" in text

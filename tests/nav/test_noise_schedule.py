@@ -15,8 +15,12 @@ from imunoise.experiments.oracle_law import _fixes, law_filter, law_models
 from imunoise.nav.noise_schedule import run_pieces
 from imunoise.nav.state import N_NAV
 from imunoise.nav.step_filter import new_outputs, velocity_fixes
+from imunoise.online import OnlineConfig
 
 GM_SIGMA, GM_TAU, STEP = 6e-4, 40.0, 7e-4
+# the online engine's angular-rate gate (conservative noise in sharp turns, which oracle_law shares with the
+# online methods) is off here: these tests measure what the law's schedule alone injects
+NO_GATE = OnlineConfig(gate=False)
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +33,7 @@ def drive(tmp_path_factory):
     path = tmp_path_factory.mktemp("law") / "all_terms.json"
     path.write_text(json.dumps(law))
     sc = simulate_scenario(5, duration_s=240.0, n_stops=2, n_outages=0, motion_noise=str(path))
-    lf = law_filter(sc)
+    lf = law_filter(sc, base=NO_GATE)
     assert np.any(lf.bump) and np.any(~lf.moving[1:]) and np.all(lf.noise.gm_index[:3] >= 0)
     # open loop (no fixes): the model block of P then evolves as Φ_m P Φ_mᵀ + Q_m alone
     f = lf.ekf.arrays()
@@ -110,3 +114,77 @@ def test_departure_bump_exact(drive):
         want = before.copy()
         want[b[:3], b[:3]] += STEP ** 2  # the bias variances of the gyros, nothing else
         np.testing.assert_array_equal(after, want)
+
+
+@pytest.fixture(scope="module")
+def accel_drive():
+    """A short drive under the shipped accel_moving_gm law, the filter run open loop from a zero model covariance."""
+    sc = simulate_scenario(7, duration_s=240.0, n_stops=2, n_outages=0, motion_noise="accel_moving_gm")
+    lf = law_filter(sc, base=NO_GATE)
+    f = lf.ekf.arrays()
+    P0 = f.P.copy()
+    f.P[N_NAV:, N_NAV:] = 0.0
+    ends = []
+
+    def before(k):
+        ends.append((k, f.P.copy()))
+        return lf.before_piece(f, k)
+
+    n = lf.imu.t.size
+    _, settings = lf.ekf.kernel_parts()
+    run_pieces(lf.imu, f, settings, lf.ekf.nhc_settings(), _fixes(sc.gnss, lf.ekf.lever, keep=lambda g: g < -1.0),
+               velocity_fixes(None, lf.ekf.lever), new_outputs(n, store_cov=False, has_sf=False),
+               [*map(int, lf.bounds), n - 1], before)
+    ends.append((n - 1, f.P.copy()))
+    return sc, lf, ends, P0
+
+
+def test_accel_moving_gm_grows_only_while_moving_to_its_sigma(accel_drive):
+    """The accelerometer moving GM: P_gm after the drive is σ²(1 − φ^{2·N_moving}) exactly (N_moving the filter's
+    moving steps; stops add nothing), on the simulator's own moving flags, with its steady state σ² = 0.02²."""
+    sc, lf, ends, P0 = accel_drive
+    sched = sc.extra["law_schedule"]
+    i0 = int(np.searchsorted(sc.imu.t, sc.init.t, side="right")) - 1
+    n = lf.imu.t.size
+    # the filter's moving flag per step into k is the simulator's: schedule sample k + i0 is moving
+    np.testing.assert_array_equal(sched.moving, ~np.asarray(sc.static_truth, dtype=bool))
+    moving_steps = int(np.sum(sched.moving[i0 + 1 : i0 + n]))
+    assert 0 < moving_steps < n - 1
+    sigma, tau = 0.02, 120.0
+    phi = math.exp(-lf.ekf.dt_nom / tau)
+    g = lf.noise.gm_index
+    assert np.all(g[:3] == -1) and np.all(g[3:] >= 0)
+    grown = []
+    for i, ((k, P), (_, P_next)) in enumerate(zip(ends[:-1], ends[1:])):
+        G = g[3:] + N_NAV
+        d = np.diag(P_next)[G] - np.diag(P)[G]
+        if lf.moving[i]:
+            assert np.all(d > 0)
+            grown.append(k)
+        else:
+            assert np.all(d == 0.0)  # frozen at the stop
+    assert grown
+    # the kernel propagates every cov_every = 5 samples as P ← Φ(P + Q/2)Φᵀ + Q/2 with the exact 5-step Q, which
+    # puts the steady state at σ²(1 + φ^10)/2 = σ²(1 − 4.2e-4): hence 1e-3, not 1e-9 (one lost step would be 1.4e-4)
+    for G in g[3:] + N_NAV:
+        assert ends[-1][1][G, G] == pytest.approx(sigma ** 2 * (1 - phi ** (2 * moving_steps)), rel=1e-3)
+        assert ends[-1][1][G, G] < sigma ** 2 * (1 - phi ** (2 * moving_steps))
+        assert P0[G, G] == pytest.approx(sigma ** 2, rel=1e-12)  # its initial covariance: stationary
+
+
+def test_oracle_carries_the_accel_moving_gm_always_on():
+    """Why oracle_law gains little over oracle on accel_moving_gm: the constant model of ``oracle`` already has the
+    same Gauss–Markov (σ, τ) on every accelerometer axis, evolving all the time; only the freeze at stops differs."""
+    from imunoise.imu import AXES
+
+    sc = simulate_scenario(7, duration_s=200.0, n_stops=1, n_outages=0, motion_noise="accel_moving_gm")
+    phi = math.exp(-1.0 / (120.0 * sc.rate))
+    for ax in AXES:
+        static = {c.values for c in sc.extra["static_models"][ax].components if c.kind == "AR1"}
+        extra = [c.values for c in sc.truth_models[ax].components if c.kind == "AR1" and c.values not in static]
+        if ax.startswith("gyro"):
+            assert extra == []
+        else:
+            assert len(extra) == 1
+            assert extra[0][0] == pytest.approx(phi, rel=1e-12)
+            assert extra[0][1] == pytest.approx(0.02 ** 2 * (1 - phi * phi), rel=1e-9)

@@ -113,3 +113,27 @@ def test_the_shared_adis16405_logs_replay(shared_data):
     assert stretch(rec, 9, n, 100.0, reserve_s=3600.0)[1] <= rec.n - 360_000
     with pytest.raises(ModelError, match=r"10 drive\(s\) of 600 s fit"):
         stretch(rec, 10, n, 100.0, reserve_s=3600.0)
+
+
+def test_denial_fits_the_shared_static_part_once(tmp_path, monkeypatch):
+    """Every seed of a replayed denial run shares the recording's end as its static part: fitted once, on exactly
+    those samples (the mean of the part removed), and reused."""
+    from imunoise.experiments import denial
+
+    path, data = _recording(tmp_path)
+    rec = load_recording(str(tmp_path / "rec.npz"))
+    calls = []
+
+    def fake(segments, freq, *, complete=None):
+        calls.append(segments[0])
+        return {"n": segments[0].shape[0]}
+
+    monkeypatch.setattr(denial, "static_models", fake)
+    monkeypatch.setattr(denial, "_REPLAY_MODELS", {})
+    a = denial._replay_models(rec.path, 200.0, 100.0, None)
+    b = denial._replay_models(rec.path, 200.0, 100.0, None)
+    assert a is b and len(calls) == 1 and a["n"] == 20_000
+    want = rec.errors[-20_000:] - rec.errors[-20_000:].mean(axis=0)
+    np.testing.assert_allclose(calls[0], want, rtol=0, atol=1e-15)
+    denial._replay_models(rec.path, 100.0, 100.0, None)  # another static length: another fit
+    assert len(calls) == 2 and calls[1].shape[0] == 10_000

@@ -102,6 +102,21 @@ def run_real(data_dir: str, *, methods: Sequence[str] = METHODS, start: float | 
     return res, sc
 
 
+_REPLAY_MODELS: dict[tuple, dict] = {}
+
+
+def _replay_models(path: str, static_s: float, rate: float, complete: str | None) -> dict:
+    """:func:`static_models` of a replayed recording's static part (:func:`imunoise.sim.replay.static_part`), fitted
+    once per process: every seed of a run shares that part, so the fits are the same for all."""
+    key = (path, float(static_s), float(rate), complete)
+    if key not in _REPLAY_MODELS:
+        from imunoise.sim.replay import load_recording, static_part
+
+        errors = static_part(load_recording(path), static_s, rate)
+        _REPLAY_MODELS[key] = static_models([errors - errors.mean(axis=0)], 100.0, complete=complete)
+    return _REPLAY_MODELS[key]
+
+
 def _sim_job(args: tuple) -> dict:
     seed, methods, static_s, scen_kw = args
     scen_kw = dict(scen_kw)
@@ -111,14 +126,11 @@ def _sim_job(args: tuple) -> dict:
 
     imu_models = scen_kw.get("imu_models", SIM_IMU)
     rate = float(scen_kw.get("imu_rate_hz", 100.0))
-    if scen_kw.get("imu_noise"):  # real noise: the end of the recording, which no drive uses
-        from imunoise.sim.replay import load_recording, static_part
-
-        errors = static_part(load_recording(scen_kw["imu_noise"]), static_s, rate)
+    if scen_kw.get("imu_noise"):  # real noise: the end of the recording, which no drive uses (same for every seed)
+        models = _replay_models(scen_kw["imu_noise"], static_s, rate, complete)
     else:
         errors = simulate_static(imu_models, duration_s=static_s, rate_hz=rate, seed=10_000 + seed).errors
-    data = errors - errors.mean(axis=0)
-    models = static_models([data], 100.0, complete=complete)
+        models = static_models([errors - errors.mean(axis=0)], 100.0, complete=complete)
     sc = simulate_scenario(seed, **scen_kw)
     res = _evaluate_all(sc, models, methods, keep=False)
     out = {"seed": seed, "methods": res,
@@ -140,6 +152,9 @@ def run_sim(seeds: Sequence[int], *, methods: Sequence[str] = METHODS, workers: 
     """Monte Carlo of the denial experiment over simulator seeds (a ``static_recording_s`` recording of the same
     IMU model per seed; ``complete`` the selection's complete model, default the paper's)."""
     jobs = [(int(s), tuple(methods), float(static_recording_s), {**scen_kw, "_complete": complete}) for s in seeds]
+    if scen_kw.get("imu_noise"):  # fit the shared static part here, before the workers fork, not once per seed
+        _replay_models(scen_kw["imu_noise"], float(static_recording_s), float(scen_kw.get("imu_rate_hz", 100.0)),
+                       complete)
     per_seed = map_seeds(_sim_job, jobs, workers, progress)
     for r in per_seed:
         r["methods"].setdefault("gmwm", r["methods"].get("gmwm"))
