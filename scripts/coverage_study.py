@@ -12,22 +12,38 @@ u_d ~ N(0, σ_u²) and its windows an AR(ρ) series e_{d,k} = ρ e_{d,k−1} + �
   log drift_A = a_d + ν^A_{d,k}, log drift_B = a_d + ν^B_{d,k} (a_d a shared drive level, ν independent AR(ρ)
   per arm); the paired entry is "significant" in about 5 % of the replications.
 
-Seeds. Development seeds (the design was tuned on them) are 0 … 9999 (replication r uses seed r);
-report seeds start at 1_000_000 (``--seed-role report``) and were used once for the table in the guide.
+Seeds. Development seeds (the design was tuned on them) are 0 … 9999 (replication r uses seed r). Report seeds
+are used once per version of the intervals: the first version (one drive: circular block bootstrap) was
+reported on seeds from 1 000 000; the second (one drive: the AR(1)-calibrated fixed-b t of
+:mod:`imunoise.experiments.fixed_b`, frozen before the run; D ≥ 2 unchanged) on seeds from 2 000 000, the
+current ``--seed-role report``. A further change needs fresh seeds again.
 
-Reported table (report seeds from 1 000 000, run once after the design was frozen on development seeds;
-``--reps 2000 --windows 25,50,100 --seed-role report``):
+Report run 1 (seeds from 1 000 000, ``--reps 2000 --windows 25,50,100``; coverage only):
 
 | drives | 25 windows/drive | 50 windows/drive | 100 windows/drive |
 |---|---|---|---|
-| 1 | 84.8 % | 90.7 % | 94.2 % |
+| 1 (block bootstrap) | 84.8 % | 90.7 % | 94.2 % |
 | 5 | 94.3 % | 95.0 % | 95.2 % |
 | 12 | 94.8 % | 94.5 % | 95.2 % |
 | 30 | 95.2 % | 95.2 % | 95.2 % |
 
 Null (200 replications each): 5 drives × 25 / 50 / 100 windows → significant in 7.0 / 3.5 / 6.0 %; one drive
-× 25 / 50 / 100 windows → 14.5 / 9.5 / 4.5 %. One drive of a 10-minute drive's 25 windows (an AR(0.8) series
-holds about three independent values) stays optimistic; from ~50 windows the one-drive interval keeps ≥ 90 %.
+× 25 / 50 / 100 windows → 14.5 / 9.5 / 4.5 %.
+
+Report run 2 (seeds from 2 000 000, ``--reps 2000 --windows 25,50,100 --seed-role report``, 117 s): coverage
+(median width of the interval of the log-ratio):
+
+| drives | interval | 25 windows/drive | 50 windows/drive | 100 windows/drive |
+|---|---|---|---|---|
+| 1 | block bootstrap (earlier) | 85.8 % (0.192) | 90.3 % (0.197) | 93.0 % (0.146) |
+| 1 | fixed-b t, AR(1)-calibrated | 92.3 % (0.337) | 93.5 % (0.230) | 94.3 % (0.152) |
+| 5 | cluster t | 95.2 % (0.264) | 94.8 % (0.250) | 94.8 % (0.240) |
+| 12 | cluster t | 95.4 % (0.141) | 95.2 % (0.132) | 95.0 % (0.128) |
+| 30 | cluster t | 95.5 % (0.084) | 94.9 % (0.079) | 95.2 % (0.077) |
+
+Null (200 replications each, seeds from 2 500 000): one drive × 25 / 50 / 100 windows → significant in
+7.5 / 5.5 / 5.5 %; 5 drives → 4.5 / 5.5 / 4.5 %. The one-drive interval is 1.75× as wide as the earlier one on 25
+windows (an AR(0.8) series of 25 windows holds about three independent values): the price of covering.
 
 Usage: python scripts/coverage_study.py [--reps 1000] [--windows 25,100] [--seed-role dev|report]
 """
