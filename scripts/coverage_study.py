@@ -12,22 +12,38 @@ u_d ~ N(0, σ_u²) and its windows an AR(ρ) series e_{d,k} = ρ e_{d,k−1} + �
   log drift_A = a_d + ν^A_{d,k}, log drift_B = a_d + ν^B_{d,k} (a_d a shared drive level, ν independent AR(ρ)
   per arm); the paired entry is "significant" in about 5 % of the replications.
 
-Seeds. Development seeds (the design was tuned on them) are 0 … 9999 (replication r uses seed r);
-report seeds start at 1_000_000 (``--seed-role report``) and were used once for the table in the guide.
+Seeds. Development seeds (the design was tuned on them) are 0 … 9999 (replication r uses seed r). Report seeds
+are used once per version of the intervals: the first version (one drive: circular block bootstrap) was
+reported on seeds from 1 000 000; the second (one drive: the AR(1)-calibrated fixed-b t of
+:mod:`imunoise.experiments.fixed_b`, frozen before the run; D ≥ 2 unchanged) on seeds from 2 000 000, the
+current ``--seed-role report``. A further change needs fresh seeds again.
 
-Reported table (report seeds from 1 000 000, run once after the design was frozen on development seeds;
-``--reps 2000 --windows 25,50,100 --seed-role report``):
+Report run 1 (seeds from 1 000 000, ``--reps 2000 --windows 25,50,100``; coverage only):
 
 | drives | 25 windows/drive | 50 windows/drive | 100 windows/drive |
 |---|---|---|---|
-| 1 | 84.8 % | 90.7 % | 94.2 % |
+| 1 (block bootstrap) | 84.8 % | 90.7 % | 94.2 % |
 | 5 | 94.3 % | 95.0 % | 95.2 % |
 | 12 | 94.8 % | 94.5 % | 95.2 % |
 | 30 | 95.2 % | 95.2 % | 95.2 % |
 
 Null (200 replications each): 5 drives × 25 / 50 / 100 windows → significant in 7.0 / 3.5 / 6.0 %; one drive
-× 25 / 50 / 100 windows → 14.5 / 9.5 / 4.5 %. One drive of a 10-minute drive's 25 windows (an AR(0.8) series
-holds about three independent values) stays optimistic; from ~50 windows the one-drive interval keeps ≥ 90 %.
+× 25 / 50 / 100 windows → 14.5 / 9.5 / 4.5 %.
+
+Report run 2 (seeds from 2 000 000, ``--reps 2000 --windows 25,50,100 --seed-role report``, 117 s): coverage
+(median width of the interval of the log-ratio):
+
+| drives | interval | 25 windows/drive | 50 windows/drive | 100 windows/drive |
+|---|---|---|---|---|
+| 1 | block bootstrap (earlier) | 85.8 % (0.192) | 90.3 % (0.197) | 93.0 % (0.146) |
+| 1 | fixed-b t, AR(1)-calibrated | 92.3 % (0.337) | 93.5 % (0.230) | 94.3 % (0.152) |
+| 5 | cluster t | 95.2 % (0.264) | 94.8 % (0.250) | 94.8 % (0.240) |
+| 12 | cluster t | 95.4 % (0.141) | 95.2 % (0.132) | 95.0 % (0.128) |
+| 30 | cluster t | 95.5 % (0.084) | 94.9 % (0.079) | 95.2 % (0.077) |
+
+Null (200 replications each, seeds from 2 500 000): one drive × 25 / 50 / 100 windows → significant in
+7.5 / 5.5 / 5.5 %; 5 drives → 4.5 / 5.5 / 4.5 %. The one-drive interval is 1.75× as wide as the earlier one on 25
+windows (an AR(0.8) series of 25 windows holds about three independent values): the price of covering.
 
 Usage: python scripts/coverage_study.py [--reps 1000] [--windows 25,100] [--seed-role dev|report]
 """
@@ -40,10 +56,11 @@ import sys
 import time
 
 import numpy as np
+from scipy import stats
 
-from imunoise.experiments.stats import bootstrap_ratio, default_block, paired_entry
+from imunoise.experiments.stats import block_bootstrap_interval, bootstrap_ratio, default_block, paired_entry
 
-SEED_BASE = {"dev": 0, "report": 1_000_000}
+SEED_BASE = {"dev": 0, "report": 2_000_000}  # report seeds of the first version (block bootstrap): 1_000_000
 DRIVES = (1, 5, 12, 30)
 
 
@@ -65,18 +82,27 @@ def draw(rng: np.random.Generator, drives: int, n: int, *, mu: float = 0.1, sigm
 
 
 def coverage(drives: int, reps: int, *, n: int = 25, seed0: int = 0, mu: float = 0.1, n_boot: int = 500,
-             block: int = 3, **model) -> dict:
-    """Share of ``reps`` replications whose 95 % interval holds the target (module docstring)."""
+             block: int = 3, one_drive: str = "fixed-b", **model) -> dict:
+    """Share of ``reps`` replications whose 95 % interval holds the target (module docstring), and the median
+    width of the interval of the log-ratio. For D = 1, ``one_drive`` = "block" uses the earlier one-cluster interval
+    (circular block bootstrap, :func:`imunoise.experiments.stats.block_bootstrap_interval`) and "naive" the t
+    interval that takes the windows as independent (df = n − 1), both for comparison."""
     hits = 0
     width = []
     for r in range(reps):
         rng = np.random.default_rng(seed0 + r)
         groups, u = draw(rng, drives, n, mu=mu, **model)
-        res = bootstrap_ratio(groups, block, n_boot=n_boot, seed=seed0 + r)
+        if drives == 1 and one_drive == "block":
+            lo, hi = block_bootstrap_interval(groups[0], block, n_boot=n_boot, seed=seed0 + r)["ci"]
+        elif drives == 1 and one_drive == "naive":
+            x = groups[0]
+            half = float(stats.t.ppf(0.975, n - 1)) * float(np.std(x, ddof=1)) / math.sqrt(n)
+            lo, hi = float(x.mean()) - half, float(x.mean()) + half
+        else:
+            lo, hi = (math.log(v) for v in bootstrap_ratio(groups, block, n_boot=n_boot, seed=seed0 + r)["ci"])
         target = mu + (u[0] if drives == 1 else 0.0)
-        lo, hi = res["ci"]
-        hits += lo <= math.exp(target) <= hi
-        width.append(math.log(hi / lo))
+        hits += lo <= target <= hi
+        width.append(hi - lo)
     return {"drives": drives, "reps": reps, "windows": n, "coverage": hits / reps,
             "median_log_width": float(np.median(width))}
 
@@ -108,16 +134,20 @@ def main(argv: list[str]) -> int:
     t0 = time.perf_counter()
     print(f"seeds: {a.seed_role} (from {seed0}); drive effects σ_u = 0.1, AR(0.8) σ_e = 0.1; {a.reps} "
           "replications per cell; target μ (D ≥ 2) or the drive's own mean μ + u_d (D = 1)")
-    print("| drives | " + " | ".join(f"coverage, {n} windows/drive" for n in ns) + " |")
-    print("|---|" + "---|" * len(ns))
-    for d in DRIVES:
-        cells = [coverage(d, a.reps, n=n, seed0=seed0) for n in ns]
-        print(f"| {d} | " + " | ".join(f"{100 * c['coverage']:.1f} %" for c in cells) + " |")
+    print("| drives | interval | " + " | ".join(f"{n} windows/drive: coverage (median width)" for n in ns) + " |")
+    print("|---|---|" + "---|" * len(ns))
+    rows = [(1, "block")] + [(d, "fixed-b") for d in DRIVES]
+    for d, how in rows:
+        cells = [coverage(d, a.reps, n=n, seed0=seed0, one_drive=how) for n in ns]
+        name = ("cluster t" if d > 1 else "block bootstrap (earlier)" if how == "block"
+                else "fixed-b t, AR(1)-calibrated")
+        print(f"| {d} | {name} | " + " | ".join(f"{100 * c['coverage']:.1f} % ({c['median_log_width']:.3f})"
+                                                for c in cells) + " |", flush=True)
     for d in (1, 5):
         for n in ns:
             z = null_rate(a.null_reps, drives=d, n=n, seed0=seed0 + 500_000)
             print(f"null: {d} drive(s) × {n} windows, {z['reps']} replications: significant in "
-                  f"{100 * z['significant']:.1f} %")
+                  f"{100 * z['significant']:.1f} %", flush=True)
     print(f"({time.perf_counter() - t0:.1f} s)")
     return 0
 

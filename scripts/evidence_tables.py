@@ -12,6 +12,10 @@ a method added in a later run against a baseline of an earlier one.
 
     python scripts/evidence_tables.py out/evidence/results.json [more/results.json ...]
     python scripts/evidence_tables.py out/run_a/results.json --across out/run_b/results.json --pairs x/y
+
+``--recompute`` rebuilds every ``paired`` entry from the run's ``per_window`` values with the statistics of this
+version (imunoise.experiments.stats), e.g. a one-drive run made before the one-cluster interval changed;
+``--interval-json OUT.json`` writes the entries used (recomputed or stored) for later reading.
 """
 
 from __future__ import annotations
@@ -84,6 +88,22 @@ def _share_rows(res: dict, g: str) -> list[str]:
     return out
 
 
+def recompute(res: dict) -> list[dict]:
+    """The run's ``paired`` entries computed again from ``per_window`` with the current statistics (same pairs,
+    metrics, block, bootstrap size and seed as stored)."""
+    proto = res["protocol"]
+    out = []
+    for e in res["paired"]:
+        g, met = e.get("gnss", ""), e["metric"]
+        vals = res["per_window"][g][met]
+        n = paired_entry(e["method"], e["baseline"], met, {e["method"]: vals[e["method"]],
+                                                           e["baseline"]: vals[e["baseline"]]},
+                         proto["block"], n_independent_total=res.get("n_independent"),
+                         n_boot=proto.get("n_boot", 2000), seed=proto.get("boot_seed", 0))
+        out.append(dict(n, gnss=g))
+    return out
+
+
 def cross_pairs(res_a: dict, res_b: dict, pairs: list[tuple[str, str]]) -> list[dict]:
     """``paired`` entries of method A of run ``res_a`` against method B of run ``res_b`` per GNSS regime they share
     and metric; the two runs must have the same windows (else ValueError saying what differs)."""
@@ -125,6 +145,9 @@ def main(argv: list[str]) -> int:
     p.add_argument("results", nargs="+", help="results.json of dense-window runs")
     p.add_argument("--across", help="results.json of a second run of the same windows: pair across the two runs")
     p.add_argument("--pairs", help="with --across: A/B[,C/D], A of the first run against B of the second")
+    p.add_argument("--recompute", action="store_true",
+                   help="rebuild the paired entries from per_window with the current statistics")
+    p.add_argument("--interval-json", help="write the paired entries shown (one list per results.json) to this file")
     a = p.parse_args(argv)
     if a.across:
         from imunoise.experiments.dense import parse_pairs
@@ -139,11 +162,17 @@ def main(argv: list[str]) -> int:
         print(f"### {a.results[0]} against {a.across}")
         print(cross_table(entries))
         return 0
+    shown = {}
     for path in a.results:
         res = json.loads(Path(path).read_text())
-        print(f"### {path}\n")
+        if a.recompute:
+            res["paired"] = recompute(res)
+        shown[path] = res["paired"]
+        print(f"### {path}" + (" (paired entries recomputed)" if a.recompute else "") + "\n")
         print(tables(res))
         print()
+    if a.interval_json:
+        Path(a.interval_json).write_text(json.dumps(shown, indent=1))
     return 0
 
 

@@ -70,3 +70,15 @@ def test_across_refuses_runs_of_other_windows_and_unknown_methods():
         evidence_tables.cross_pairs(a, _run("y", 1.0, a["windows"]), [("x", "z")])
     with pytest.raises(SystemExit):
         evidence_tables.main(["a.json", "--across", "b.json"])  # no --pairs: usage error
+
+
+def test_recompute_rebuilds_the_paired_entries_from_the_windows():
+    res = _results()
+    stale = [dict(e, ci=[0.1, 9.9], interval="block bootstrap") for e in res["paired"]]
+    res["paired"] = stale
+    got = evidence_tables.recompute(res)
+    drift = res["per_window"]["rtk"]["drift"]
+    want = paired_entry("half", "plain", "drift", drift, 3, n_independent_total=4, n_boot=200, seed=0)
+    half = next(e for e in got if e["method"] == "half")
+    assert half["ci"] == pytest.approx(want["ci"], rel=1e-12) and half["gnss"] == "rtk"
+    assert half["interval"] == "cluster t" and [e["method"] for e in got] == ["oracle", "half"]

@@ -10,6 +10,7 @@ from scipy import stats
 
 from imunoise.errors import DataError
 from imunoise.experiments.stats import (
+    block_bootstrap_interval,
     bootstrap_ratio,
     default_block,
     drive_log_ratios,
@@ -111,15 +112,21 @@ def test_units_are_the_clusters_above_drives():
         bootstrap_ratio(groups, 3, units=["a"])
 
 
-def test_one_drive_says_its_scope_and_uses_a_data_chosen_block():
+def test_one_drive_says_its_scope_and_uses_the_fixed_b_interval():
     x = 0.1 + 0.1 * _ar(np.random.default_rng(8), 100, 0.8)
     e = paired_entry("a", "b", "drift", {"a": [list(np.exp(x))], "b": [[1.0] * 100]}, 3, n_boot=500)
     assert e["scope"] == "one drive: the interval describes this drive's windows only"
-    assert e["interval"] == "block bootstrap" and e["n_clusters"] == 1
-    assert 3 <= e["block"] <= 33 and e["df"] == 100 // e["block"] - 1
+    assert e["interval"] == "fixed-b t (AR(1)-calibrated)" and e["n_clusters"] == 1 and e["df"] is None
     white = paired_entry("a", "b", "drift", {"a": [list(np.exp(np.random.default_rng(8).normal(0, .1, 100)))],
                                              "b": [[1.0] * 100]}, 3, n_boot=500)
-    assert white["block"] < e["block"]  # the AR(0.8) windows need longer blocks than white ones
+    assert white["critical"] < e["critical"]  # the AR(0.8) windows need a larger multiplier than white ones
+
+
+def test_earlier_block_bootstrap_interval_is_kept_for_comparison():
+    x = 0.1 * _ar(np.random.default_rng(8), 100, 0.8)
+    r = block_bootstrap_interval(x, 3, n_boot=500, seed=2)
+    assert 3 <= r["block"] <= 33 and r["df"] == 100 // r["block"] - 1
+    assert r["ci"][0] < x.mean() < r["ci"][1] and r == block_bootstrap_interval(x, 3, n_boot=500, seed=2)
 
 
 def test_window_paired_of_the_official_windows():

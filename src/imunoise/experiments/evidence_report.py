@@ -56,8 +56,8 @@ def evidence_section(rep: Report, evidence: dict, out: Path) -> None:
         f"driving ({evidence['n_windows']} windows, {evidence['n_independent']} of them share no data, "
         f"{evidence['n_drives']} drive); each window is one run without GNSS from the same aided state. Ratio = "
         "geometric mean over the windows of the method's end drift over the baseline's (noise seeds averaged per "
-        "window); 95 % CI: one drive, so a circular block bootstrap over its windows with the block chosen from "
-        f"the data (Politis–White 2004/2009, at least {p['block']} windows), t with blocks − 1 dof; "
+        "window); 95 % CI: one drive, so a fixed-b t over its windows (Bartlett long-run variance with bandwidth n, "
+        "Kiefer–Vogelsang 2002; critical value calibrated on an AR(1) fitted to the windows); "
         "one drive: the interval describes this drive's windows only. A method is better only where the CI "
         "excludes 1. GNSS regimes: rtk = as "
         "recorded; noise:H,V,RATE = the RTK fixes thinned to RATE Hz with white noise of σ H m horizontal and "
@@ -113,9 +113,9 @@ def write_evidence(results: dict, out: Path, *, title: str) -> Path:
         "window (paper Table 5's metric). Ratio = geometric mean of the paired ratios method/baseline over the "
         "windows (log-ratios averaged over GNSS noise seeds first); 95 % CI = exp(mean ± t·SE) with the drives "
         "(units above drives when given) as the clusters: with C ≥ 2 clusters the cluster-robust SE and "
-        "df = C − 1; with one drive a circular block bootstrap whose block is chosen from the data "
-        f"(Politis–White 2004/2009, at least {p['block']} windows; {p['n_boot']} replicates, seed "
-        f"{p['boot_seed']}), df = blocks − 1, and the interval describes that drive's windows only. A method is "
+        "df = C − 1; with one drive a fixed-b t (Bartlett long-run variance with bandwidth n, Kiefer–Vogelsang "
+        "2002; critical value calibrated on an AR(1) fitted to the windows), and the interval describes that "
+        "drive's windows only. A method is "
         "better only where the CI excludes 1." + _scope_note(results)
     )
     rep.heading("Paired ratios (headline)", 2)
