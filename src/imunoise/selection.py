@@ -30,6 +30,7 @@ import numpy as np
 
 from imunoise.errors import DataError, FitError, ModelError
 from imunoise.fitting.arguments import check_unit
+from imunoise.fitting.blas import with_one_blas_thread
 from imunoise.fitting.candidate_fit import Solved, fit_candidate, to_fit
 from imunoise.fitting.candidates import Candidate, candidates
 from imunoise.fitting.estimate import data_span, refit
@@ -83,6 +84,7 @@ def _data_freq(data: Any, freq: Any) -> float:
     return check_freq(freq)
 
 
+@with_one_blas_thread
 def select_model(
     data: Any,
     *,

@@ -15,6 +15,7 @@ import numpy as np
 
 from imunoise.errors import DataError, FitError, ModelError
 from imunoise.fitting.arguments import check_unit
+from imunoise.fitting.blas import with_one_blas_thread
 from imunoise.fitting.kernels import levenberg_marquardt, objectives, wv_of_theta
 from imunoise.fitting.params import bounds, kind_codes, theta_to_u, u_to_theta
 from imunoise.fitting.problem import GMWMProblem, guided_starts, param_cov, prepare
@@ -25,6 +26,7 @@ from imunoise.wv import WaveletVariance
 __all__ = ["gmwm", "refit", "fit_problem", "solve", "finish_solution", "compiled_gof", "data_span"]
 
 
+@with_one_blas_thread
 def fit_problem(
     problem: GMWMProblem,
     model: Model,
@@ -111,6 +113,7 @@ def fit_problem(
     return fit
 
 
+@with_one_blas_thread
 def gmwm(
     model: ModelLike,
     data: Any,
@@ -323,6 +326,7 @@ def finish_solution(problem: GMWMProblem, structure: Model, u: np.ndarray) -> tu
     return model, compiled_gof(problem, model)
 
 
+@with_one_blas_thread
 def refit(
     structure: ModelLike | GMWMFit,
     data: Any,
