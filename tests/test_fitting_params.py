@@ -6,7 +6,7 @@ import numpy as np
 
 from imunoise.fitting.candidate_fit import Solved, _embed_variants
 from imunoise.fitting.candidates import Candidate, candidate_of
-from imunoise.fitting.params import _ar1_u_from_theta, bounds, kind_codes, theta_to_u
+from imunoise.fitting.params import _ar1_u_from_theta, bounds, kind_codes, theta_to_u, thetas_to_u
 from imunoise.fitting.problem import prepare
 from imunoise.model import Model
 from imunoise.processes import AR1, PROCESS_TYPES
@@ -44,6 +44,7 @@ def test_theta_to_u_and_bounds_match_the_registry_walk():
     for text in ("AR1", "3*AR1+WN+QN+RW+DR", "2*AR1+MA1+RW", "WN+DR"):
         structure = Model.parse(text)
         kinds = kind_codes(structure)
+        rows = []
         for _ in range(50):
             theta = np.abs(rng.standard_normal(structure.n_params)) * 10.0 ** rng.uniform(-12, 2)
             p = 0
@@ -52,6 +53,10 @@ def test_theta_to_u_and_bounds_match_the_registry_walk():
                     theta[p] = rng.uniform(0.0, 1.0)
                 p += len(c.param_names)
             assert theta_to_u(theta, kinds, 0.02).tobytes() == _class_walk(theta, kinds, 0.02).tobytes()
+            rows.append(theta)
+        expected = np.array([_class_walk(t, kinds, 0.02) for t in rows])
+        assert thetas_to_u(rows, kinds, 0.02).tobytes() == expected.tobytes()
+        assert thetas_to_u([t.tolist() for t in rows], kinds, 0.02).tobytes() == expected.tobytes()
         lo, hi = bounds(kinds)
         lo[:] = 0.0  # the caller owns what bounds() returns
         assert not np.array_equal(bounds(kinds)[0], lo)

@@ -36,7 +36,7 @@ from imunoise.fitting.candidates import Candidate, candidates
 from imunoise.fitting.estimate import data_span, refit
 from imunoise.fitting.problem import GMWMProblem, param_cov, prepare
 from imunoise.fitting.ranking import ModelRanking
-from imunoise.fitting.wvic import haar_gain, wv_correlation, wv_deviance, wv_neg_loglik, wvic_penalty
+from imunoise.fitting.wvic import loglik_grid, wv_correlation, wv_deviance, wv_neg_loglik, wvic_penalty
 from imunoise.model import ModelLike, as_model, default_complete
 
 __all__ = [
@@ -177,7 +177,7 @@ def select_model(
         ref = min(solved.values(), key=lambda sl: (sl.gof, -sl.model.n_params))
         corr = wv_correlation(ref.model, problem.tau, problem.wv.n_coefficients)
     span = data_span(data, problem.wv.freq, arrays_only=True)
-    gain = haar_gain(problem.tau)
+    gain = loglik_grid(problem.tau)
     fits = [to_fit(problem, sol, unit, corr, penalty, span.get("n_samples"), gain) for sol in solved.values()]
     key = "wvic" if criterion == "wvic" else None
     fits.sort(key=lambda f: (f.extra["wvic"] if key else f.objective, f.n_params))

@@ -50,40 +50,43 @@ def _embed_variants(problem: GMWMProblem, parent: Solved, kind: str, child: Cand
     J = len(tau)
     comps = parent.model.components
     base = parent.theta.tolist()
-    new: list[Process] = []
+    new: list[tuple[str, tuple[float, ...]]] = []  # (kind, values) of the added process
     if kind == "AR1":
         # correlation scales spread over the grid: peak of the AR1 WV near τ ≈ 3.8 T (T in samples)
         levels = sorted(set(np.round(np.linspace(0, J - 1, min(J, 6))).astype(int).tolist()))
         for lev in levels:
             T = max(tau[lev] / 3.8, 0.05)
-            phi = math.exp(-1.0 / T)
+            phi = math.exp(-1.0 / T)  # in (0, 1): a valid AR1 (T ≥ 0.05)
             for frac in (0.5, 0.1):
                 var_gm = frac * nu[lev] / 0.19
-                new.append(AR1(phi=phi, sigma2=var_gm * (1.0 - phi * phi)))
+                new.append(("AR1", (phi, float(var_gm * (1.0 - phi * phi)))))
         # the zero-amplitude embedding (reproduces the parent's GOF)
-        new.append(AR1(phi=_free_phi(parent.model), sigma2=NEGLIGIBLE))
+        new.append(("AR1", (_free_phi(parent.model), NEGLIGIBLE)))
     else:
-        new = [SINGLE[kind].embedding(frac, nu, tau) for frac in (0.5, 0.1, 0.01, 0.0)]
+        for frac in (0.5, 0.1, 0.01, 0.0):
+            proc = SINGLE[kind].embedding(frac, nu, tau)
+            new.append((proc.kind, proc.values))
     out = []
-    for proc in new:
-        if proc.kind != kind:
+    for k, values in new:
+        if k != kind:
             continue  # (never: the registry's embedding is of its own kind) the child would not be this one
-        off = _insert_at(comps, proc)
-        out.append(np.array(base[:off] + list(proc.values) + base[off:], dtype=float))
+        off = _insert_at(comps, k, values)
+        out.append(np.array(base[:off] + list(values) + base[off:], dtype=float))
     return out
 
 
-def _insert_at(comps: tuple[Process, ...], proc: Process) -> int:
-    """Offset in the parameter vector of ``Model(comps + (proc,))`` where ``proc``'s values sit (comps canonical)."""
+def _insert_at(comps: tuple[Process, ...], kind: str, values: tuple[float, ...]) -> int:
+    """Offset in the parameter vector of ``Model(comps + (new,))`` where the new process' values sit (comps
+    canonical)."""
     off = 0
-    if proc.kind == "AR1":
-        phi = proc.values[0]
+    if kind == "AR1":
+        phi = values[0]
         for c in comps:  # stable sort by decreasing φ: after every AR1 with φ ≥ the new one's
             if c.kind != "AR1" or not c.values[0] >= phi:
                 break
             off += 2
         return off
-    rank = ORDER.index(proc.kind)
+    rank = ORDER.index(kind)
     for c in comps:
         if c.kind != "AR1" and ORDER.index(c.kind) > rank:
             break
@@ -155,7 +158,7 @@ def to_fit(
     corr: np.ndarray | None,
     penalty: str,
     n: int | None,
-    gain: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    gain: tuple[np.ndarray, ...] | None = None,
 ) -> GMWMFit:
     if penalty == "optimism":
         pen, rank = wvic_penalty(problem, sol.model, corr)

@@ -29,6 +29,7 @@ __all__ = [
     "bounds",
     "u_to_theta",
     "theta_to_u",
+    "thetas_to_u",
 ]
 
 _TYPES = tuple(PROCESS_TYPES.values())
@@ -150,7 +151,42 @@ def theta_to_u(theta: np.ndarray, kinds: np.ndarray, scale: float) -> np.ndarray
     return np.minimum(u, hi, out=u)
 
 
-def _ar1_u_from_theta(theta: list[float], p: int, u: np.ndarray, scale: float, chain: float | None) -> float:
+def thetas_to_u(thetas: list, kinds: np.ndarray, scale: float) -> np.ndarray:
+    """:func:`theta_to_u` of many parameter vectors of one structure, one row each (the same numbers).
+
+    Parameters
+    ----------
+    thetas
+        Natural parameter vectors (arrays or lists of floats), all of the structure ``kinds``.
+    kinds
+        Kind codes of the components (:func:`kind_codes`).
+    scale
+        The normalisation c of the problem's WV.
+
+    Returns
+    -------
+    numpy.ndarray
+        (len(thetas), P) array of u, within the solver's bounds.
+    """
+    steps, lo, hi = _plan(kinds)
+    convs = [(_AR1_U if cls is AR1 else cls.u_from_theta, p) for cls, p in steps]
+    P = len(lo)
+    rows = []
+    for theta in thetas:
+        th = theta.tolist() if isinstance(theta, np.ndarray) else theta
+        u = [0.0] * P
+        chain = None
+        for conv, p in convs:
+            chain = conv(th, p, u, scale, chain)
+        rows.append(u)
+    U = np.array(rows, dtype=float).reshape(len(rows), P)
+    np.maximum(U, lo, out=U)
+    return np.minimum(U, hi, out=U)
+
+
+def _ar1_u_from_theta(
+    theta: list[float], p: int, u: np.ndarray | list[float], scale: float, chain: float | None
+) -> float:
     """:meth:`imunoise.processes.AR1.u_from_theta` with Python floats (``np.clip`` of one number is the
     slow part of a selection's start conversions); the same operations, so the same bits
     (``tests/test_fitting_params.py`` compares the two)."""
