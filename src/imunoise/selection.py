@@ -23,6 +23,7 @@ from its sub-models (:mod:`~imunoise.fitting.candidate_fit`) and the result (:mo
 
 from __future__ import annotations
 
+import functools
 import time
 from typing import Any
 
@@ -65,6 +66,16 @@ def fits_levels(n_params: int, n_levels: int) -> bool:
     J = 5 levels, on which a 5-parameter 2*AR1+RW would "win" without saying anything about the sensor.
     """
     return n_params < n_levels
+
+
+@functools.lru_cache(maxsize=8)
+def _shared_grid(tau_bytes: bytes) -> tuple[np.ndarray, ...]:
+    """:func:`~imunoise.fitting.wvic.loglik_grid` of the scales, shared by the selections of the axes of one
+    record (same length, same scales); read only."""
+    grid = loglik_grid(np.frombuffer(tau_bytes, dtype=float).copy())
+    for a in grid:
+        a.flags.writeable = False
+    return grid
 
 
 def _data_freq(data: Any, freq: Any) -> float:
@@ -177,7 +188,7 @@ def select_model(
         ref = min(solved.values(), key=lambda sl: (sl.gof, -sl.model.n_params))
         corr = wv_correlation(ref.model, problem.tau, problem.wv.n_coefficients)
     span = data_span(data, problem.wv.freq, arrays_only=True)
-    gain = loglik_grid(problem.tau)
+    gain = _shared_grid(problem.tau.tobytes())
     fits = [to_fit(problem, sol, unit, corr, penalty, span.get("n_samples"), gain) for sol in solved.values()]
     key = "wvic" if criterion == "wvic" else None
     fits.sort(key=lambda f: (f.extra["wvic"] if key else f.objective, f.n_params))
