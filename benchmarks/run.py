@@ -15,6 +15,9 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+# long evidence runs that print their own results (not a section), not part of `make bench`:
+# `make bench-evidence` runs them
+OPT_IN = {"oracle_law": "10 simulated 10-minute drives × 5 error laws × 3 methods; prints one JSON line per law"}
 
 
 def main() -> int:
@@ -29,11 +32,15 @@ def main() -> int:
         "shared with other work. Every time says its clock in its column or cell: *wall* (elapsed, "
         "`time.perf_counter`) or *CPU* (user + system time of the process, less sensitive to other load). "
         "Every ratio compares two measurements of this run, unless it says it uses a historical figure; "
-        "historical figures (not measured by this run) are labelled as such.\n",
+        "historical figures (not measured by this run) are labelled as such. Not run by `make bench` (opt-in, "
+        "`make bench-evidence`): " + "; ".join(f"`bench_{k}.py` ({v})" for k, v in OPT_IN.items()) + ".\n",
     ]
     for path in sorted(HERE.glob("bench_*.py")):
         name = path.stem.removeprefix("bench_")
         if args.only and name not in args.only:
+            continue
+        if name in OPT_IN:
+            print(f"[bench] {name}: opt-in, not run ({OPT_IN[name]}; `make bench-evidence`)", flush=True)
             continue
         print(f"[bench] {name} ...", flush=True)
         spec = importlib.util.spec_from_file_location(path.stem, path)
