@@ -30,6 +30,8 @@ NEGLIGIBLE = 1e-300  # amplitude of an embedded process: clipped to the lower bo
 
 @dataclass
 class Solved:
+    """One candidate's solution on the shared problem (before its WVIC)."""
+
     model: Model  # fitted (natural parameters)
     theta: np.ndarray
     gof: float
@@ -114,6 +116,24 @@ def fit_candidate(
     n_local: int,
     seed: int,
 ) -> Solved:
+    """Fit one candidate on the shared problem from its fitted immediate sub-models (module docstring).
+
+    Parameters
+    ----------
+    problem
+        The selection's shared problem (one WV and Ω).
+    cand
+        The candidate structure.
+    solved
+        The candidates fitted so far (its sub-models among them: candidates are visited small first).
+    n_random, n_local, seed
+        Guided random starts added, starts refined by LM, and their seed (:func:`~imunoise.fitting.estimate.solve`).
+
+    Returns
+    -------
+    Solved
+        The fit, never above the GOF of its best immediate sub-model (nesting guarantee, :mod:`imunoise.selection`).
+    """
     t0 = time.perf_counter()
     structure = cand.model
     parents = [(solved[p], kind) for p, kind in cand.parents() if p in solved]
@@ -160,6 +180,28 @@ def to_fit(
     n: int | None,
     gain: tuple[np.ndarray, ...] | None = None,
 ) -> GMWMFit:
+    """The :class:`GMWMFit` of a solved candidate with its WVIC in ``extra`` (:mod:`imunoise.fitting.wvic`).
+
+    Parameters
+    ----------
+    problem, sol
+        The shared problem and the candidate's solution.
+    unit
+        Data unit of the fit.
+    corr
+        Level correlation for ``penalty="optimism"`` (None otherwise).
+    penalty
+        ``"bic"`` or ``"optimism"``.
+    n
+        Number of samples of the data (None: read off the WV).
+    gain
+        :func:`~imunoise.fitting.wvic.loglik_grid` of the scales, shared by the candidates.
+
+    Returns
+    -------
+    GMWMFit
+        ``extra`` holds ``wvic``, ``wvic_penalty``, ``wvic_fit`` and ``effective_params``.
+    """
     if penalty == "optimism":
         pen, rank = wvic_penalty(problem, sol.model, corr)
         fit_term = sol.gof
