@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: demo test test-fast bench lint docs clean
+.PHONY: demo test test-fast bench bench-evidence lint docs clean
 
 $(BIN)/python:
 	@command -v $(PY) >/dev/null 2>&1 || { echo "need $(PY) (or run: make PY=python3 ...)"; exit 1; }
@@ -30,6 +30,11 @@ test-fast: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py --out BENCHMARKS.md
+
+# the long benchmarks left out of `make bench` (benchmarks/run.py OPT_IN): minutes to an hour each
+bench-evidence: $(STAMP)
+	$(BIN)/python benchmarks/run.py --evidence --out BENCHMARKS-evidence.md
+	$(BIN)/python benchmarks/bench_oracle_law.py
 
 docs: $(STAMP)
 	$(BIN)/python -m sphinx -W --keep-going -q -b html docs out/docs

@@ -9,6 +9,8 @@ One concept per module:
 * :mod:`~imunoise.fitting.result` — :class:`GMWMFit` and its single factory :meth:`GMWMFit.from_problem`;
 * :mod:`~imunoise.fitting.estimate` — the estimators :func:`gmwm` and :func:`refit` and their solver;
 * :mod:`~imunoise.fitting.wvic` — the WVIC criterion of the model selection (:mod:`imunoise.selection`);
+* :mod:`~imunoise.fitting.candidates`, :mod:`~imunoise.fitting.candidate_fit`, :mod:`~imunoise.fitting.ranking` —
+  the selection's candidate structures, the fit of one from its sub-models, and :class:`ModelRanking`;
 * :mod:`~imunoise.fitting.warm` — :func:`warm_up`: compile or load the kernels before the first fit.
 
 The documented import path stays :mod:`imunoise.estimator` (and ``imunoise.gmwm`` etc.). Part of the

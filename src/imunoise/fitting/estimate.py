@@ -15,8 +15,9 @@ import numpy as np
 
 from imunoise.errors import DataError, FitError, ModelError
 from imunoise.fitting.arguments import check_unit
+from imunoise.fitting.blas import with_one_blas_thread
 from imunoise.fitting.kernels import levenberg_marquardt, objectives, wv_of_theta
-from imunoise.fitting.params import bounds, kind_codes, theta_to_u, u_to_theta
+from imunoise.fitting.params import bounds, kind_codes, theta_to_u, thetas_to_u, u_to_theta
 from imunoise.fitting.problem import GMWMProblem, guided_starts, param_cov, prepare
 from imunoise.fitting.result import GMWMFit
 from imunoise.model import Model, ModelLike, as_model
@@ -25,6 +26,7 @@ from imunoise.wv import WaveletVariance
 __all__ = ["gmwm", "refit", "fit_problem", "solve", "finish_solution", "compiled_gof", "data_span"]
 
 
+@with_one_blas_thread
 def fit_problem(
     problem: GMWMProblem,
     model: Model,
@@ -111,6 +113,7 @@ def fit_problem(
     return fit
 
 
+@with_one_blas_thread
 def gmwm(
     model: ModelLike,
     data: Any,
@@ -250,11 +253,9 @@ def solve(
     kinds = kind_codes(structure)
     lo, hi = bounds(kinds)
     args = (kinds, problem.tau, problem.nuhat_n, problem.W_n)
-    U = [theta_to_u(t, kinds, problem.scale) for t in starts_theta]
+    U = thetas_to_u(starts_theta, kinds, problem.scale)
     if guided:
-        G = guided_starts(problem, kinds, n_random, seed)
-        U = U + list(G)
-    U = np.array(U)
+        U = np.concatenate([U, guided_starts(problem, kinds, n_random, seed)])
     f0 = objectives(U, *args)
     f0 = np.where(np.isfinite(f0), f0, np.inf)
     order = np.argsort(f0, kind="stable")
@@ -323,6 +324,7 @@ def finish_solution(problem: GMWMProblem, structure: Model, u: np.ndarray) -> tu
     return model, compiled_gof(problem, model)
 
 
+@with_one_blas_thread
 def refit(
     structure: ModelLike | GMWMFit,
     data: Any,

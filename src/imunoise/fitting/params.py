@@ -10,10 +10,12 @@ Each process class owns its entries (:meth:`imunoise.processes.Process.u_bounds`
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from imunoise.model import Model
-from imunoise.processes import B_HI, B_LO, LOG_HI, LOG_LO, PROCESS_TYPES, V_HI, V_LO
+from imunoise.processes import AR1, B_HI, B_LO, LOG_HI, LOG_LO, PROCESS_TYPES, V_HI, V_LO
 
 __all__ = [
     "KIND_CODE",
@@ -27,6 +29,7 @@ __all__ = [
     "bounds",
     "u_to_theta",
     "theta_to_u",
+    "thetas_to_u",
 ]
 
 _TYPES = tuple(PROCESS_TYPES.values())
@@ -50,6 +53,33 @@ def kind_codes(model: Model) -> np.ndarray:
     return np.array([c.code for c in model.components], dtype=np.int64)
 
 
+def _plan(kinds: np.ndarray) -> tuple[tuple[tuple[type, int], ...], np.ndarray, np.ndarray]:
+    """(process class, first entry) of each component and the bounds of u, computed once per structure:
+    every candidate of a selection converts thousands of starts (the walk itself is the same)."""
+    key = kinds.tobytes()
+    plan = _PLANS.get(key)
+    if plan is None:
+        steps = []
+        lo: list[float] = []
+        hi: list[float] = []
+        first = True
+        p = 0
+        for k in kinds.tolist():
+            cls = _TYPES[k]
+            steps.append((cls, p))
+            p += len(cls.param_names)
+            a, b = cls.u_bounds(first)
+            lo += a
+            hi += b
+            first = first and cls.singleton
+        plan = (tuple(steps), np.array(lo), np.array(hi))
+        _PLANS[key] = plan
+    return plan
+
+
+_PLANS: dict[bytes, tuple[tuple[tuple[type, int], ...], np.ndarray, np.ndarray]] = {}
+
+
 def bounds(kinds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Box bounds of u for the Levenberg–Marquardt solver (module docstring).
 
@@ -61,18 +91,10 @@ def bounds(kinds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Returns
     -------
     lo, hi : numpy.ndarray
-        Lower and upper bounds of every entry of u (normalised scale).
+        Lower and upper bounds of every entry of u (normalised scale); fresh arrays the caller may keep.
     """
-    lo: list[float] = []
-    hi: list[float] = []
-    first = True
-    for k in kinds:
-        cls = _TYPES[k]
-        a, b = cls.u_bounds(first)
-        lo += a
-        hi += b
-        first = first and cls.singleton
-    return np.array(lo), np.array(hi)
+    _, lo, hi = _plan(kinds)
+    return lo.copy(), hi.copy()
 
 
 def u_to_theta(u: np.ndarray, kinds: np.ndarray, scale: float) -> np.ndarray:
@@ -93,12 +115,9 @@ def u_to_theta(u: np.ndarray, kinds: np.ndarray, scale: float) -> np.ndarray:
         θ in :attr:`imunoise.model.Model.vector` order (φ, σ² per AR1; σ², Q², γ², ω per process).
     """
     theta = np.empty_like(u)
-    p = 0
     chain = None
-    for k in kinds:
-        cls = _TYPES[k]
+    for cls, p in _plan(kinds)[0]:
         chain = cls.theta_from_u(u, p, theta, scale, chain)
-        p += len(cls.param_names)
     return theta
 
 
@@ -121,11 +140,65 @@ def theta_to_u(theta: np.ndarray, kinds: np.ndarray, scale: float) -> np.ndarray
         u, within the solver's bounds.
     """
     u = np.empty_like(theta, dtype=float)
-    p = 0
     chain = None
-    for k in kinds:
-        cls = _TYPES[k]
-        chain = cls.u_from_theta(theta, p, u, scale, chain)
-        p += len(cls.param_names)
-    lo, hi = bounds(kinds)
-    return np.clip(u, lo, hi)
+    steps, lo, hi = _plan(kinds)
+    th = theta.tolist() if isinstance(theta, np.ndarray) else theta  # float indexing: the same values, faster
+    for cls, p in steps:
+        conv = _AR1_U if cls is AR1 else cls.u_from_theta
+        chain = conv(th, p, u, scale, chain)
+    # np.clip(u, lo, hi) (NaN kept), without its Python wrappers: this runs for every start of every candidate
+    np.maximum(u, lo, out=u)
+    return np.minimum(u, hi, out=u)
+
+
+def thetas_to_u(thetas: list, kinds: np.ndarray, scale: float) -> np.ndarray:
+    """:func:`theta_to_u` of many parameter vectors of one structure, one row each (the same numbers).
+
+    Parameters
+    ----------
+    thetas
+        Natural parameter vectors (arrays or lists of floats), all of the structure ``kinds``.
+    kinds
+        Kind codes of the components (:func:`kind_codes`).
+    scale
+        The normalisation c of the problem's WV.
+
+    Returns
+    -------
+    numpy.ndarray
+        (len(thetas), P) array of u, within the solver's bounds.
+    """
+    steps, lo, hi = _plan(kinds)
+    convs = [(_AR1_U if cls is AR1 else cls.u_from_theta, p) for cls, p in steps]
+    P = len(lo)
+    rows = []
+    for theta in thetas:
+        th = theta.tolist() if isinstance(theta, np.ndarray) else theta
+        u = [0.0] * P
+        chain = None
+        for conv, p in convs:
+            chain = conv(th, p, u, scale, chain)
+        rows.append(u)
+    U = np.array(rows, dtype=float).reshape(len(rows), P)
+    np.maximum(U, lo, out=U)
+    return np.minimum(U, hi, out=U)
+
+
+def _ar1_u_from_theta(
+    theta: list[float], p: int, u: np.ndarray | list[float], scale: float, chain: float | None
+) -> float:
+    """:meth:`imunoise.processes.AR1.u_from_theta` with Python floats (``np.clip`` of one number is the
+    slow part of a selection's start conversions); the same operations, so the same bits
+    (``tests/test_fitting_params.py`` compares the two)."""
+    phi = float(min(max(theta[p], 1e-300), 1.0 - 1e-15))
+    v = math.log(-math.log(phi))
+    if chain is None:
+        u[p] = v
+    else:
+        u[p] = math.log(max(v - chain, 1e-9))
+        v = chain + math.exp(u[p])
+    u[p + 1] = math.log(max(theta[p + 1] / scale, 1e-300))
+    return v
+
+
+_AR1_U = _ar1_u_from_theta

@@ -17,7 +17,7 @@ from scipy import linalg
 from imunoise.errors import DataError, ModelError
 from imunoise.fitting.arguments import check_freq
 from imunoise.fitting.kernels import wv_and_jacobian
-from imunoise.fitting.params import bounds, kind_codes, theta_to_u
+from imunoise.fitting.params import bounds, kind_codes, theta_to_u, thetas_to_u
 from imunoise.model import Model
 from imunoise.processes import AR1, PROCESS_TYPES
 from imunoise.wv import WaveletVariance, wavelet_variance
@@ -211,7 +211,9 @@ def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: 
     n_ar = int(np.sum(kinds == AR1.code))
     rng = np.random.default_rng(seed)
 
-    def build(ar_levels: np.ndarray, fr: dict[int, float], ar_amp: float) -> np.ndarray:
+    classes = [_TYPES[k] for k in kinds.tolist()]
+
+    def build(ar_levels: np.ndarray, fr: dict[int, float], ar_amp: float) -> list[float]:
         theta: list[float] = []
         # AR1 part: peaks of the AR1 WV sit near τ ≈ 3.8 T (T the correlation time in samples), with
         # ν²_peak ≈ 0.19 σ²_GM.
@@ -223,14 +225,13 @@ def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: 
             var_gm = ar_amp * nu[lev] / 0.19
             ar_params.append((phi, var_gm * (1.0 - phi * phi)))
         i_ar = 0
-        for k in kinds:
-            cls = _TYPES[k]
+        for cls in classes:
             if cls is AR1:
                 theta += list(ar_params[i_ar])
                 i_ar += 1
             else:
                 theta += cls.start_values(fr[cls.kind], nu, tau)
-        return theta_to_u(np.array(theta), kinds, 1.0)
+        return theta
 
     starts = []
     base_levels = (
@@ -251,7 +252,7 @@ def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: 
         fr.update({k: float(10 ** rng.uniform(-3, 0)) for k, c in PROCESS_TYPES.items()
                    if c is not AR1 and k not in fr and k in present})
         starts.append(build(levels, fr, float(10 ** rng.uniform(-1.5, 0.3))))
-    return np.array(starts)
+    return thetas_to_u(starts, kinds, 1.0)
 
 
 def param_cov(problem: GMWMProblem, model: Model) -> np.ndarray | None:

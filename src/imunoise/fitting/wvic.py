@@ -50,6 +50,7 @@ __all__ = [
     "wv_deviance",
     "ql_estimate",
     "haar_gain",
+    "loglik_grid",
     "process_spectrum",
 ]
 
@@ -71,10 +72,14 @@ def process_spectrum(model: Model, f: np.ndarray) -> np.ndarray:
     numpy.ndarray
         S(f) (RW: the pseudo-spectrum; the Haar gain removes its pole).
     """
+    return _spectrum(model, f, np.sin(np.pi * f) ** 2)
+
+
+def _spectrum(model: Model, f: np.ndarray, sin2: np.ndarray) -> np.ndarray:
+    """:func:`process_spectrum` with sin²(πf) given (computed once per selection)."""
     S = np.zeros_like(f)
-    s2 = np.sin(np.pi * f) ** 2
     for c in model.components:
-        S += c.spectrum(f, s2)
+        S += c.spectrum(f, sin2)
     return S
 
 
@@ -102,7 +107,25 @@ def haar_gain(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return f, df, s4 / (m * m * np.sin(np.pi * f[None, :]) ** 2)
 
 
-def wv_neg_loglik(wv: Any, model: Model, gain: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> float:
+def loglik_grid(tau: np.ndarray) -> tuple[np.ndarray, ...]:
+    """:func:`haar_gain` plus what :func:`wv_neg_loglik` derives from it for every model: 2``|H_j(f)|⁴`` and
+    sin²(πf) (one selection evaluates it for each candidate twice; the same numbers, computed once).
+
+    Parameters
+    ----------
+    tau
+        Scales τ_j in samples.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        f, df, ``|H_j(f)|²``, 2``|H_j(f)|⁴``, sin²(πf).
+    """
+    f, df, H = haar_gain(tau)
+    return f, df, H, 2.0 * (H * H), np.sin(np.pi * f) ** 2
+
+
+def wv_neg_loglik(wv: Any, model: Model, gain: tuple[np.ndarray, ...] | None = None) -> float:
     """−2 log-likelihood of the WV under the model (WVIC fit term, module docstring).
 
     ν̂_j ~ ν_j χ²_{η_j}/η_j independently, with the model's own equivalent degrees of freedom
@@ -116,17 +139,19 @@ def wv_neg_loglik(wv: Any, model: Model, gain: tuple[np.ndarray, np.ndarray, np.
     model
         A model with known parameters.
     gain
-        Precomputed :func:`haar_gain` of ``wv.scales`` (shared by all candidates of a selection).
+        Precomputed :func:`haar_gain` of ``wv.scales``, or :func:`loglik_grid` (that and the pieces every
+        candidate of a selection shares: 2``|H_j|⁴`` and sin²(πf)).
 
     Returns
     -------
     float
         −2 log-likelihood L(θ).
     """
-    f, df, H = gain if gain is not None else haar_gain(wv.scales)
+    f, df, H, *pre = gain if gain is not None else haar_gain(wv.scales)
+    two_h4, sin2 = pre if pre else (2.0 * (H * H), np.sin(np.pi * f) ** 2)
     nu = wv_of_theta(model.vector, kind_codes(model), np.asarray(wv.scales, dtype=float))
-    S = process_spectrum(model, f)
-    A = 2.0 * (H * H) @ (S * S * df)
+    S = _spectrum(model, f, sin2)
+    A = two_h4 @ (S * S * df)
     M = np.asarray(wv.n_coefficients, dtype=float)
     with np.errstate(divide="ignore", over="ignore"):
         eta = np.clip(M * nu * nu / np.maximum(A, 1e-300), 1.0, 1e8)

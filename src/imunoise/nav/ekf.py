@@ -244,8 +244,9 @@ def run_ekf(
     ekf = LooselyCoupledEKF(config, axis_models, init, imu_rate_hz=rate)
     ekf.prime(dth[0], dv[0])
 
-    gt = np.asarray(gnss.t, dtype=float)
-    gllh = np.asarray(gnss.llh, dtype=float)
+    # contiguous like the warm-up copies below: a strided column (read_gnss' t) would compile a second kernel
+    gt = np.ascontiguousarray(gnss.t, dtype=float)
+    gllh = np.ascontiguousarray(gnss.llh, dtype=float)
     gsig = np.asarray(gnss.sigma_ned, dtype=float).copy()
     okpos = np.all(np.isfinite(gllh), axis=1) & np.isfinite(gt)
     if not np.all(okpos):

@@ -1,0 +1,86 @@
+"""The selection's fast paths compute exactly what the process classes and the model algebra compute (SPEC §4–5)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from imunoise.fitting.candidate_fit import Solved, _embed_variants
+from imunoise.fitting.candidates import Candidate, candidate_of
+from imunoise.fitting.params import _ar1_u_from_theta, bounds, kind_codes, theta_to_u, thetas_to_u
+from imunoise.fitting.problem import prepare
+from imunoise.model import Model
+from imunoise.processes import AR1, PROCESS_TYPES
+
+
+def _class_walk(theta, kinds, scale):
+    """theta_to_u as the registry's classes define it (no cache, numpy scalars, np.clip)."""
+    types = tuple(PROCESS_TYPES.values())
+    u = np.empty_like(theta)
+    p, chain, first, lo, hi = 0, None, True, [], []
+    for k in kinds:
+        cls = types[k]
+        chain = cls.u_from_theta(theta, p, u, scale, chain)
+        a, b = cls.u_bounds(first)
+        lo, hi, first = lo + a, hi + b, first and cls.singleton
+        p += len(cls.param_names)
+    return np.clip(u, lo, hi)
+
+
+def test_ar1_conversion_is_the_class_method_to_the_bit():
+    rng = np.random.default_rng(4)
+    phis = np.concatenate([rng.uniform(0, 1, 300), [0.0, 1e-320, 1.0, 1.0 - 1e-16, 0.5, np.nan, -1.0]])
+    for phi in phis:
+        for s2 in (1e-300, 0.0, 3.7e-9, 12.0):
+            for chain in (None, -3.0, 0.7, 40.0):
+                theta = np.array([phi, s2])
+                a, b = np.empty(2), np.empty(2)
+                va = AR1.u_from_theta(theta, 0, a, 0.31, chain)
+                vb = _ar1_u_from_theta(theta.tolist(), 0, b, 0.31, chain)
+                assert a.tobytes() == b.tobytes() and np.array_equal([va], [vb], equal_nan=True)
+
+
+def test_theta_to_u_and_bounds_match_the_registry_walk():
+    rng = np.random.default_rng(5)
+    for text in ("AR1", "3*AR1+WN+QN+RW+DR", "2*AR1+MA1+RW", "WN+DR"):
+        structure = Model.parse(text)
+        kinds = kind_codes(structure)
+        rows = []
+        for _ in range(50):
+            theta = np.abs(rng.standard_normal(structure.n_params)) * 10.0 ** rng.uniform(-12, 2)
+            p = 0
+            for c in structure.components:
+                if c.kind == "AR1":
+                    theta[p] = rng.uniform(0.0, 1.0)
+                p += len(c.param_names)
+            assert theta_to_u(theta, kinds, 0.02).tobytes() == _class_walk(theta, kinds, 0.02).tobytes()
+            rows.append(theta)
+        expected = np.array([_class_walk(t, kinds, 0.02) for t in rows])
+        assert thetas_to_u(rows, kinds, 0.02).tobytes() == expected.tobytes()
+        assert thetas_to_u([t.tolist() for t in rows], kinds, 0.02).tobytes() == expected.tobytes()
+        lo, hi = bounds(kinds)
+        lo[:] = 0.0  # the caller owns what bounds() returns
+        assert not np.array_equal(bounds(kinds)[0], lo)
+
+
+def test_embedding_vectors_are_the_models_vectors():
+    rng = np.random.default_rng(6)
+    x = rng.standard_normal(20_000) + np.cumsum(rng.standard_normal(20_000)) * 1e-3
+    problem = prepare(x, freq=100.0)
+    parents = [
+        Model.parse("2*AR1+QN").with_params({"AR1_1.phi": 0.999, "AR1_1.sigma2": 1e-6, "AR1_2.phi": 0.9,
+                                             "AR1_2.sigma2": 1e-3, "QN.q2": 1e-4}),
+        Model.parse("WN+RW").with_params({"WN.sigma2": 1.0, "RW.gamma2": 1e-6}),
+    ]
+    for parent in parents:
+        sol = Solved(parent, parent.vector, 1.0, True, 0, 0, 0.0)
+        base = candidate_of(parent)
+        for kind in ("AR1", "WN", "QN", "RW", "DR"):
+            if kind != "AR1" and kind in base.others:
+                continue
+            child = (Candidate(base.n_ar1 + 1, base.others) if kind == "AR1" else
+                     candidate_of(Model(list(parent.components) + [PROCESS_TYPES[kind].negligible()])))
+            got = _embed_variants(problem, sol, kind, child)
+            assert got
+            for v in got:
+                m = child.model.with_vector(v)
+                assert m.vector.tobytes() == v.tobytes()  # already in the order Model sorts it into
