@@ -30,7 +30,7 @@ statistics here are built for that:
 * ``n_independent`` counts windows that share no data (starts ≥ L apart); it is reported, no longer a df.
 
 Measured coverage: scripts/coverage_study.py (drive-level random effects plus AR(0.8) within drives) and
-tests/test_coverage.py; the table is in that script's docstring.
+tests/experiments/test_coverage.py; the table is in that script's docstring.
 """
 
 from __future__ import annotations
