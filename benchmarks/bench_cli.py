@@ -87,7 +87,7 @@ def _startup() -> list[str]:
         "",
         f"`imunoise --help` {'meets' if help_s <= 0.3 else 'misses'} the 0.3 s target ({help_s:.3f} s, "
         f"{help_s / statistics.median(times[cases[1][0]]):.2f}× the numpy import); numerical modules imported "
-        f"by building the parser: {heavy} (tests/test_cli_startup.py asserts none).",
+        f"by building the parser: {heavy} (tests/cli/test_cli_startup.py asserts none).",
     ]
     return lines
 
@@ -217,7 +217,7 @@ def _nav() -> list[str]:
         "in all; " + ", ".join(f"{n} {by_pkg.get(n, 0.0):.2f} s" for n in IMPORT_GROUPS)
         + f", everything else {imp_s - sum(by_pkg.get(n, 0.0) for n in IMPORT_GROUPS):.2f} s. scipy is "
         "scipy.linalg, which numba imports for its BLAS/LAPACK bindings when its CPU target starts (any kernel "
-        "call); matplotlib is not imported (tests/test_cli_startup.py asserts both).",
+        "call); matplotlib is not imported (tests/cli/test_cli_startup.py asserts both).",
         "",
         "Phases of one `--no-plots` run under cProfile, CPU clock (cumulative; the numba row overlaps the rows "
         "above it: each kernel is loaded at its first call):",

@@ -11,7 +11,7 @@ drive.bag --force --out OUT/drive``. Then for each model, through the CLI: ``exp
 (new files), ``export --to orbslam3 --into`` copies of tests/fixtures/orbslam3_euroc_v1.yaml (File.version
 "1.0") and orbslam3_euroc_legacy.yaml (no File.version). Each file is read with cv2.FileStorage (OpenVINS,
 ORB-SLAM3: OpenCV readers) or PyYAML (Kalibr), making the reads each tool makes (the sources are cited in
-tests/test_export_clients.py), and every value compared with ours (:func:`imunoise.export.sensor_noise`).
+tests/export/test_export_clients.py), and every value compared with ours (:func:`imunoise.export.sensor_noise`).
 Prints a Markdown table (unit, format, keys read, max relative difference, rostopic) and writes it to
 OUT/export_clients.md. Needs opencv-python-headless and rosbags. A few minutes. ``--force``: axes whose fit
 leaves its WV band (every axis of the drive, 14 of 30 ADIS axes) are exported with ``# WARNING`` lines at the

@@ -15,7 +15,7 @@ independent values. The interval of the mean x̄ of x_1 … x_n is
   4.77 (:data:`KV_B1_LIMIT`; 4.76 in a simulation of the limit with 2·10⁵ draws, 4.771 as tabulated by KV 2002
   for the one-sided 97.5 % point);
 * with 25 windows the limit is not yet reached when the windows are strongly correlated (AR(0.8): the limit's
-  4.77 covers 82 %). The critical value c is therefore the quantile of |t| for a Gaussian AR(1) of the same
+  4.77 covers 82 %). The critical value c is therefore the quantile of ``|t|`` for a Gaussian AR(1) of the same
   length n (simulated once per n and grid point with fixed seeds, ρ ∈ {0, 0.02, …, 0.98},
   :func:`ar1_critical`), averaged over the uncertainty of ρ: the mixture over the grid with weights
   N(ρ̃, (1 − ρ̃²)/n), ρ̃ the lag-1 autocorrelation with its small-sample bias removed
@@ -103,7 +103,7 @@ def _check(n: int, level: float) -> None:
 
 
 def ar1_critical(n: int, rho: float, level: float = 0.95) -> float:
-    """The ``level`` quantile of |t| (module docstring) for a Gaussian AR(``rho``) series of length ``n``, ``rho`` a
+    """The ``level`` quantile of ``|t|`` (module docstring) for a Gaussian AR(``rho``) series of length ``n``, ``rho`` a
     grid point of :data:`RHO_GRID` (the nearest is used); simulated once per n with a fixed seed."""
     _check(n, level)
     j = int(np.argmin(np.abs(RHO_GRID - rho)))
@@ -123,7 +123,7 @@ _C_GRID = np.geomspace(0.05, 2000.0, 6000)  # 0.18 % apart: far finer than the M
 
 
 def calibrated_critical(n: int, rho: float, level: float = 0.95) -> float:
-    """Critical value c of the one-cluster interval: the ``level`` quantile of |t| under the mixture of the grid's
+    """Critical value c of the one-cluster interval: the ``level`` quantile of ``|t|`` under the mixture of the grid's
     AR(ρ_j) laws weighted by the normal density N(``rho``, (1 − rho²)/n) at ρ_j (module docstring); the mixture's
     CDF is read on a fine geometric grid of c and interpolated linearly (∞ when it never reaches ``level``)."""
     _check(n, level)

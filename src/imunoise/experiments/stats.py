@@ -20,7 +20,7 @@ statistics here are built for that:
   the cluster means and the interval is the exact t interval when they are normal. Windows, drives inside a
   unit and their correlation are carried inside each cluster's sum: df = C − 1, whatever the windows count;
 * **one cluster** — the fixed-b t of :mod:`imunoise.experiments.fixed_b`: ``exp(x̄ ± c · √(ω̂²/n))`` with the
-  Bartlett long-run variance of bandwidth n (Kiefer & Vogelsang 2002) and the critical value c of |t| for an
+  Bartlett long-run variance of bandwidth n (Kiefer & Vogelsang 2002) and the critical value c of ``|t|`` for an
   AR(1) series of the drive's length, averaged over the uncertainty of its bias-corrected lag-1
   autocorrelation (a parametric bootstrap-t; 4.77 in the white-noise limit, ~8–9 for 25 windows of AR(0.8));
   no block length, no df. Its scope is said in the output: "one drive: the interval describes this drive's
@@ -30,7 +30,7 @@ statistics here are built for that:
 * ``n_independent`` counts windows that share no data (starts ≥ L apart); it is reported, no longer a df.
 
 Measured coverage: scripts/coverage_study.py (drive-level random effects plus AR(0.8) within drives) and
-tests/test_coverage.py; the table is in that script's docstring.
+tests/experiments/test_coverage.py; the table is in that script's docstring.
 """
 
 from __future__ import annotations

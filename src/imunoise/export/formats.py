@@ -202,7 +202,9 @@ def model_topic(model: ImuModel | GMWMFit) -> str | None:
 
 
 def required_keys(fmt: str, *, legacy: bool = False) -> tuple[str, ...]:
-    """The IMU keys a tool requires (its reader stops without them; tests/test_export_clients.py cites the reads).
+    """The IMU keys a tool requires (its reader stops without them).
+
+    ``tests/export/test_export_clients.py`` cites the reads.
 
     Parameters
     ----------

@@ -14,7 +14,7 @@ reads the first (the file's old value wins) and OpenCV 3.4 refuses the file ("Du
   atomically; a file that is not of the tool's kind, or that would miss a key the tool requires, is refused
   (:class:`~imunoise.errors.DataError`, one line) before anything is written.
 
-What each tool reads (the reads are reproduced in ``tests/test_export_clients.py``):
+What each tool reads (the reads are reproduced in ``tests/export/test_export_clients.py``):
 ORB-SLAM3 v1.0 ``System.cc`` takes ``Settings`` only when ``File.version`` is the *string* "1.0", else the
 legacy ``Tracking::ParseIMUParamFile``, which needs ``IMU.Frequency`` as an integer and ``Tbc``; OpenVINS
 reads the ``imu0`` map of the chain file with ``cv::FileStorage``; Kalibr's ``ImuParameters`` reads the

@@ -6,7 +6,7 @@
 (:func:`gnss_position_update`, :func:`zupt_update`, ...), each: propagate the covariance to the current epoch,
 build (dz, H, R) with the measurement's function (:mod:`imunoise.nav.measurements`), and run the one
 :func:`~imunoise.nav.ekf_kernels.kf_update`. So a batch run and the step filter fed sample by sample give the
-same trajectory to the bit (``tests/test_nav_filter_step.py``).
+same trajectory to the bit (``tests/nav/test_nav_filter_step.py``).
 
 The kernel takes small typed tuples (numba reads a ``NamedTuple`` of arrays as one argument) built in one
 place, :meth:`LooselyCoupledEKF.kernel_parts`: :class:`FilterArrays` (the state, changed in place),

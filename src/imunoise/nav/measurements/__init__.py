@@ -17,6 +17,6 @@ the gain K as filterpy's ``KalmanFilter.update`` keeps them).
 ========================  ==========================================================================
 
 Adding one (an odometer, say): a module here with its ``dz, H, R`` function (and gate), a call in the batch
-loop and a step method on the filter; ``tests/test_nav_measurements.py`` checks every H against a numerical
+loop and a step method on the filter; ``tests/nav/test_nav_measurements.py`` checks every H against a numerical
 Jacobian.
 """
