@@ -10,9 +10,9 @@ per-sample Python path (:meth:`OnlineNavigator._sample`):
 * the sample at which a scheduled model takes effect (:meth:`StopModeller.due`: a swap);
 * a ZUPT/ZARU candidate (the update's speed/gate policy and the ZARU σ from the stop's own scatter);
 * a non-finite increment (the step filter replaces it and logs it);
-* with the in-motion noise learner: while its shadows wait to start, every sample that applies a fix (a
-  start needs the live filter's speed after the fix); while they run, the sample its next rehearsal round
-  is due;
+* with the in-motion noise learner (:mod:`imunoise.online.learner`): while its shadows wait to start, every
+  sample that applies a fix (a start needs the live filter's speed after the fix); while they run, the sample
+  its next rehearsal round is due; while the learned model has a departure step, every start from a stop;
 * the change points of any extra event source (:meth:`OnlineNavigator.add_event_source`: e.g. a noise schedule).
 
 Everything between two events runs in one :func:`~imunoise.nav.filter_loop.run_span` call, which is the
@@ -181,12 +181,17 @@ def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: d
     for idx, _ in nav._event_sources:
         py.append(idx[(idx >= nav._n) & (idx < nav._n + b - a)] - nav._n)
     py = [np.unique(p) for p in py if p.size]
+    # starts from a stop: events while the learned model adds a departure step there
+    prev_run = np.concatenate([[nav._static_run], runs[:-1]])
+    learner = nav._motion
+    departures = rel[~static & (prev_run >= learner.min_stop_n)] if learner is not None else rel[:0]
     k = 0
     m = b - a
     while k < m:
         sources = list(py)
         due = [nav.modeller.next_effect()]
-        learner = nav._motion
+        if departures.size and learner.departure_var() is not None:
+            sources.append(departures)
         if learner is not None and nav._started:
             if learner.waiting():
                 # the shadows start at an aided moving step: every sample that applies a fix
@@ -262,7 +267,7 @@ def _span(nav: Any, a: int, e: int, t, dth, dv, gyro, accel, static, gate, runs)
             for _ in range(int(rec.sum())):
                 nav._run_row(math.nan, math.nan, 0.0, math.nan)
     else:
-        _filter_span(nav, ts, dth[a:e], dv[a:e], gate, rec)
+        _filter_span(nav, ts, dth[a:e], dv[a:e], gate, rec, static)
     # raw samples are needed only back to the start of a possible segment
     if not np.all(static) and len(nav._rows) > 4096:
         last_moving = int(np.flatnonzero(~static)[-1])
@@ -272,7 +277,7 @@ def _span(nav: Any, a: int, e: int, t, dth, dv, gyro, accel, static, gate, runs)
             nav._raw_t0 += drop
 
 
-def _filter_span(nav: Any, ts, dth, dv, gate, rec) -> None:
+def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
     cfg = nav.config
     ekf = nav.ekf
     ec = ekf.config
@@ -321,7 +326,7 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec) -> None:
             nav._run_row(math.hypot(v0, v1), math.sqrt(max(P_vel[0, 0] + P_vel[1, 1], 0.0)),
                          float(ts[i] - t_aided[i] <= cfg.stop_aided_s), nis)
     if nav._motion is not None:
-        nav._motion.observe_span(ts, dth, dv, [f for f, u in zip(fl, used, strict=True) if u])
+        nav._motion.observe_span(ts, dth, dv, static, [f for f, u in zip(fl, used, strict=True) if u])
     if nav._store is not None:
         _store_rows(nav._store, rows)
 
