@@ -83,11 +83,11 @@ class MotionNoiseConfig:
     vehicle learned (:class:`MotionNoisePrior`) or None."""
 
     families: tuple[Family, ...] = DEFAULT_FAMILIES
-    outage_s: float = 30.0
-    every_s: float = 30.0
+    outage_s: float = 20.0
+    every_s: float = 20.0
     warm_rounds: int = 1
-    choose_rounds: int = 5
-    confirm_rounds: int = 5
+    choose_rounds: int = 4
+    confirm_rounds: int = 6
     alpha: float = 0.05
     margin: float = 0.01
     nis_alpha: float = 0.01
