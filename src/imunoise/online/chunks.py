@@ -79,7 +79,8 @@ def replay(nav: Any, imu: Any, gnss: Any, progress: Any = None) -> Any:
 def push_chunk(nav: Any, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -> None:
     """:meth:`OnlineNavigator.push_chunk`: samples checked as :meth:`push_imu` checks one, rates with the same
     Δt (the first after the last pushed sample, else the nominal one), then :func:`run_record` without
-    finishing. While λ_0 is still to be learned the samples go through :meth:`push_imu` one by one."""
+    finishing. While λ_0 is still to be learned, a chunk that ends before the learning window does goes through
+    :meth:`push_imu` (held); the chunk that reaches its end learns λ_0 at once (:func:`_learn_in_chunk`)."""
     t = np.asarray(t, dtype=float).reshape(-1)
     dth = np.ascontiguousarray(dtheta, dtype=float)
     dvv = np.ascontiguousarray(dv, dtype=float)
@@ -94,6 +95,8 @@ def push_chunk(nav: Any, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -
     if t.size == 0:
         for k in range(gt.size):
             nav.push_gnss(gt[k], gllh[k], gsig[k])
+        return
+    if nav.detector is None and _learn_in_chunk(nav, t, dth, dvv, gt, gllh, gsig):
         return
     if nav.detector is None:
         gi = 0
@@ -116,6 +119,33 @@ def push_chunk(nav: Any, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -
     nav._t_in = float(t[-1])
     nav._elapsed += time.perf_counter() - t0
     run_record(nav, t, dth, dvv, dth / dt[:, None], dvv / dt[:, None], gt, gllh, gsig)
+
+
+def _learn_in_chunk(nav: Any, t, dth, dvv, gt, gllh, gsig) -> bool:
+    """λ_0 from the first ``learn_lambda0_s`` when this chunk reaches their end: learned at once from the held
+    samples and the chunk's (the accelerations :meth:`push_imu` would hold), then everything held and the chunk
+    replayed by :func:`run_record` (the same as the per-sample path, which learns at the first later sample and
+    replays the held ones). False (nothing done) when the chunk ends before."""
+    t0 = nav._learn_t0 if nav._learn_t0 is not None else float(t[0])
+    k = int(np.searchsorted(t, t0 + nav.config.learn_lambda0_s, side="left"))
+    if k >= t.size or not np.all(t > np.concatenate([[nav._t_in], t[:-1]])):
+        return False  # still learning, or bad stamps: push_imu says which
+    dt = t - np.concatenate([[nav._t_in], t[:-1]])
+    if not math.isfinite(nav._t_in):
+        dt[0] = nav.dt_nom
+    gyro, accel = dth / dt[:, None], dvv / dt[:, None]
+    held = nav._pending_samples
+    nav._pending_samples = []
+    nav._learn_t0 = t0
+    hacc = np.array([h[4] for h in held]).reshape(-1, 3)
+    nav._learn_from(np.concatenate([hacc, accel[:k]]), t0)
+    nav._t_in = float(t[-1])
+
+    def cat(i: int, x: np.ndarray) -> np.ndarray:
+        return np.concatenate([np.array([h[i] for h in held]).reshape((-1,) + x.shape[1:]), x])
+
+    run_record(nav, cat(0, t), cat(1, dth), cat(2, dvv), cat(3, gyro), cat(4, accel), gt, gllh, gsig)
+    return True
 
 
 def _static_runs(static: np.ndarray, run0: int) -> np.ndarray:
