@@ -1,4 +1,5 @@
-"""In-motion noise learned while driving by rehearsing GNSS outages on data already seen (``gmwm_dyn``).
+"""In-motion noise learned while driving by rehearsing GNSS outages on data already seen (``gmwm_dyn``): the
+filter end of IMU → detection → modelling → filter, after the stops' model (online stage).
 
 Why. Stops show the sensor at rest; while the car drives, vibration, temperature and g-sensitivity change the
 errors (the shared drive: std of 10 s means of the estimated gyro errors 58 / 144 / 123 °/h for x/y/z against a
