@@ -68,6 +68,7 @@ class MotionNoiseLearner:
         self.n_stale = 0  # searches stopped by a round without GNSS
         self.history: list[dict] = []
         self.round_s: list[float] = []  # compute time of each round [s] (the cost)
+        self._all_scores: list[np.ndarray] = []
         self.buf = SampleBuffer(max(int(round(config.min_stop_s * self.rate)), 1))
         self._shadows: list[Any] | None = None
         self._specs: list[Spec] = []
@@ -87,6 +88,16 @@ class MotionNoiseLearner:
     def departure_var(self) -> list[float] | None:
         """Per axis the bias variance the current model adds at a departure, or None."""
         return departure_variance(self.spec)
+
+    @property
+    def cands(self) -> list[Spec]:
+        """The models of the current search's shadows (the current model first)."""
+        return list(self._specs)
+
+    @property
+    def scores(self) -> list[np.ndarray]:
+        """Every rehearsed round's scores (log RMS drift per shadow of its search; NaN where not run)."""
+        return list(self._all_scores)
 
     @property
     def min_stop_n(self) -> int:
@@ -259,6 +270,7 @@ class MotionNoiseLearner:
         if not res["rehearsed"] or self._shadows is None:
             return
         self.n_rehearsals += 1
+        self._all_scores.append(res["scores"])
         self._round += 1
         c = self.config
         if self._phase == "warm":
