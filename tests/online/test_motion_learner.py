@@ -1,4 +1,5 @@
-"""In-motion gyro noise learned by rehearsed outages (imunoise.online.motion_noise; the gmwm_dyn method).
+"""In-motion noise learned by rehearsed outages (imunoise.online.learner, imported through the earlier path
+imunoise.online.motion_noise; the gmwm_dyn method). The decision rule alone: tests/test_learner_decision.py.
 
 The law that makes the simulated errors motion-dependent is tested in tests/test_motion_noise.py."""
 
@@ -16,6 +17,8 @@ from imunoise.experiments.dense import PRIOR_SEED_OFFSET, earlier_prior, learn_p
 from imunoise.experiments.gnss_regimes import parse_gnss
 from imunoise.nav.defaults import default_axis_models
 from imunoise.online import OnlineNavigator
+from imunoise.online.learner import Process
+from imunoise.online.learner.candidates import DPH
 from imunoise.online.motion_noise import MotionNoiseConfig, MotionNoisePrior, add_motion_gm, horizontal_distance
 from imunoise.processes import AR1
 
@@ -94,19 +97,11 @@ def test_add_motion_gm_adds_the_gauss_markov_process_to_the_gyros_only():
     assert all(o[0] is b[0] for o, b in zip(add_motion_gm(base, [(0.0, 5.0)] * 3, 100.0), base))
 
 
-@pytest.mark.parametrize("kw", [{"sigma_dph": ()}, {"sigma_dph": (-1.0,)}, {"tc_s": (0.0,)}, {"outage_s": 0.0},
-                                {"min_pairs": 0}, {"margin": -0.1}])
+@pytest.mark.parametrize("kw", [{"families": ()}, {"outage_s": 0.0}, {"every_s": 10.0}, {"choose_rounds": 0},
+                                {"confirm_rounds": 1}, {"margin": -0.1}, {"alpha": 1.5}])
 def test_config_rejects_bad_settings(kw):
     with pytest.raises(ModelError):
         MotionNoiseConfig(**kw)
-
-
-def test_candidates_start_with_nothing_added():
-    none = (0.0, 2.0)
-    c = MotionNoiseConfig(sigma_dph=(50.0,), tc_s=(2.0, 20.0), search="shared")
-    assert c.candidates == [(none,) * 3, ((50.0, 2.0),) * 3, ((50.0, 20.0),) * 3]
-    a = MotionNoiseConfig(sigma_dph=(50.0,), tc_s=(2.0,)).candidates  # one axis at a time
-    assert a == [(none,) * 3, ((50.0, 2.0), none, none), (none, (50.0, 2.0), none), (none, none, (50.0, 2.0))]
 
 
 def test_horizontal_distance_is_metric():
@@ -116,10 +111,13 @@ def test_horizontal_distance_is_metric():
     assert horizontal_distance(a, b)[0] == pytest.approx(10.0, rel=0.01)
 
 
-def _dyn_run(sc, gnss, push: bool, worker: str = "inline"):
+def _dyn_run(sc, gnss, push: bool, worker: str = "inline", **kw):
     cfg, models, _ = method_setup("gmwm_dyn", sc)
-    # a fixed latency: the default (the measured compute time of a fit) differs from run to run
-    cfg = cfg.with_(worker=worker, latency=1.0, motion_noise=MotionNoiseConfig(min_pairs=3, min_t=0.0, margin=0.0))
+    # a fixed latency: the default (the measured compute time of a fit) differs from run to run; short rounds and
+    # a lax level so that a 7-minute drive sees decisions of every kind
+    mc = MotionNoiseConfig(outage_s=15.0, every_s=15.0, warm_rounds=1, choose_rounds=3, confirm_rounds=3,
+                           alpha=0.9, margin=0.0, nis_alpha=1e-9, **kw)
+    cfg = cfg.with_(worker=worker, latency=1.0, motion_noise=mc)
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
     if not push:
         return nav, nav.run(sc.imu, gnss)
@@ -134,39 +132,36 @@ def inline_run(drive):
 
 
 @pytest.mark.slow
-def test_learner_moves_off_the_static_model_and_streaming_equals_batch(drive, inline_run):
-    # the simulator's default motion law: gyro y/z biases wander 3.75× / 5.8× faster while driving
+def test_learner_decides_logs_its_evidence_and_streaming_equals_batch(drive, inline_run):
     sc, gnss = drive
     nav_b, res_b = inline_run
     nav_s, res_s = _dyn_run(sc, gnss, push=True)
-    ev_b = [e for e in res_b.events if e["event"].startswith("motion_noise")]
-    ev_s = [e for e in res_s.events if e["event"].startswith("motion_noise")]
-    assert nav_b._motion.n_rehearsals >= 10
-    assert any(e["event"] == "motion_noise" and max(e["sigma_dph"]) > 0 for e in ev_b)
+    ev_b, ev_s = ([{k: v for k, v in e.items() if k != "elapsed_s"} for e in r.events
+                   if e["event"].startswith("motion_noise")] for r in (res_b, res_s))
     assert ev_b == ev_s and np.array_equal(res_b.llh, res_s.llh)
-    end = ev_b[-1]  # the summary at the end: what was learned, after how many rounds
-    assert end["event"] == "motion_noise_end" and end["sigma_dph"] == nav_b._motion.sigma_dph
-    assert end["n_rehearsals"] == nav_b._motion.n_rehearsals
-    # on every axis that got a process, its shadow's rehearsed drift beats the static model's on the same rounds
     L = nav_b._motion
-    S = np.array(L.scores)
-    none = L.cands[0][0]
-    for j, a in enumerate(L.spec):
-        if a[0] > 0:
-            k = L.cands.index(tuple(a if i == j else none for i in range(3)))
-            assert np.mean(S[:, k] - S[:, 0]) < 0
+    assert L.n_rehearsals >= 10 and L.n_searches >= 2
+    kinds = {e["event"] for e in ev_b}
+    assert {"motion_noise_start", "motion_noise_choose", "motion_noise_end"} <= kinds
+    for e in ev_b:  # every decision carries its evidence
+        if e["event"] == "motion_noise_choose":
+            assert e["n_candidates"] >= 1 and e["mean_log_ratio"] < 0 and e["candidates"]
+        if e["event"] in ("motion_noise_confirm", "motion_noise_refuse") and e.get("stage") != "choose":
+            assert {"p", "level", "t_stat", "nis_position", "nis_velocity"} <= set(e)
+    end = ev_b[-1]
+    assert end["event"] == "motion_noise_end" and end["processes"] == [p.to_dict() for p in L.spec]
+    assert end["n_rehearsals"] == L.n_rehearsals and L.round_s
+    # the exported model: the end event's evidence is the next drive's prior, with the learned processes
+    assert MotionNoisePrior.from_dict(end["evidence"]).spec == L.spec
 
 
 @pytest.mark.slow
-def test_thread_worker_runs_the_same_rehearsals_without_blocking(drive, inline_run):
-    # a replay runs far faster than real time, so the background thread completes fewer rounds before the end;
-    # its first round rehearses what the inline run's first round does (the engine's own fits take effect at
-    # slightly different times with a thread, so the numbers agree closely, not bit for bit)
+def test_thread_worker_runs_rounds_without_blocking(drive, inline_run):
+    # a replay runs far faster than real time, so the background thread completes fewer rounds before the end
     sc, gnss = drive
-    nav_i, _ = inline_run
     nav_t, res = _dyn_run(sc, gnss, push=False, worker="thread")
-    assert len(nav_t._motion.scores) >= 2 and nav_t._motion._future is None  # finish() waited for it
-    assert np.allclose(nav_t._motion.scores[0], nav_i._motion.scores[0], rtol=1e-2)
+    assert nav_t._motion.n_rehearsals >= 1 and nav_t._motion._future is None  # finish() waited for it
+    assert any(e["event"] == "motion_noise_end" for e in res.events)
 
 
 @pytest.mark.slow
@@ -178,62 +173,29 @@ def test_shadows_wait_out_a_gnss_outage_and_restart(drive, inline_run):
     cut = gnss.without([(t0, 60.0)])
     nav, res = _dyn_run(sc, cut, push=False)
     L = nav._motion
-    assert L.n_starts == 2
     nav_full, _ = inline_run
+    assert L.n_stale >= 1 and L.n_starts == L.n_searches  # a search that lost GNSS starts again
     assert 0 < L.n_rehearsals < nav_full._motion.n_rehearsals
     assert [e["event"] for e in res.events].count("motion_noise_start") == 1
 
 
-def _learner_cfg(prior=None):
-    return MotionNoiseConfig(min_pairs=3, min_t=0.0, margin=0.0, prior=prior)
-
-
 @pytest.mark.slow
-def test_evidence_carries_to_the_next_drive(drive, inline_run, tmp_path):
-    # what one drive learned is the next drive's start: the filter runs the carried choice from its first
-    # sample, and the first decision of the new drive is made on the carried rounds and its own together
+def test_a_carried_model_runs_from_the_first_sample(drive):
+    # what one drive learned is the next drive's start: the filter runs the carried processes from its first
+    # sample (a Gauss–Markov state more on every gyro axis)
     sc, gnss = drive
-    nav0, res0 = inline_run
-    ev = nav0._motion.evidence()
-    assert ev.spec == nav0._motion.spec and len(ev.scores) == nav0._motion.n_rehearsals
-    end = [e for e in res0.events if e["event"] == "motion_noise_end"][-1]
-    assert MotionNoisePrior.from_dict(end["evidence"]) == ev
-    # round trip through a metrics.json as `imunoise online` writes it
-    f = tmp_path / "metrics.json"
-    f.write_text(__import__("json").dumps({"motion_noise": {"sigma_dph": [0, 0, 0], "evidence": ev.to_dict()}}))
-    prior = MotionNoisePrior.load(f)
-    assert prior == ev and max(a[0] for a in prior.spec) > 0  # the fixture's drive learned something
+    prior = MotionNoisePrior((Process("gm", "gyro", 100 * DPH, 10.0),), rounds=7)
     cfg, models, _ = method_setup("gmwm_dyn", sc)
-    cfg = cfg.with_(latency=1.0, motion_noise=_learner_cfg(prior))
+    cfg = cfg.with_(latency=1.0, motion_noise=MotionNoiseConfig(prior=prior))
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
-    # from the first sample: a Gauss–Markov state on every axis the prior chose, before any stop or round
-    for j, (sg, _) in enumerate(prior.spec):
+    for j in range(3):
         n_gm = sum(isinstance(c, AR1) for c in nav.current_models[j][0].components)
         n_static = sum(isinstance(c, AR1) for c in nav.static_models[j][0].components)
-        assert n_gm == n_static + (sg > 0)
-    res = nav.run(sc.imu, gnss)
-    L = nav._motion
-    assert L.n_prior == len(prior.scores) and len(L.scores) == L.n_prior + L.n_rehearsals
-    assert np.array_equal(np.array(L.scores[: L.n_prior]), np.array(prior.scores))
-    end2 = [e for e in res.events if e["event"] == "motion_noise_end"][-1]
-    assert end2["n_prior"] == len(prior.scores)
-    for h in L.history:  # every decision of this drive counted the carried rounds
-        if h["accepted"]:
-            assert h["n_rehearsals"] > L.n_prior and h["n_prior"] == L.n_prior
+        assert n_gm == n_static + 1
+    assert nav._motion.evidence().rounds == 7
 
 
-def test_prior_of_other_candidates_or_files_is_refused(tmp_path):
-    c = MotionNoiseConfig(sigma_dph=(50.0,), tc_s=(2.0,))
-    none = (0.0, 2.0)
-    good = MotionNoisePrior((none, (50.0, 2.0), none), ((0.1, 0.2, 0.0, 0.3),), tuple(c.candidates))
-    assert MotionNoiseConfig(sigma_dph=(50.0,), tc_s=(2.0,), prior=good).prior is good
-    with pytest.raises(ModelError, match="other candidates"):
-        MotionNoiseConfig(prior=good)  # the default grid has 19 shadows, this prior 4
-    with pytest.raises(ModelError, match="one per candidate"):
-        MotionNoisePrior(good.spec, ((0.1, 0.2),), good.candidates)
-    with pytest.raises(ModelError, match="not a combination"):
-        MotionNoiseConfig(sigma_dph=(50.0,), tc_s=(2.0,),
-                          prior=MotionNoisePrior(((70.0, 2.0), none, none), (), good.candidates))
+def test_prior_files_are_checked(tmp_path):
     with pytest.raises(DataError, match="does not exist"):
         MotionNoisePrior.load(tmp_path / "missing.json")
     bad = tmp_path / "bad.json"
@@ -247,13 +209,13 @@ def test_prior_of_other_candidates_or_files_is_refused(tmp_path):
 
 
 @pytest.mark.slow
-def test_warm_method_needs_an_earlier_drive(drive, inline_run):
+def test_warm_method_needs_an_earlier_drive(drive):
     from imunoise.cli.experiment import select_methods
 
     sc, _ = drive
     with pytest.raises(ModelError, match="earlier drive"):
         method_setup("gmwm_dyn_warm", sc)
-    prior = inline_run[0]._motion.evidence()
+    prior = MotionNoisePrior()
     cfg, _, _ = method_setup("gmwm_dyn_warm+sf", sc, prior=prior)
     assert cfg.motion_noise.prior is prior and cfg.ekf.scale_factors
     assert select_methods("online", True, "gmwm,gmwm_dyn_warm", evidence=True) == ("gmwm", "gmwm_dyn_warm")
@@ -263,13 +225,11 @@ def test_warm_method_needs_an_earlier_drive(drive, inline_run):
 
 @pytest.mark.slow
 def test_warm_prior_chains_the_earlier_drives_oldest_first():
-    # earlier drives in a row: each starts with what the ones before it learned, so the last one's evidence
-    # holds the oldest drive's rounds first, unchanged, and then the later drive's own
+    # earlier drives in a row: each starts with what the ones before it learned, so the rounds add up
     sc = simulate_scenario(5, n_outages=0, duration_s=180.0, n_stops=1)
     regime = parse_gnss("noise:1.5,3")
     oldest = learn_prior(sc, regime.apply(sc.gnss, 1_000_003 * (9 + 2 * PRIOR_SEED_OFFSET) + 1))
     chained = earlier_prior(9, regime, 1, n_drives=2, earlier=[sc, sc])
-    assert 0 < len(oldest.scores) < len(chained.scores)
-    assert chained.scores[: len(oldest.scores)] == oldest.scores
+    assert 0 < oldest.rounds < chained.rounds
     with pytest.raises(ModelError, match="at least one earlier drive"):
         earlier_prior(9, regime, 1, n_drives=0, earlier=[sc])

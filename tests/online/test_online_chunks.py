@@ -119,17 +119,32 @@ def test_static_runs_continue_the_previous_chunk():
 
 @pytest.mark.timeout(900)
 def test_run_in_chunks_with_the_motion_noise_learner(scenario):
-    """gmwm_dyn: the shadows start at a fix sample and rehearse when due; identical to the push path."""
+    """gmwm_dyn: the shadows start at a fix sample and rehearse when due, a carried departure step is added at
+    every start from a stop; identical to the push path."""
+    from imunoise.online.learner import MotionNoisePrior, Process
     from imunoise.online.motion_noise import MotionNoiseConfig
 
     sc = scenario
     gnss = sc.gnss.without(sc.windows)
-    cfg = _config(sc, motion_noise=MotionNoiseConfig(every_s=5.0, outage_s=10.0, min_pairs=2))
-    batch = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate).run(sc.imu, gnss)
+    prior = MotionNoisePrior((Process("step", "gyro", 5e-4), Process("gm", "accel", 0.01, 100.0)))
+    cfg = _config(sc, motion_noise=MotionNoiseConfig(every_s=10.0, outage_s=10.0, warm_rounds=0, choose_rounds=2,
+                                                     confirm_rounds=2, alpha=0.9, margin=0.0, prior=prior))
+    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate)
+    bumps = []
+    orig = nav._learner_step
+
+    def spy(t, dth, dvv, is_static, prev_run):
+        if nav.departure_due(prev_run, is_static):
+            bumps.append(t)
+        orig(t, dth, dvv, is_static, prev_run)
+
+    nav._learner_step = spy
+    batch = nav.run(sc.imu, gnss)
     stream = _push(OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate), sc.imu, gnss)
     assert any(e["event"] == "motion_noise_start" for e in batch.events)
     end = next(e for e in batch.events if e["event"] == "motion_noise_end")
     assert end["n_rehearsals"] >= 2
+    assert len(bumps) >= 2  # both stops' departures took the carried step (the first after the static start too)
     _same(batch, stream)
 
 

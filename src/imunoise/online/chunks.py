@@ -10,9 +10,9 @@ per-sample Python path (:meth:`OnlineNavigator._sample`):
 * the sample at which a scheduled model takes effect (:meth:`StopModeller.due`: a swap);
 * a ZUPT/ZARU candidate (the update's speed/gate policy and the ZARU σ from the stop's own scatter);
 * a non-finite increment (the step filter replaces it and logs it);
-* with the in-motion noise learner: while its shadows wait to start, every sample that applies a fix (a
-  start needs the live filter's speed after the fix); while they run, the sample its next rehearsal round
-  is due;
+* with the in-motion noise learner (:mod:`imunoise.online.learner`): while its shadows wait to start, every
+  sample that applies a fix (a start needs the live filter's speed after the fix); while they run, the sample
+  its next rehearsal round is due; while the learned model has a departure step, every start from a stop;
 * the change points of any extra event source (:meth:`OnlineNavigator.add_event_source`: e.g. a noise schedule).
 
 Everything between two events runs in one :func:`~imunoise.nav.filter_loop.run_span` call, which is the
@@ -79,7 +79,8 @@ def replay(nav: Any, imu: Any, gnss: Any, progress: Any = None) -> Any:
 def push_chunk(nav: Any, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -> None:
     """:meth:`OnlineNavigator.push_chunk`: samples checked as :meth:`push_imu` checks one, rates with the same
     Δt (the first after the last pushed sample, else the nominal one), then :func:`run_record` without
-    finishing. While λ_0 is still to be learned the samples go through :meth:`push_imu` one by one."""
+    finishing. While λ_0 is still to be learned, a chunk that ends before the learning window does goes through
+    :meth:`push_imu` (held); the chunk that reaches its end learns λ_0 at once (:func:`_learn_in_chunk`)."""
     t = np.asarray(t, dtype=float).reshape(-1)
     dth = np.ascontiguousarray(dtheta, dtype=float)
     dvv = np.ascontiguousarray(dv, dtype=float)
@@ -94,6 +95,8 @@ def push_chunk(nav: Any, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -
     if t.size == 0:
         for k in range(gt.size):
             nav.push_gnss(gt[k], gllh[k], gsig[k])
+        return
+    if nav.detector is None and _learn_in_chunk(nav, t, dth, dvv, gt, gllh, gsig):
         return
     if nav.detector is None:
         gi = 0
@@ -116,6 +119,33 @@ def push_chunk(nav: Any, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -
     nav._t_in = float(t[-1])
     nav._elapsed += time.perf_counter() - t0
     run_record(nav, t, dth, dvv, dth / dt[:, None], dvv / dt[:, None], gt, gllh, gsig)
+
+
+def _learn_in_chunk(nav: Any, t, dth, dvv, gt, gllh, gsig) -> bool:
+    """λ_0 from the first ``learn_lambda0_s`` when this chunk reaches their end: learned at once from the held
+    samples and the chunk's (the accelerations :meth:`push_imu` would hold), then everything held and the chunk
+    replayed by :func:`run_record` (the same as the per-sample path, which learns at the first later sample and
+    replays the held ones). False (nothing done) when the chunk ends before."""
+    t0 = nav._learn_t0 if nav._learn_t0 is not None else float(t[0])
+    k = int(np.searchsorted(t, t0 + nav.config.learn_lambda0_s, side="left"))
+    if k >= t.size or not np.all(t > np.concatenate([[nav._t_in], t[:-1]])):
+        return False  # still learning, or bad stamps: push_imu says which
+    dt = t - np.concatenate([[nav._t_in], t[:-1]])
+    if not math.isfinite(nav._t_in):
+        dt[0] = nav.dt_nom
+    gyro, accel = dth / dt[:, None], dvv / dt[:, None]
+    held = nav._pending_samples
+    nav._pending_samples = []
+    nav._learn_t0 = t0
+    hacc = np.array([h[4] for h in held]).reshape(-1, 3)
+    nav._learn_from(np.concatenate([hacc, accel[:k]]), t0)
+    nav._t_in = float(t[-1])
+
+    def cat(i: int, x: np.ndarray) -> np.ndarray:
+        return np.concatenate([np.array([h[i] for h in held]).reshape((-1,) + x.shape[1:]), x])
+
+    run_record(nav, cat(0, t), cat(1, dth), cat(2, dvv), cat(3, gyro), cat(4, accel), gt, gllh, gsig)
+    return True
 
 
 def _static_runs(static: np.ndarray, run0: int) -> np.ndarray:
@@ -181,12 +211,17 @@ def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: d
     for idx, _ in nav._event_sources:
         py.append(idx[(idx >= nav._n) & (idx < nav._n + b - a)] - nav._n)
     py = [np.unique(p) for p in py if p.size]
+    # starts from a stop: events while the learned model adds a departure step there
+    prev_run = np.concatenate([[nav._static_run], runs[:-1]])
+    learner = nav._motion
+    departures = rel[~static & (prev_run >= learner.min_stop_n)] if learner is not None else rel[:0]
     k = 0
     m = b - a
     while k < m:
         sources = list(py)
         due = [nav.modeller.next_effect()]
-        learner = nav._motion
+        if departures.size and learner.departure_var() is not None:
+            sources.append(departures)
         if learner is not None and nav._started:
             if learner.waiting():
                 # the shadows start at an aided moving step: every sample that applies a fix
@@ -262,7 +297,7 @@ def _span(nav: Any, a: int, e: int, t, dth, dv, gyro, accel, static, gate, runs)
             for _ in range(int(rec.sum())):
                 nav._run_row(math.nan, math.nan, 0.0, math.nan)
     else:
-        _filter_span(nav, ts, dth[a:e], dv[a:e], gate, rec)
+        _filter_span(nav, ts, dth[a:e], dv[a:e], gate, rec, static)
     # raw samples are needed only back to the start of a possible segment
     if not np.all(static) and len(nav._rows) > 4096:
         last_moving = int(np.flatnonzero(~static)[-1])
@@ -272,7 +307,7 @@ def _span(nav: Any, a: int, e: int, t, dth, dv, gyro, accel, static, gate, runs)
             nav._raw_t0 += drop
 
 
-def _filter_span(nav: Any, ts, dth, dv, gate, rec) -> None:
+def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
     cfg = nav.config
     ekf = nav.ekf
     ec = ekf.config
@@ -321,7 +356,7 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec) -> None:
             nav._run_row(math.hypot(v0, v1), math.sqrt(max(P_vel[0, 0] + P_vel[1, 1], 0.0)),
                          float(ts[i] - t_aided[i] <= cfg.stop_aided_s), nis)
     if nav._motion is not None:
-        nav._motion.observe_span(ts, dth, dv, [f for f, u in zip(fl, used, strict=True) if u])
+        nav._motion.observe_span(ts, dth, dv, static, [f for f, u in zip(fl, used, strict=True) if u])
     if nav._store is not None:
         _store_rows(nav._store, rows)
 

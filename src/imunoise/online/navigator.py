@@ -76,7 +76,6 @@ identical to the per-sample path to the bit.
 
 from __future__ import annotations
 
-import copy
 import logging
 import math
 import time
@@ -86,19 +85,20 @@ from typing import Any
 import numpy as np
 
 from imunoise.detect import StaticDetector, StaticSegment
-from imunoise.errors import DataError, ModelError
-from imunoise.estimator import GMWMFit
+from imunoise.errors import DataError
 from imunoise.model import Model
 from imunoise.nav.defaults import default_axis_models
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, normalize_axis_models
-from imunoise.nav.filter_loop import euler_rows
 from imunoise.online.chunks import push_chunk, replay
 from imunoise.online.config import OnlineConfig, config_summary
 from imunoise.online.lambda0 import Lambda0Learning
+from imunoise.online.learner.host import LearnerHost
 from imunoise.online.modeller import StopModeller
-from imunoise.online.motion_noise import MotionNoiseLearner
+from imunoise.online.nav_output import build_result, fork_navigator, store_epoch
+from imunoise.online.nav_parts import ModellerViews, ZuptStep
 from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult, log_event
 from imunoise.online.stops import NavStopGuard
+from imunoise.online.stream_checks import check_fix, check_increment
 from imunoise.online.to_filter import filter_axis_models
 
 log = logging.getLogger(__name__)
@@ -109,7 +109,7 @@ __all__ = ["OnlineNavigator", "run_online"]
 # --------------------------------------------------------------------------------------------------
 # navigator
 # --------------------------------------------------------------------------------------------------
-class OnlineNavigator(Lambda0Learning, NavStopGuard):
+class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, ModellerViews):
     """Online GMWM INS/GNSS navigator (SPEC §9). See the module docstring.
 
     Parameters
@@ -151,11 +151,7 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
                                                                                         config.ekf.fallback)
         # the models without the learned in-motion part (the stops' model; what the learner adds to)
         self.static_models = normalize_axis_models(models, self.rate)
-        self._motion = (MotionNoiseLearner(config.motion_noise, self.rate, config.ekf.lever_arm, worker=config.worker)
-                        if config.motion_noise is not None else None)
-        if self._motion is not None and config.motion_noise.prior is not None:
-            # the choice carried from earlier drives holds from the first sample
-            models = self._motion.compose(self.static_models)
+        models = self._learner_init(models)  # a carried prior's processes hold from the first sample
         self.ekf = LooselyCoupledEKF(config.ekf, models, init, imu_rate_hz=self.rate)
         self._floor = [m for m, _ in default_axis_models(self.rate, config.ekf.fallback)]
         self._started = False  # first sample after init.t seen
@@ -193,7 +189,6 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
         self._gate_log: list[bool] = []
         self._elapsed = 0.0
         self.current_models = models
-        self._motion_fixes: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._ekf_models_log: list[tuple[float, list[str]]] = []
         self._event_sources: list[tuple[np.ndarray, Any]] = []
         self._event("start", init.t, lambda0=self.lambda0, config=config_summary(config))
@@ -231,28 +226,7 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
             1σ of the fix along north, east, down (m), ≥ 0. A NaN σ is handled by the filter (replaced by
             ``EkfConfig.gnss_sigma_nan``, logged), as in the batch EKF.
         """
-        try:
-            t = float(t)
-        except (TypeError, ValueError) as exc:
-            raise DataError(f"push_gnss: time must be a number of seconds, got {t!r}") from exc
-        llh = np.asarray(llh_rad, dtype=float).reshape(-1).copy()
-        sig = np.asarray(sigma_ned_m, dtype=float).reshape(-1).copy()
-        if llh.size != 3 or sig.size != 3:
-            raise DataError(
-                f"push_gnss: llh_rad must be (lat rad, lon rad, h m) and sigma_ned_m 3 values (m), got "
-                f"{np.shape(llh_rad)} and {np.shape(sigma_ned_m)}"
-            )
-        if not (math.isfinite(t) and np.all(np.isfinite(llh))):
-            raise DataError(
-                f"push_gnss: non-finite fix (t={t!r}, llh_rad={llh.tolist()}); skip fixes without a position"
-            )
-        if abs(llh[0]) > math.pi / 2 or abs(llh[1]) > math.pi:
-            raise DataError(
-                f"push_gnss: latitude {llh[0]!r}, longitude {llh[1]!r} cannot be radians (|lat| ≤ π/2, |lon| ≤ π); "
-                "they look like degrees: convert with np.radians(lat), np.radians(lon)"
-            )
-        if np.any(sig < 0):
-            raise DataError(f"push_gnss: sigma_ned_m must be ≥ 0 m (1σ per axis), got {sig.tolist()}")
+        t, llh, sig = check_fix(t, llh_rad, sigma_ned_m)
         fix = (t, llh, sig)
         if t <= self._t_last:
             if self._started and t > self.init.t and self.ekf.update_gnss(*fix):
@@ -274,19 +248,7 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
             Angle [rad] and velocity [m/s] increments, shape (3,).
         """
         t0 = time.perf_counter()
-        try:
-            t = float(t)
-        except (TypeError, ValueError) as exc:
-            raise DataError(f"push_imu: time must be a number of seconds, got {t!r}") from exc
-        if not t > self._t_in:
-            raise DataError(f"push_imu: time {t!r} does not follow {self._t_in!r}; stamps must increase")
-        dth = np.asarray(dtheta, dtype=float)
-        dvv = np.asarray(dv, dtype=float)
-        if dth.shape != (3,) or dvv.shape != (3,):
-            raise DataError(
-                f"push_imu: dtheta and dv must be 3 increments each (x, y, z; rad and m/s), got shapes "
-                f"{dth.shape} and {dvv.shape}"
-            )
+        t, dth, dvv = check_increment(t, dtheta, dv, self._t_in)
         dt = t - self._t_in if math.isfinite(self._t_in) else self.dt_nom
         self._t_in = t
         gyro, accel = dth / dt, dvv / dt
@@ -308,40 +270,14 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
         return self.ekf.state()
 
     def fork(self, *others: Any, share: tuple = ()) -> tuple:
-        """A branch of the running navigator: an independent copy that continues from the same state.
-
-        Used to run one GNSS outage per window from the same aided state (the dense-window protocol of
-        :mod:`imunoise.experiments.dense`). Needs ``worker="inline"``: a thread cannot be copied.
-
-        Parameters
-        ----------
-        *others : object
-            Objects copied together with the navigator, so references between them and it stay consistent
-            (e.g. a baseline's refit state that holds the navigator).
-        share : tuple
-            Objects the branch shares instead of copying (large read-only arrays). The modelling-job cache is
-            always shared.
-
-        Returns
-        -------
-        tuple
-            ``(navigator, *others)``, copied. The branch's stored epochs start empty, so its result holds
-            only the epochs after the fork.
+        """A branch of the running navigator: an independent copy that continues from the same state, e.g. one
+        GNSS outage per window from the same aided state (the dense-window protocol of
+        :mod:`imunoise.experiments.dense`). Needs ``worker="inline"``: a thread cannot be copied. ``others`` are
+        copied together with the navigator (references between them stay consistent); ``share`` are shared
+        instead of copied (large read-only arrays; the modelling-job cache always). Returns ``(navigator,
+        *others)``; the branch's stored epochs start empty, so its result holds only the epochs after the fork.
         """
-        if self.config.worker != "inline":
-            raise ModelError("fork() needs OnlineConfig(worker='inline'): a worker thread cannot be copied")
-        memo = {id(o): o for o in share}
-        if self.modeller.job_cache is not None:
-            memo[id(self.modeller.job_cache)] = self.modeller.job_cache
-        # the per-sample logs get their own lists (both runs append and trim them) holding the same elements:
-        # floats, bools and raw-sample rows that nothing writes into once appended (they are only read,
-        # sliced and copied), so a shallow copy is the deep one without copying a row per sample
-        for seq in (self._gate_log, self._sample_t, self._static_raw, self._rows):
-            memo[id(seq)] = list(seq)
-        nav, *rest = copy.deepcopy((self, *others), memo)
-        if nav._store is not None:
-            nav._store = EpochStore()
-        return (nav, *rest)
+        return fork_navigator(self, others, share)
 
     def finish(self) -> OnlineResult:
         """Close the stream: flush samples held for λ_0 learning, wait for a running thread job, and
@@ -355,14 +291,7 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
         if self.detector is None and self._pending_samples:
             self._learn_finish()
         self.modeller.finish(self._t_last)
-        if self._motion is not None:
-            n_hist = len(self._motion.history)
-            self._motion.close()
-            self._motion_events(self._t_last, n_hist)
-            m = self._motion
-            self._event("motion_noise_end", self._t_last, sigma_dph=m.sigma_dph, tc_s=m.tc,
-                        n_rehearsals=m.n_rehearsals, n_prior=m.n_prior, n_starts=m.n_starts,
-                        evidence=m.evidence().to_dict())
+        self._learner_finish()
         if self.detector is not None:
             self.detector.finish()
         self._elapsed += time.perf_counter() - t0
@@ -400,6 +329,7 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
         self._sample_t.append(t)
         self._t_last = t
         self._n += 1
+        prev_run = self._static_run
         self._static_run = self._static_run + 1 if is_static else 0
         if self._static_run == 1:
             # a new raw static run: the previous run's segments were completed at its first non-static sample
@@ -430,21 +360,10 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
                         self._motion_fixes.append(fix)
             if is_static and cfg.stop_guard == "nav":
                 self._record_nav(t)
-            if cfg.zupt and self._static_run >= cfg.zupt_after and self._static_run % cfg.zupt_every == 0 \
-                    and not gate and self.ekf.view.speed_h < cfg.zupt_max_speed:
-                # the χ² test of the zero-velocity pseudo-measurement (NIS = vᵀ(P_vv + σ²I)⁻¹v ≤ zupt_chi2, 3 dof;
-                # 0 = off): a detector false positive on a moving car (a noisy IMU's learned λ0 lets smooth
-                # cruising pass Eq. 9) would otherwise be forced into the filter
-                if self.ekf.zupt_update(cfg.zupt_sigma_v, chi2=cfg.zupt_chi2):
-                    self.ekf.zaru_update(self._zaru_sigma())
-                elif not self._zupt_rejected:
-                    self._zupt_rejected = True
-                    self._event("zupt_rejected", t, speed_mps=float(np.linalg.norm(self.ekf.view.vel)))
+            if cfg.zupt:
+                self._zupt_step(t, gate)
             if self._motion is not None:
-                fixes, self._motion_fixes = self._motion_fixes, []
-                n_hist = len(self._motion.history)
-                self._motion.observe(self, t, dth, dvv, fixes)
-                self._motion_events(t, n_hist)
+                self._learner_step(t, dth, dvv, is_static, prev_run)
         else:
             while self._gnss and self._gnss[0][0] <= t:
                 self._gnss.pop(0)
@@ -454,33 +373,12 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
             self._segment(s, t)
         self._poll(t)
         if self._store is not None and self._started:
-            e = self.ekf.sensor_errors()
-            row = np.empty(EpochStore.COLS)
-            row[0] = t
-            sv = self.ekf.view
-            row[1:7] = sv.pos_vel
-            row[7:11] = sv.quat
-            row[11:17] = e
-            row[17:26] = sv.std_nav
-            self._store.add(row)
+            store_epoch(self._store, self.ekf, t)
         # raw samples are needed only back to the start of a possible segment
         if not is_static and len(self._rows) > 4096:
             drop = len(self._rows) - 16
             del self._rows[:drop]
             self._raw_t0 += drop
-
-    def _zaru_sigma(self) -> float:
-        """σ of one ZARU sample: the larger of the configured σ, the current gyro model's per-sample white σ
-        and the gyro scatter measured over this stop so far (the update uses a single increment, whose noise
-        on a vibrating car is the vibration, not the datasheet's)."""
-        s = self.config.zaru_sigma_w
-        for m, _ in self.current_models[:3]:
-            s = max(s, math.sqrt(m.white_variance()))
-        n = min(self._static_run, 200, len(self._rows))
-        if n >= 10:
-            g = np.array(self._rows[-n:])[:, :3]
-            s = max(s, float(np.max(np.std(g, axis=0))))
-        return s
 
     # -- modelling ------------------------------------------------------------------------------------
     def _segment(self, seg: StaticSegment, t_now: float) -> None:
@@ -499,49 +397,8 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
         a, b = seg.i0 - self._raw_t0, seg.i1 - self._raw_t0
         self.modeller.add_stop(seg, np.array(self._rows[a:b]), t_now)
 
-    @property
-    def fits(self) -> list[GMWMFit | None]:
-        """The modeller's current fit per axis (gyro x, y, z, accel x, y, z; None before identification)."""
-        return self.modeller.fits
-
-    @property
-    def updates(self) -> list[ModelUpdate]:
-        """Every modelling job's outcome so far (:attr:`StopModeller.updates`)."""
-        return self.modeller.updates
-
-    @property
-    def segments(self) -> list[StaticSegment]:
-        """The stops pooled so far (after the stop guard)."""
-        return self.modeller.segments
-
-    @property
-    def static_s(self) -> float:
-        """Static data pooled so far [s], the earlier drives' included."""
-        return self.modeller.static_s
-
-    def static_pieces(self) -> list[np.ndarray]:
-        """Every static piece pooled so far (:meth:`StopModeller.static_pieces`): the ``earlier_static`` of the
-        next drive of the same IMU."""
-        return self.modeller.static_pieces()
-
-    def _motion_events(self, t: float, n_hist: int) -> None:
-        """Log the learner's start and decisions since ``n_hist``; swap in an accepted in-motion model."""
-        if self._motion.t_start == t:
-            self._event("motion_noise_start", t, shadows=len(self._motion.cands))
-        for h in self._motion.history[n_hist:]:
-            if h["accepted"]:
-                models = self._motion.compose(self.static_models)
-                counts = self.ekf.swap_model(models, preserve=True, imu_rate_hz=self.rate)
-                self.current_models = models
-                self._event("motion_noise", t, **{k: v for k, v in h.items() if k != "accepted"}, **counts)
-            else:
-                self._event("motion_noise_rejected", t, **{k: v for k, v in h.items() if k != "accepted"})
-
     def _poll(self, t: float) -> None:
-        if self._motion is not None and self.config.worker == "thread":
-            n_hist = len(self._motion.history)
-            self._motion.poll()
-            self._motion_events(t, n_hist)
+        self._learner_poll(t)
         for upd in self.modeller.due(t):
             self._swap(t, upd)
 
@@ -563,24 +420,7 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard):
 
     # -- result ---------------------------------------------------------------------------------------
     def _result(self) -> OnlineResult:
-        if self._store is not None and self._store.n:
-            # EpochStore.arrays' columns, the Euler angles in one kernel call instead of one per epoch
-            b = self._store.buf[: self._store.n]
-            t, pos, vel, eg, ea, std = (b[:, 0].copy(), b[:, 1:4].copy(), b[:, 4:7].copy(), b[:, 11:14].copy(),
-                                        b[:, 14:17].copy(), b[:, 17:26].copy())
-            eul = euler_rows(np.ascontiguousarray(b[:, 7:11]))
-        else:
-            z = np.zeros((0, 3))
-            t, pos, vel, eul, eg, ea, std = np.zeros(0), z, z, z, z, z, np.zeros((0, 9))
-        return OnlineResult(
-            t=t, llh=pos, vel_ned=vel, euler=eul, gyro_error=eg, accel_error=ea, std=std,
-            events=self.events, updates=self.updates, segments=list(self.segments),
-            gate_open=np.array(self._gate_log, dtype=bool), static_raw=np.array(self._static_raw, dtype=bool),
-            lambda0=float(self.lambda0) if self.lambda0 is not None else float("nan"),
-            elapsed_s=self._elapsed, final_models=list(self.current_models), fits=list(self.fits),
-            sample_t=np.array(self._sample_t), rejected_segments=list(self.rejected_segments),
-            detected_segments=list(self.detected_segments), static_pieces=self.modeller.static_pieces(copy=False),
-        )
+        return build_result(self)
 
 
 def run_online(imu, gnss, init: InitialState, config: OnlineConfig | None = None, *, initial_models=None,
