@@ -269,7 +269,7 @@ def print_headline(rows, fmt) -> None:
     """
     heads = ["method", "horiz. RMS [m]", "vert. RMS [m]", "mean outage drift [m]", "Δ vs plain [%]"]
     table = [[r[0].split(" (")[0], fmt(r[1]), fmt(r[2]), fmt(r[4]), fmt(r[5])] for r in rows]
-    w = [max(len(h), *(len(t[i]) for t in table)) for i, h in enumerate(heads)]
+    w = [max([len(h), *(len(t[i]) for t in table)]) for i, h in enumerate(heads)]  # no pairs: heads only
     print("  ".join(h.ljust(w[i]) for i, h in enumerate(heads)))
     for t in table:
         print("  ".join(c.ljust(w[i]) for i, c in enumerate(t)))
@@ -333,7 +333,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
     rows = paired_rows(res)
     heads = ["GNSS", "method", "baseline", "metric", "ratio", "95 % CI", "n_win", "n_ind", "n_drv", "verdict"]
     table = [[str(c) if isinstance(c, (str, int)) else fmt(c, 3) for c in r] for r in rows]
-    w = [max(len(h), *(len(t[i]) for t in table)) for i, h in enumerate(heads)]
+    w = [max([len(h), *(len(t[i]) for t in table)]) for i, h in enumerate(heads)]  # no pairs: heads only
     print("  ".join(h.ljust(w[i]) for i, h in enumerate(heads)))
     for t in table:
         print("  ".join(c.ljust(w[i]) for i, c in enumerate(t)))
