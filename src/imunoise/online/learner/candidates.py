@@ -6,10 +6,10 @@ static model the stops identified (the six per-axis models of the filter, gyro x
 * ``gm``: an in-motion first-order Gauss–Markov bias on the sensor's three axes, the same σ and T_c on each,
   b_k+1 = φ b_k + √(1 − φ²) σ w_k, φ = exp(−Δt/T_c) (paper Eq. 2's AR1 with σ² = σ_GM²(1 − φ²));
   σ in rad/s (gyro) or m/s² (accelerometer);
-* ``white``: white-noise inflation: the per-sample white variance of each axis times the square of ``sigma`` (a factor ≥ 1:
-  an extra WN of variance (f² − 1)·σ²_white, Model.white_variance);
-* ``step``: a departure step: the bias covariance of each axis of the sensor grows by the square of ``sigma`` at every start
-  from a stop (the filter piece of the simulator's ``departure_step`` term, issue 21 §1; as
+* ``white``: white-noise inflation: the per-sample white variance of each axis times the square of ``sigma``
+  (a factor ≥ 1: an extra WN of variance (f² − 1)·σ²_white, Model.white_variance);
+* ``step``: a departure step: the bias covariance of each axis of the sensor grows by the square of ``sigma`` at
+  every start from a stop (the filter piece of the simulator's ``departure_step`` term, issue 21 §1; as
   :func:`imunoise.nav.noise_schedule.add_bias_variance` does for the law-aware oracle).
 
 "Nothing added" is always a candidate (the empty tuple). σ lives on a continuous log scale: a search tries
