@@ -28,6 +28,7 @@ import math
 import shutil
 from pathlib import Path
 
+import cv2
 import pytest
 import yaml
 
@@ -36,8 +37,6 @@ from imunoise.estimator import GMWMFit, gmwm
 from imunoise.export import export_text, sensor_noise, update_into, write_export
 from imunoise.imu_model import ImuModel
 from imunoise.model import Model
-
-cv2 = pytest.importorskip("cv2")
 
 F = 200.0
 FIX = Path(__file__).resolve().parents[1] / "fixtures"
