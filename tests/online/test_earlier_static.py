@@ -199,9 +199,10 @@ def test_cli_carries_the_motion_noise_evidence_to_the_next_drive(short_files, tm
     m1 = _online(short_files, tmp_path / "a", "--learn-motion-noise", imu="imu_long.txt")
     ev = m1["motion_noise"]["evidence"]
     assert m1["config"]["learn_motion_noise"] and m1["motion_noise"]["carried_rounds"] == 0
-    assert len(ev["scores"]) == m1["motion_noise"]["rehearsal_rounds"] >= 3, m1["motion_noise"]["rehearsal_rounds"]
+    assert ev["rounds"] == m1["motion_noise"]["rehearsal_rounds"] >= 3, m1["motion_noise"]["rehearsal_rounds"]
     m2 = _online(short_files, tmp_path / "b", "--motion-noise-prior", tmp_path / "a" / "metrics.json",
                  imu="imu_long_b.txt")
     assert m2["config"]["motion_noise_prior"] == str(tmp_path / "a" / "metrics.json")
-    assert m2["motion_noise"]["carried_rounds"] == len(ev["scores"])
-    assert m2["motion_noise"]["evidence"]["scores"][: len(ev["scores"])] == ev["scores"]
+    assert m2["motion_noise"]["carried_rounds"] == ev["rounds"]
+    ev2 = m2["motion_noise"]["evidence"]
+    assert ev2["rounds"] == ev["rounds"] + m2["motion_noise"]["rehearsal_rounds"]
