@@ -113,7 +113,8 @@ class AR1(Process):
 
     @classmethod
     def u_from_theta(cls, theta, p, u, scale, chain):
-        phi = float(np.clip(theta[p], 1e-300, 1.0 - 1e-15))
+        # a scalar clamp, not np.clip: the selection converts every start of every candidate (same bits, NaN kept)
+        phi = min(max(float(theta[p]), 1e-300), 1.0 - 1e-15)
         v = math.log(-math.log(phi))
         if chain is None:
             u[p] = v

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from imunoise.fitting.candidate_fit import Solved, _embed_variants
 from imunoise.fitting.candidates import Candidate, candidate_of
-from imunoise.fitting.params import _ar1_u_from_theta, bounds, kind_codes, theta_to_u, thetas_to_u
+from imunoise.fitting.params import bounds, kind_codes, theta_to_u, thetas_to_u
 from imunoise.fitting.problem import prepare
 from imunoise.model import Model
 from imunoise.processes import AR1, PROCESS_TYPES
@@ -26,7 +28,20 @@ def _class_walk(theta, kinds, scale):
     return np.clip(u, lo, hi)
 
 
-def test_ar1_conversion_is_the_class_method_to_the_bit():
+def _ar1_u_with_np_clip(theta, p, u, scale, chain):
+    """AR1's θ → u as it was written with ``np.clip`` (the reference the scalar clamp must reproduce)."""
+    phi = float(np.clip(theta[p], 1e-300, 1.0 - 1e-15))
+    v = math.log(-math.log(phi))
+    if chain is None:
+        u[p] = v
+    else:
+        u[p] = math.log(max(v - chain, 1e-9))
+        v = chain + math.exp(u[p])
+    u[p + 1] = math.log(max(theta[p + 1] / scale, 1e-300))
+    return v
+
+
+def test_ar1_conversion_is_the_np_clip_form_to_the_bit():
     rng = np.random.default_rng(4)
     phis = np.concatenate([rng.uniform(0, 1, 300), [0.0, 1e-320, 1.0, 1.0 - 1e-16, 0.5, np.nan, -1.0]])
     for phi in phis:
@@ -34,8 +49,8 @@ def test_ar1_conversion_is_the_class_method_to_the_bit():
             for chain in (None, -3.0, 0.7, 40.0):
                 theta = np.array([phi, s2])
                 a, b = np.empty(2), np.empty(2)
-                va = AR1.u_from_theta(theta, 0, a, 0.31, chain)
-                vb = _ar1_u_from_theta(theta.tolist(), 0, b, 0.31, chain)
+                va = _ar1_u_with_np_clip(theta, 0, a, 0.31, chain)
+                vb = AR1.u_from_theta(theta.tolist(), 0, b, 0.31, chain)
                 assert a.tobytes() == b.tobytes() and np.array_equal([va], [vb], equal_nan=True)
 
 

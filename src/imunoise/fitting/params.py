@@ -10,12 +10,10 @@ Each process class owns its entries (:meth:`imunoise.processes.Process.u_bounds`
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from imunoise.model import Model
-from imunoise.processes import AR1, B_HI, B_LO, LOG_HI, LOG_LO, PROCESS_TYPES, V_HI, V_LO
+from imunoise.processes import B_HI, B_LO, LOG_HI, LOG_LO, PROCESS_TYPES, V_HI, V_LO
 
 __all__ = [
     "KIND_CODE",
@@ -144,8 +142,7 @@ def theta_to_u(theta: np.ndarray, kinds: np.ndarray, scale: float) -> np.ndarray
     steps, lo, hi = _plan(kinds)
     th = theta.tolist() if isinstance(theta, np.ndarray) else theta  # float indexing: the same values, faster
     for cls, p in steps:
-        conv = _AR1_U if cls is AR1 else cls.u_from_theta
-        chain = conv(th, p, u, scale, chain)
+        chain = cls.u_from_theta(th, p, u, scale, chain)
     # np.clip(u, lo, hi) (NaN kept), without its Python wrappers: this runs for every start of every candidate
     np.maximum(u, lo, out=u)
     return np.minimum(u, hi, out=u)
@@ -169,7 +166,7 @@ def thetas_to_u(thetas: list, kinds: np.ndarray, scale: float) -> np.ndarray:
         (len(thetas), P) array of u, within the solver's bounds.
     """
     steps, lo, hi = _plan(kinds)
-    convs = [(_AR1_U if cls is AR1 else cls.u_from_theta, p) for cls, p in steps]
+    convs = [(cls.u_from_theta, p) for cls, p in steps]
     P = len(lo)
     rows = []
     for theta in thetas:
@@ -182,23 +179,3 @@ def thetas_to_u(thetas: list, kinds: np.ndarray, scale: float) -> np.ndarray:
     U = np.array(rows, dtype=float).reshape(len(rows), P)
     np.maximum(U, lo, out=U)
     return np.minimum(U, hi, out=U)
-
-
-def _ar1_u_from_theta(
-    theta: list[float], p: int, u: np.ndarray | list[float], scale: float, chain: float | None
-) -> float:
-    """:meth:`imunoise.processes.AR1.u_from_theta` with Python floats (``np.clip`` of one number is the
-    slow part of a selection's start conversions); the same operations, so the same bits
-    (``tests/test_fitting_params.py`` compares the two)."""
-    phi = float(min(max(theta[p], 1e-300), 1.0 - 1e-15))
-    v = math.log(-math.log(phi))
-    if chain is None:
-        u[p] = v
-    else:
-        u[p] = math.log(max(v - chain, 1e-9))
-        v = chain + math.exp(u[p])
-    u[p + 1] = math.log(max(theta[p + 1] / scale, 1e-300))
-    return v
-
-
-_AR1_U = _ar1_u_from_theta
