@@ -1,13 +1,16 @@
 """Filter consistency on the simulator: NEES of the GNSS-aided online run per method (issue 13, acceptance 3).
 
 At every 1 Hz reference epoch after the first ``--skip`` seconds of a simulated drive (meter-level GNSS, the
-motion law of the experiments' default), the normalised estimation error squared of the position
-(3 dof: e = estimate − truth in NED metres, NEES = eᵀ P_rr⁻¹ e with P_rr the filter's position covariance) and of
-position + velocity (6 dof), and the share of epochs inside the two-sided 95 % χ² band of their dof. A
-consistent filter has about 95 % of its epochs inside; the mean NEES should be near the dof. The share's 95 % CI
-is a percentile bootstrap over the drives (the independent units; epochs of one drive are correlated), seeded.
+motion law of the experiments' default), the normalised estimation error squared of the position (3 dof:
+e = estimate − truth in NED metres, NEES = eᵀ P_rr⁻¹ e with P_rr the filter's position covariance), of the
+velocity (3 dof) and of position + velocity (6 dof), and the share of epochs inside the two-sided 95 % χ² band of
+their dof. A consistent filter has about 95 % of its epochs inside; the mean NEES should be near the dof. The
+share's 95 % CI is a percentile bootstrap over the drives (the independent units; epochs of one drive are
+correlated), seeded. ``oracle_law`` (the filter told the law per sample) is the batch filter of
+:mod:`imunoise.experiments.oracle_law`; every other method is the online engine stepped sample by sample.
 
     python scripts/nees_check.py --seeds 0-9 --methods plain,gmwm,gmwm_dyn,oracle --out out/nees
+    python scripts/nees_check.py --seeds 3100-3109 --methods gmwm,oracle,oracle_law,adaptive --out out/nees_ceiling
     python scripts/nees_check.py --seeds 0-9 --methods gmwm_dyn --duration 1800 --stops 12 --out out/nees_long
 """
 
@@ -31,19 +34,65 @@ def _seeds(text: str) -> list[int]:
     return [int(x) for x in text.split(",")]
 
 
+def nees_values(e: np.ndarray, P: np.ndarray) -> tuple[float, float, float]:
+    """NEES of position (3 dof), velocity (3 dof) and position + velocity (6 dof) of the error ``e`` (NED m,
+    m/s) under the filter's covariance ``P`` (its 6×6 position-velocity block or larger)."""
+    return (float(e[:3] @ np.linalg.solve(P[:3, :3], e[:3])), float(e[3:6] @ np.linalg.solve(P[3:6, 3:6], e[3:6])),
+            float(e[:6] @ np.linalg.solve(P[:6, :6], e[:6])))
+
+
+def _error(sc, j: int, llh: np.ndarray, euler: np.ndarray, vel: np.ndarray) -> np.ndarray:
+    from imunoise.nav.solution import antenna_llh
+    from imunoise.online import ned_offset
+
+    ant = antenna_llh(llh[None], euler[None], sc.lever)
+    dn, de = ned_offset(ant, sc.ref.llh[j][None])
+    return np.array([dn[0], de[0], -(ant[0, 2] - sc.ref.llh[j][2]), *(vel - sc.ref.vel_ned[j])])
+
+
+def law_epochs(sc, gnss, ref_i: dict, base=None):
+    """(reference index, error, 9×9 covariance) at the scored epochs of the ``oracle_law`` filter: the batch
+    filter told the law per sample (:mod:`imunoise.experiments.oracle_law`, the run of its full-GNSS pass) with
+    the navigation covariance kept at every sample; it has no online engine to step, so it is run here whole."""
+    from imunoise.experiments.oracle_law import _fixes, _run, law_filter
+    from imunoise.nav.state import N_NAV
+    from imunoise.nav.step_filter import new_outputs
+
+    lf = law_filter(sc, (), base)
+    ekf, t = lf.ekf, lf.imu.t
+    n = t.size
+    out = new_outputs(n, store_cov=True, has_sf=bool(np.all(ekf.layout.scale_index >= 0)))
+    out.pos[0], out.vel[0], out.att[0] = sc.init.llh, sc.init.vel_ned, sc.init.euler
+    out.cov[0] = ekf.P[:N_NAV, :N_NAV]
+    _run(lf, ekf.arrays(), _fixes(gnss, ekf.lever), out, 0, n - 1)
+    for k in range(n):
+        j = ref_i.get(round(float(t[k]), 6))
+        if j is not None:
+            yield j, _error(sc, j, out.pos[k], out.att[k], out.vel[k]), out.cov[k]
+
+
 def nees_run(args: tuple) -> dict:
     seed, method, gnss_spec, motion, skip, duration, stops = args
     from imunoise.experiments.common import simulate_scenario
     from imunoise.experiments.dense import WARM_METHODS, earlier_prior, method_setup
     from imunoise.experiments.gnss_regimes import parse_gnss
-    from imunoise.nav.solution import antenna_llh
-    from imunoise.online import OnlineNavigator, ned_offset
+    from imunoise.online import OnlineNavigator
 
     logging.getLogger("imunoise").setLevel(logging.WARNING)
     scen_kw = {"motion_noise": motion, "duration_s": duration, "n_stops": stops}
     sc = simulate_scenario(seed, n_outages=0, **scen_kw)
     regime = parse_gnss(gnss_spec)
     gnss = regime.apply(sc.gnss, 1_000_003 * seed + 1)
+    rt = np.asarray(sc.ref.t)
+    pick = np.abs(rt - np.round(rt)) < 1e-6  # 1 Hz epochs of the reference
+    pick &= rt >= sc.init.t + skip
+    ref_i = {round(float(x), 6): j for j, x in zip(np.flatnonzero(pick), rt[pick])}
+    n3, nv, n6 = [], [], []
+    if method == "oracle_law":
+        for _, e, P in law_epochs(sc, gnss, ref_i):
+            for acc, x in zip((n3, nv, n6), nees_values(e, P)):
+                acc.append(x)
+        return {"seed": seed, "method": method, "nees3": n3, "neesv": nv, "nees6": n6}
     prior = (earlier_prior(seed, regime, 1, n_drives=WARM_METHODS[method], **scen_kw)
              if method in WARM_METHODS else None)
     cfg, models, upd = method_setup(method, sc, prior=prior)
@@ -51,11 +100,6 @@ def nees_run(args: tuple) -> dict:
     t = np.asarray(sc.imu.t)
     dth, dv = sc.imu.increments()
     gt, gl, gs = np.asarray(gnss.t), np.asarray(gnss.llh), np.asarray(gnss.sigma_ned)
-    rt = np.asarray(sc.ref.t)
-    pick = np.abs(rt - np.round(rt)) < 1e-6  # 1 Hz epochs of the reference
-    pick &= rt >= sc.init.t + skip
-    ref_i = {round(float(x), 6): j for j, x in zip(np.flatnonzero(pick), rt[pick])}
-    n3, n6 = [], []
     k = 0
     for i in range(t.size):
         while k < gt.size and gt[k] <= t[i]:
@@ -68,13 +112,10 @@ def nees_run(args: tuple) -> dict:
         if j is None:
             continue
         st = nav.ekf.state()
-        ant = antenna_llh(st["llh"][None], st["euler"][None], sc.lever)
-        dn, de = ned_offset(ant, sc.ref.llh[j][None])
-        e = np.array([dn[0], de[0], -(ant[0, 2] - sc.ref.llh[j][2]), *(st["vel_ned"] - sc.ref.vel_ned[j])])
-        P = nav.ekf.P[:6, :6]
-        n3.append(float(e[:3] @ np.linalg.solve(P[:3, :3], e[:3])))
-        n6.append(float(e @ np.linalg.solve(P, e)))
-    return {"seed": seed, "method": method, "nees3": n3, "nees6": n6}
+        e = _error(sc, j, st["llh"], st["euler"], st["vel_ned"])
+        for acc, x in zip((n3, nv, n6), nees_values(e, nav.ekf.P)):
+            acc.append(x)
+    return {"seed": seed, "method": method, "nees3": n3, "neesv": nv, "nees6": n6}
 
 
 def main() -> int:
@@ -100,16 +141,17 @@ def main() -> int:
     lines = [f"NEES on {len(seeds)} simulated drives of {a.duration:g} s with {a.stops} stops (seeds {a.seeds}, "
              f"GNSS {a.gnss}, motion law {a.motion_noise}), "
              f"1 Hz epochs after {a.skip:g} s; [95 % CI] of the share inside: bootstrap over the drives", "",
-             "| method | epochs | pos NEES mean (3 dof) | inside 95 % band | pos+vel NEES mean (6 dof) | inside |",
-             "|---|---:|---:|---:|---:|---:|"]
-    bands = {3: chi2.ppf([0.025, 0.975], 3), 6: chi2.ppf([0.025, 0.975], 6)}
+             "| method | epochs | pos NEES mean (3 dof) | inside 95 % band | vel NEES mean (3 dof) | inside | "
+             "pos+vel NEES mean (6 dof) | inside |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    bands = {"3": chi2.ppf([0.025, 0.975], 3), "v": chi2.ppf([0.025, 0.975], 3), "6": chi2.ppf([0.025, 0.975], 6)}
     rng = np.random.default_rng(0)
     for m in methods:
         mine = [r for r in runs if r["method"] == m]
-        draws = rng.integers(0, len(mine), size=(2000, len(mine)))  # the same drives for both dof
+        draws = rng.integers(0, len(mine), size=(2000, len(mine)))  # the same drives for the three
         rows[m] = {}
         cells = []
-        for dof in (3, 6):
+        for dof in ("3", "v", "6"):  # position, velocity, both
             per = [np.asarray(r[f"nees{dof}"]) for r in mine]
             lo, hi = bands[dof]
             inside = np.array([np.sum((x >= lo) & (x <= hi)) for x in per], dtype=float)
