@@ -8,6 +8,11 @@ field names in it replaced by the flags that set them); every ``type=float`` opt
 parse time; Ctrl-C anywhere — also inside a numba kernel, where it surfaces as a ``SystemError`` whose
 cause/context chain holds the ``KeyboardInterrupt`` — ends with one line and exit code 130.
 
+A command-line run (``main()`` reading ``sys.argv``) ends its process: it freezes the objects still alive at
+exit (:func:`gc.freeze`, at ``atexit``), so the interpreter's last garbage collection does not walk every
+object numba's typing and target set-up created (≈ 0.2 s CPU of a 1.2 s `nav --no-plots`). Nothing changes
+for ``main([...])`` called from Python.
+
 Top of the stack: a command may import any module of the data path (IMU → detection → modelling →
 filter) and :mod:`imunoise.experiments`; nothing but ``imunoise.__main__`` imports the CLI.
 """
@@ -15,6 +20,8 @@ filter) and :mod:`imunoise.experiments`; nothing but ``imunoise.__main__`` impor
 from __future__ import annotations
 
 import argparse
+import atexit
+import gc
 import importlib
 import pkgutil
 import sys
@@ -63,6 +70,8 @@ def interrupted(exc: BaseException) -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
+    if argv is None:  # the command line: the process ends with this command (module docstring)
+        atexit.register(gc.freeze)
     parser = build_parser()
     args = parser.parse_args(argv)
     if getattr(args, "func", None) is None:
