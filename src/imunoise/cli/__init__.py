@@ -36,7 +36,10 @@ EPILOG = """examples:
 run `imunoise COMMAND --help` for the options and examples of each command."""
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser | None:
+    """The `imunoise` parser with every command, or with only ``command`` when the module of that name (``-``
+    dropped: ``warm-up`` → ``warmup``) registers it: a run of one command then imports and builds only its
+    own parser (its options, help and errors are the same); None when that module does not register it."""
     parser = argparse.ArgumentParser(
         prog="imunoise",
         description="Stochastic error modelling of inertial sensors (GMWM) and INS/GNSS navigation.",
@@ -45,13 +48,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"imunoise {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-        if info.name.startswith("_"):
-            continue
-        module = importlib.import_module(f"{__name__}.{info.name}")
+    names = sorted(m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_"))
+    if command is not None:
+        names = [n for n in names if n == command.replace("-", "")]
+    for name in names:
+        module = importlib.import_module(f"{__name__}.{name}")
         register = getattr(module, "register", None)
         if register is not None:
             register(sub)
+    if command is not None and command not in sub.choices:
+        return None
     finite_floats_everywhere(parser)
     return parser
 
@@ -72,7 +78,9 @@ def interrupted(exc: BaseException) -> bool:
 def main(argv: list[str] | None = None) -> int:
     if argv is None:  # the command line: the process ends with this command (module docstring)
         atexit.register(gc.freeze)
-    parser = build_parser()
+    words = sys.argv[1:] if argv is None else argv
+    first = words[0] if words and not words[0].startswith("-") else None
+    parser = (build_parser(first) if first else None) or build_parser()
     args = parser.parse_args(argv)
     if getattr(args, "func", None) is None:
         parser.print_help()
