@@ -5,7 +5,7 @@ acceptance 4).
 5 fresh processes each; target ≤ 0.3 s on a quiet machine). `imunoise nav` on the bundled drive
 (data/drive_0708, 548 s) is timed as a whole process, with and without the PNG figures, beside the
 filter-only time the run reports itself (``elapsed_s`` of its metrics.json, SPEC §8), and the difference is
-broken down: imports (``python -X importtime``) and the phases of one run under cProfile.
+broken down: imports (``python -X importtime``) and the CPU of each phase of a run (:data:`PHASES`).
 
 The C++ reference: when the environment variable ``IMUNOISE_KFGINS`` names a KF-GINS executable
 (i2Nav-WHU/KF-GINS, GPL-3, built from its own repository: imunoise does not ship it), it runs in the same
@@ -21,7 +21,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import pstats
 import resource
 import statistics
 import subprocess
@@ -122,44 +121,83 @@ def _import_s(argv: list[str]) -> tuple[float, dict[str, float]]:
     return sum(by_pkg.values()), by_pkg
 
 
-# phases of a `--no-plots` run: (label, file suffix, function), cumulative CPU under cProfile
-PHASES = [
-    ("read IMU/GNSS/reference files", "navrun.py", "read_nav_inputs"),
-    ("coarse alignment", "align.py", "coarse_align"),
-    ("run_ekf (checks, kernel load, filter, output arrays)", "ekf.py", "run_ekf"),
-    ("write trajectory.nav", "navrun.py", "write_trajectory"),
-    ("errors against the reference, metrics.json", "navrun.py", "run_metrics"),
-    ("numba: target set-up and cached machine code, all kernels (inside the rows above)", "caching.py",
-     "load_overload"),
-]
 # whole-process figures of KF-GINS (C++) on this drive, NOT measured by this script: issue "Performance where
 # users wait" measured them on the same 2-core machine kind, same drive and same initial state
 KFGINS_HISTORICAL = {"cpu_s": 1.19, "rss_mib": 4.7}
 
-_PROFILE = """
-import cProfile, sys, time
+# phases of a `nav` process: each function's CPU (time.process_time) summed over its calls, in a fresh process
+# run as from the command line (main() reading sys.argv); nothing is sampled or traced, so the figures add up
+PHASES = [
+    ("read IMU/GNSS/reference files", "imunoise.cli.nav", "read_nav_inputs"),
+    ("coarse alignment (the first kernel call: numba's CPU target starts here)", "imunoise.nav.align", "coarse_align"),
+    ("run_ekf (checks, kernel loads, filter, output arrays)", "imunoise.nav.ekf", "run_ekf"),
+    ("write trajectory.nav", "imunoise.cli.nav", "write_trajectory"),
+    ("errors against the reference (metrics)", "imunoise.cli.nav", "run_metrics"),
+]
+NUMBA_LABEL = "numba: CPU target set-up and cached machine code of every kernel (inside the rows above)"
+
+_PHASE_RUN = """
+import importlib, json, sys, time
+T = time.process_time
+record = sys.argv[1]
+spent, depth = {}, [0]
+def wrap(owner, name, label):
+    f = getattr(owner, name)
+    def timed(*a, **k):
+        nested = label == "numba" and depth[0] > 0  # a kernel load inside another: counted once
+        depth[0] += label == "numba"
+        t0 = T()
+        try:
+            return f(*a, **k)
+        finally:
+            depth[0] -= label == "numba"
+            if not nested:
+                spent[label] = spent.get(label, 0.0) + T() - t0
+    setattr(owner, name, timed)
 import imunoise.cli
-prof = cProfile.Profile(time.process_time)
-code = prof.runcall(imunoise.cli.main, sys.argv[2:])
-prof.dump_stats(sys.argv[1])
+for label, module, name in json.loads(sys.argv[2]):
+    wrap(importlib.import_module(module), name, label)
+from numba.core.dispatcher import Dispatcher
+wrap(Dispatcher, "_compile_for_args", "numba")
+start = T()
+def report():
+    with open(record, "w") as f:
+        json.dump({"start": start, "end": T(), **spent}, f)
+sys.argv = ["imunoise", *sys.argv[3:]]
+code = imunoise.cli.main()
+report()
 sys.exit(code)
 """
 
 
-def _profile(nav_args: list[str], out: Path) -> list[tuple[str, float]]:
-    """CPU seconds per phase of one run (cProfile with the process CPU clock)."""
-    prof = out.parent / "nav.prof"
-    subprocess.run(
-        [sys.executable, "-c", _PROFILE, str(prof), *nav_args],
-        env=_env(), check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    stats = pstats.Stats(str(prof)).stats  # type: ignore[attr-defined]
-    rows = []
-    for label, file, func in PHASES:
-        cum = sum(v[3] for (f, _, name), v in stats.items() if name == func and f.endswith(file))
-        rows.append((label, cum))
-    total = sum(v[3] for (f, _, name), v in stats.items() if name == "main" and f.endswith("cli/__init__.py"))
-    rows.append(("whole command after the imports of `imunoise.cli` (profiler overhead included)", total))
+def _phases(nav_args: list[str], reps: int = 3) -> list[tuple[str, float]]:
+    """Median CPU [s] per phase of ``reps`` fresh `nav` processes (:data:`PHASES`), with the interpreter start
+    and imports before the command, the rest of the command, and the interpreter's exit (the process's CPU
+    from wait4 minus its CPU when the command returned)."""
+    runs = []
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = Path(tmp) / "phases.json"
+        for _ in range(reps):
+            proc = subprocess.Popen([sys.executable, "-c", _PHASE_RUN, str(rec), json.dumps(PHASES), *nav_args],
+                                    env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            _, status, ru = os.wait4(proc.pid, 0)
+            if os.waitstatus_to_exitcode(status) != 0:
+                raise RuntimeError(f"imunoise {' '.join(nav_args)} failed under the phase timer")
+            r = json.loads(rec.read_text())
+            r["total"] = ru.ru_utime + ru.ru_stime
+            runs.append(r)
+
+    def med(f) -> float:
+        return statistics.median(f(r) for r in runs)
+
+    rows = [("interpreter start and imports of `imunoise.cli` and the timed modules (numpy, numba)",
+             med(lambda r: r["start"]))]
+    rows += [(label, med(lambda r, k=label: r.get(k, 0.0))) for label, _, _ in PHASES]
+    rows.append(("rest of the command (parser, notice, checks, metrics.json, output staging)",
+                 med(lambda r: r["end"] - r["start"] - sum(r.get(k, 0.0) for k, _, _ in PHASES))))
+    rows.append(("interpreter exit", med(lambda r: r["total"] - r["end"])))
+    rows.append(("whole process (wait4)", med(lambda r: r["total"])))
+    rows.append((NUMBA_LABEL, med(lambda r: r.get("numba", 0.0))))
     return rows
 
 
@@ -299,7 +337,7 @@ def _nav() -> list[str]:
         rows = [(label, *(statistics.median(s[i] for s in samples[label]) for i in range(4))) for label, _ in cases]
         acc = _kfgins_accuracy(kf, Path(tmp) / "kf_full") if kf is not None else None
         imp_s, by_pkg = _import_s(["-m", "imunoise", *args, "--no-plots"])
-        phases = _profile([*args, "--no-plots"], out)
+        phases = _phases([*args, "--no-plots"])
     cpu_np = rows[1][2]
     lines += [
         f"548 s drive, default model; median of {NAV_REPS} fresh processes per row, the rows interleaved round by "
@@ -354,8 +392,10 @@ def _nav() -> list[str]:
         "scipy.linalg, which numba imports for its BLAS/LAPACK bindings when its CPU target starts (any kernel "
         "call); matplotlib is not imported (tests/cli/test_cli_startup.py asserts both).",
         "",
-        "Phases of one `--no-plots` run under cProfile, CPU clock (cumulative; the numba row overlaps the rows "
-        "above it: each kernel is loaded at its first call):",
+        "CPU of the phases of a `--no-plots` run (median of 3 fresh processes run as from the command line; each "
+        "function's `time.process_time` over its calls, no profiler; the numba row overlaps the rows above it: "
+        "numba's CPU target starts at the first kernel call and each kernel's machine code is loaded from the "
+        "cache at its first call):",
         "",
         "| phase | CPU [s] |",
         "|---|---:|",
