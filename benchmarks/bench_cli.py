@@ -389,8 +389,10 @@ def _nav() -> list[str]:
         f"Imports of a `--no-plots` run (`python -X importtime`, each module's own time, wall): {imp_s:.2f} s "
         "in all; " + ", ".join(f"{n} {by_pkg.get(n, 0.0):.2f} s" for n in IMPORT_GROUPS)
         + f", everything else {imp_s - sum(by_pkg.get(n, 0.0) for n in IMPORT_GROUPS):.2f} s. scipy is "
-        "scipy.linalg, which numba imports for its BLAS/LAPACK bindings when its CPU target starts (any kernel "
-        "call); matplotlib is not imported (tests/cli/test_cli_startup.py asserts both).",
+        "its top-level package (numba imports it) and the `scipy.linalg.cython_blas` extension numba's CPU target "
+        "loads for its BLAS bindings; the rest of scipy.linalg is deferred until something uses it "
+        "(imunoise.cli.scipy_defer; tests/cli/test_scipy_defer.py); matplotlib is not imported "
+        "(tests/cli/test_cli_startup.py).",
         "",
         "CPU of the phases of a `--no-plots` run (median of 3 fresh processes run as from the command line; each "
         "function's `time.process_time` over its calls, no profiler; the numba row overlaps the rows above it: "
