@@ -152,7 +152,8 @@ PHASES = [
 NUMBA_LABEL = "numba: CPU target set-up and cached machine code of every kernel (inside the rows above)"
 
 _PHASE_RUN = """
-import importlib, json, sys, time
+import gc, importlib, json, sys, time
+gc.disable()  # the timed modules are imported here, before main(): with the collector off as main() does
 T = time.process_time
 record = sys.argv[1]
 spent, depth = {}, [0]
@@ -174,6 +175,8 @@ for label, module, name in json.loads(sys.argv[2]):
     wrap(importlib.import_module(module), name, label)
 from numba.core.dispatcher import Dispatcher
 wrap(Dispatcher, "_compile_for_args", "numba")
+gc.freeze()
+gc.enable()
 start = T()
 def report():
     with open(record, "w") as f:
