@@ -100,6 +100,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from imunoise.cli.scipy_defer import defer_scipy_linalg
+
+    defer_scipy_linalg()  # before the first kernel: numba's BLAS check would run all of scipy.linalg's imports
     import numpy as np
 
     from imunoise.nav.align import coarse_align

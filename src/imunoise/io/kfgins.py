@@ -19,6 +19,7 @@ The writers live in :mod:`imunoise.io.kfgins_write` and are importable from here
 
 from __future__ import annotations
 
+import io
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -69,7 +70,11 @@ def _read_table(path: str | Path, what: str) -> tuple[list[str] | None, np.ndarr
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(2, "No such file", str(path))
-    raw = read_text(path, f"{what} file").splitlines()  # binary / truncated .gz -> DataError naming the file
+    text = read_text(path, f"{what} file")  # binary / truncated .gz -> DataError naming the file
+    data = _plain_table(text)
+    if data is not None:
+        return None, data, np.arange(1, data.shape[0] + 1, dtype=np.int64)
+    raw = text.splitlines()
     rows: list[str] = []
     lines: list[int] = []
     header: list[str] | None = None
@@ -105,6 +110,21 @@ def _read_table(path: str | Path, what: str) -> tuple[list[str] | None, np.ndarr
                 raise DataError(f"{what} file {path}, line {line_no[k]}: non-numeric value in {r!r}") from exc
         raise DataError(f"{what} file {path}: cannot parse numbers ({exc})") from exc
     return header, data, line_no
+
+
+def _plain_table(text: str) -> np.ndarray | None:
+    """The common case read by numpy's C parser: whitespace-separated numbers on every line, no header, no
+    comment, no blank line, the same column count everywhere (so the file line of row k is k + 1). None
+    otherwise: :func:`_read_table`'s line-by-line path then reads it and names any bad line. Both parse each
+    number to the nearest double, so the values are the same."""
+    if not text.strip() or "#" in text or "," in text:
+        return None
+    n_lines = text.count("\n") + (0 if text.endswith("\n") else 1)
+    try:
+        data = np.loadtxt(io.StringIO(text), dtype=float, ndmin=2)
+    except ValueError:
+        return None
+    return data if data.shape[0] == n_lines else None
 
 
 def _check_finite(data: np.ndarray, lines: np.ndarray, path: Path, what: str, cols: Sequence[int]) -> None:
