@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from imunoise.ar1_math import ar1_g
+from imunoise.ar1_math import _tail, ar1_g
 from imunoise.processes import AR1, DR, MA1, N_PARAMS, QN, RW, V_HI, WN
 
 # kind codes and numba forms of the registry, frozen as compile-time constants of the kernels
@@ -28,7 +28,56 @@ _AR1_T, _WN_T, _QN_T, _RW_T, _DR_T = AR1.nb_wv_theta, WN.nb_wv_theta, QN.nb_wv_t
 _MA1, _MA1_U, _MA1_T = MA1.code, MA1.nb_wv_u, MA1.nb_wv_theta
 _NP = N_PARAMS
 
-__all__ = ["ar1_g", "wv_and_jacobian", "objectives", "levenberg_marquardt", "wv_of_theta"]
+__all__ = ["ar1_g", "ar1_g_levels", "wv_and_jacobian", "objectives", "levenberg_marquardt", "wv_of_theta"]
+
+
+@njit(cache=True)
+def ar1_g_levels(tau, L, g, gL):
+    """:func:`~imunoise.ar1_math.ar1_g` at m = τ_j/2 for every level, into ``g`` and ``gL`` (SPEC §2).
+
+    The same operations on the same operands as ``ar1_g(tau[j] / 2.0, L)``, so the same bits (a test checks
+    it); what does not depend on the level (φ, expm1(L), expm1(2L) and their series tails) is computed once
+    instead of once per level: the solver evaluates the AR1 WV at every step of every candidate.
+
+    Parameters
+    ----------
+    tau
+        Scales τ_j in samples.
+    L
+        ln φ (< 0).
+    g, gL
+        Outputs of shape (J,): ν_AR1(τ_j)/σ² and its derivative with respect to L.
+
+    Returns
+    -------
+    None
+    """
+    phi = math.exp(L)
+    e1 = math.expm1(L)
+    e2 = math.expm1(2 * L)
+    a = -e1
+    b = -e2
+    t31 = t32 = t21 = 0.0
+    have3 = have2 = False
+    for j in range(tau.shape[0]):
+        m = tau[j] / 2.0
+        if abs((2 * m + 1) * L) < 1.0:
+            if not have3:
+                t31, t32, have3 = _tail(L, 3), _tail(2 * L, 3), True
+            num = -3.0 * t31 - m * t32 + 4.0 * _tail((m + 1) * L, 3) - _tail((2 * m + 1) * L, 3)
+        else:
+            num = -3.0 * e1 - m * e2 + 4.0 * math.expm1((m + 1) * L) - math.expm1((2 * m + 1) * L)
+        if abs(2 * m * L) < 1.0:
+            if not have2:
+                t21, have2 = _tail(L, 2), True
+            dnum = -2.0 * m * t21 + 4.0 * (m + 1) * _tail(m * L, 2) - (2 * m + 1) * _tail(2 * m * L, 2)
+        else:
+            dnum = -2.0 * m * e1 + 4.0 * (m + 1) * math.expm1(m * L) - (2 * m + 1) * math.expm1(2 * m * L)
+        den = 2.0 * m * m * a * a * b
+        gj = num / den
+        gphi = dnum / den + gj * 2.0 * (1.0 + 2.0 * phi) / b
+        g[j] = gj
+        gL[j] = gphi * phi
 
 
 @njit(cache=True)
@@ -52,13 +101,21 @@ def wv_and_jacobian(u, kinds, tau, nu, jac):
     """
     J = tau.shape[0]
     P = u.shape[0]
+    _wv_jac(u, kinds, tau, nu, jac, np.empty(J), np.empty(J), np.empty(P), np.empty(P, dtype=np.int64))
+
+
+@njit(cache=True)
+def _wv_jac(u, kinds, tau, nu, jac, g, gL, ar_exp, ar_idx):
+    """:func:`wv_and_jacobian` with its scratch given (the solver allocates it once per solve): ``g``, ``gL``
+    of shape (J,) for one AR1's levels, ``ar_exp`` (float) and ``ar_idx`` (int64) of shape (P,)."""
+    J = tau.shape[0]
+    P = u.shape[0]
     for j in range(J):
         nu[j] = 0.0
         for p in range(P):
             jac[j, p] = 0.0
     p = 0
     n_ar = 0
-    ar_idx = np.empty(P, dtype=np.int64)
     v = 0.0
     for c in range(kinds.shape[0]):
         kind = kinds[c]
@@ -67,21 +124,22 @@ def wv_and_jacobian(u, kinds, tau, nu, jac):
             if n_ar == 0:
                 v = u[p]
             else:
-                v = v + math.exp(u[p])
+                ar_exp[n_ar] = math.exp(u[p])  # level-free: once per component
+                v = v + ar_exp[n_ar]
             n_ar += 1
             capped = v > V_HI + 1.0
             vv = min(v, V_HI + 1.0)
             L = -math.exp(vv)
             s2 = math.exp(u[p + 1])
+            ar1_g_levels(tau, L, g, gL)
             for j in range(J):
-                g, gL = ar1_g(tau[j] / 2.0, L)
-                nu[j] += s2 * g
-                jac[j, p + 1] += s2 * g
+                nu[j] += s2 * g[j]
+                jac[j, p + 1] += s2 * g[j]
                 if not capped:
-                    dv = s2 * gL * L  # dL/dv = L
+                    dv = s2 * gL[j] * L  # dL/dv = L
                     jac[j, ar_idx[0]] += dv
                     for q in range(1, n_ar):
-                        jac[j, ar_idx[q]] += dv * math.exp(u[ar_idx[q]])
+                        jac[j, ar_idx[q]] += dv * ar_exp[q]
         elif kind == _WN:
             _WN_U(u, p, tau, nu, jac)
         elif kind == _QN:
@@ -156,39 +214,66 @@ def levenberg_marquardt(u0, kinds, tau, nuhat, W, lo, hi, max_iter, rtol):
     jac = np.empty((J, P))
     nu_n = np.empty(J)
     jac_n = np.empty((J, P))
-    wv_and_jacobian(u, kinds, tau, nu, jac)
-    r = W @ (nuhat - nu)
-    f = r @ r
+    gw, gLw, ar_exp, ar_idx = np.empty(J), np.empty(J), np.empty(P), np.empty(P, dtype=np.int64)
+    # every array of the iterations allocated once: np.dot(a, b, out) is the BLAS call that ``a @ b`` makes
+    # (numba computes ``a @ b`` as np.dot(a, b, np.empty(...))), so the numbers are the same
+    r = np.empty(J)
+    rn = np.empty(J)
+    diff = np.empty(J)
+    Jr = np.empty((J, P))
+    A = np.empty((P, P))
+    M = np.empty((P, P))
+    g = np.empty(P)
+    neg_g = np.empty(P)
+    d = np.empty(P)
+    un = np.empty(P)
+    _wv_jac(u, kinds, tau, nu, jac, gw, gLw, ar_exp, ar_idx)
+    for j in range(J):
+        diff[j] = nuhat[j] - nu[j]
+    np.dot(W, diff, r)
+    f = np.dot(r, r)
     lam = 1e-3
     converged = False
     it = 0
     small_steps = 0
     for it in range(1, max_iter + 1):  # noqa: B007 (returned after the loop)
-        Jr = -(W @ jac)
-        A = Jr.T @ Jr
-        g = Jr.T @ r
-        d = np.empty(P)
+        np.dot(W, jac, Jr)
+        for j in range(J):
+            for i in range(P):
+                Jr[j, i] = -Jr[j, i]
+        np.dot(Jr.T, Jr, A)
+        np.dot(Jr.T, r, g)
         dmax = 0.0
         for i in range(P):
             dmax = max(dmax, A[i, i])
         for i in range(P):
             d[i] = max(A[i, i], 1e-12 * dmax + 1e-300)
+            neg_g[i] = -g[i]
         improved = False
         for _ in range(40):
-            M = A.copy()
+            M[:, :] = A
             for i in range(P):
                 M[i, i] += lam * d[i]
-            step = np.linalg.solve(M, -g)
-            un = np.minimum(np.maximum(u + step, lo), hi)
-            wv_and_jacobian(un, kinds, tau, nu_n, jac_n)
-            rn = W @ (nuhat - nu_n)
-            fn = rn @ rn
+            step = np.linalg.solve(M, neg_g)
+            for i in range(P):
+                # np.minimum(np.maximum(u + step, lo), hi), NaN kept
+                x = u[i] + step[i]
+                if x < lo[i]:
+                    x = lo[i]
+                if x > hi[i]:
+                    x = hi[i]
+                un[i] = x
+            _wv_jac(un, kinds, tau, nu_n, jac_n, gw, gLw, ar_exp, ar_idx)
+            for j in range(J):
+                diff[j] = nuhat[j] - nu_n[j]
+            np.dot(W, diff, rn)
+            fn = np.dot(rn, rn)
             if fn < f and np.isfinite(fn):
                 improved = True
                 decrease = f - fn
-                u = un
+                u[:] = un
                 f = fn
-                r = rn
+                r[:] = rn
                 nu[:] = nu_n
                 jac[:, :] = jac_n
                 lam = max(lam / 3.0, 1e-15)
