@@ -12,12 +12,13 @@ from imunoise.model import Model
 
 def test_ar1_g_levels_is_ar1_g_bit_for_bit():
     # both series regimes (|kL| < 1 and ≥ 1) and the switch between them, from φ → 1 to fast AR1s
-    tau = 2.0 ** np.arange(1, 21)
-    for L in -np.geomspace(1e-9, 30.0, 157):
-        g, gL = np.empty(len(tau)), np.empty(len(tau))
-        ar1_g_levels(tau, L, g, gL)
-        ref = np.array([ar1_g(t / 2.0, L) for t in tau])
-        assert np.array_equal(g, ref[:, 0]) and np.array_equal(gL, ref[:, 1]), L
+    # the dyadic grid of the WV (terms reused from level to level) and an irregular one (nothing reused)
+    for tau in (2.0 ** np.arange(1, 21), np.array([2.0, 3.0, 4.0, 6.0, 7.0, 14.0, 20.0, 40.0, 41.0, 500.0])):
+        for L in -np.geomspace(1e-9, 30.0, 157):
+            g, gL = np.empty(len(tau)), np.empty(len(tau))
+            ar1_g_levels(tau, L, g, gL)
+            ref = np.array([ar1_g(t / 2.0, L) for t in tau])
+            assert np.array_equal(g, ref[:, 0]) and np.array_equal(gL, ref[:, 1]), (tau, L)
 
 
 def test_chained_ar1_jacobian_matches_finite_differences():

@@ -37,7 +37,8 @@ def ar1_g_levels(tau, L, g, gL):
 
     The same operations on the same operands as ``ar1_g(tau[j] / 2.0, L)``, so the same bits (a test checks
     it); what does not depend on the level (φ, expm1(L), expm1(2L) and their series tails) is computed once
-    instead of once per level: the solver evaluates the AR1 WV at every step of every candidate.
+    instead of once per level, and a term whose argument equals one of the previous level's is reused: the
+    solver evaluates the AR1 WV at every step of every candidate.
 
     Parameters
     ----------
@@ -59,20 +60,42 @@ def ar1_g_levels(tau, L, g, gL):
     b = -e2
     t31 = t32 = t21 = 0.0
     have3 = have2 = False
+    # On the dyadic grid (τ_{j+1} = 2τ_j) the argument (2m+1)L of level j is (m'+1)L of level j+1, and 2mL is
+    # m'L: a value is reused when its argument (and the branch it was computed in) is exactly the same.
+    last_n, last_n_val, last_n_small = math.nan, 0.0, False
+    last_d, last_d_val, last_d_small = math.nan, 0.0, False
     for j in range(tau.shape[0]):
         m = tau[j] / 2.0
-        if abs((2 * m + 1) * L) < 1.0:
+        xa = (m + 1) * L
+        xb = (2 * m + 1) * L
+        if abs(xb) < 1.0:
             if not have3:
                 t31, t32, have3 = _tail(L, 3), _tail(2 * L, 3), True
-            num = -3.0 * t31 - m * t32 + 4.0 * _tail((m + 1) * L, 3) - _tail((2 * m + 1) * L, 3)
+            fa = last_n_val if (xa == last_n and last_n_small) else _tail(xa, 3)
+            fb = _tail(xb, 3)
+            num = -3.0 * t31 - m * t32 + 4.0 * fa - fb
+            last_n_small = True
         else:
-            num = -3.0 * e1 - m * e2 + 4.0 * math.expm1((m + 1) * L) - math.expm1((2 * m + 1) * L)
-        if abs(2 * m * L) < 1.0:
+            fa = last_n_val if (xa == last_n and not last_n_small) else math.expm1(xa)
+            fb = math.expm1(xb)
+            num = -3.0 * e1 - m * e2 + 4.0 * fa - fb
+            last_n_small = False
+        last_n, last_n_val = xb, fb
+        xc = m * L
+        xd = 2 * m * L
+        if abs(xd) < 1.0:
             if not have2:
                 t21, have2 = _tail(L, 2), True
-            dnum = -2.0 * m * t21 + 4.0 * (m + 1) * _tail(m * L, 2) - (2 * m + 1) * _tail(2 * m * L, 2)
+            fc = last_d_val if (xc == last_d and last_d_small) else _tail(xc, 2)
+            fd = _tail(xd, 2)
+            dnum = -2.0 * m * t21 + 4.0 * (m + 1) * fc - (2 * m + 1) * fd
+            last_d_small = True
         else:
-            dnum = -2.0 * m * e1 + 4.0 * (m + 1) * math.expm1(m * L) - (2 * m + 1) * math.expm1(2 * m * L)
+            fc = last_d_val if (xc == last_d and not last_d_small) else math.expm1(xc)
+            fd = math.expm1(xd)
+            dnum = -2.0 * m * e1 + 4.0 * (m + 1) * fc - (2 * m + 1) * fd
+            last_d_small = False
+        last_d, last_d_val = xd, fd
         den = 2.0 * m * m * a * a * b
         gj = num / den
         gphi = dnum / den + gj * 2.0 * (1.0 + 2.0 * phi) / b
