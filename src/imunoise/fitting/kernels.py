@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from imunoise.ar1_math import _tail, ar1_g
+from imunoise.ar1_math import ar1_g
 from imunoise.processes import AR1, DR, MA1, N_PARAMS, QN, RW, V_HI, WN
 
 # kind codes and numba forms of the registry, frozen as compile-time constants of the kernels
@@ -29,6 +29,29 @@ _MA1, _MA1_U, _MA1_T = MA1.code, MA1.nb_wv_u, MA1.nb_wv_theta
 _NP = N_PARAMS
 
 __all__ = ["ar1_g", "ar1_g_levels", "wv_and_jacobian", "objectives", "levenberg_marquardt", "wv_of_theta"]
+
+
+@njit(cache=True)
+def _tail(x, order):
+    """exp(x) − Σ_{n<order} xⁿ/n! as :func:`imunoise.ar1_math._tail` computes it, to the bit, stopping the series
+    once a term is below 2⁻⁵⁵ of the sum: it cannot change the rounded sum, nor can any later term (smaller
+    still, |x| < ½), so the remaining additions would all return the sum unchanged."""
+    if abs(x) < 0.5:
+        term = x**order
+        for k in range(2, order + 1):
+            term /= k
+        acc = term
+        normal = abs(acc) > 1e-290  # the ulp argument needs a normal sum
+        for n in range(order + 1, order + 30):
+            term = term * x / n
+            if normal and abs(term) < abs(acc) * 2.0**-55:
+                break
+            acc += term
+        return acc
+    out = math.expm1(x) - x
+    if order == 3:
+        out -= 0.5 * x * x
+    return out
 
 
 @njit(cache=True)
