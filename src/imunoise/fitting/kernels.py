@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from imunoise.ar1_math import ar1_g
 from imunoise.processes import AR1, DR, MA1, N_PARAMS, QN, RW, V_HI, WN
@@ -233,6 +233,42 @@ def objectives(U, kinds, tau, nuhat, W):
     return out
 
 
+try:  # LAPACK's dgesv as numba's np.linalg.solve calls it (numba.np.linalg), without its copies and allocations
+    from numba.np.linalg import _LAPACK, F_INT_nptype
+
+    _XGESV = _LAPACK().numba_xgesv(types.float64)
+except (ImportError, AttributeError):  # pragma: no cover - another numba layout: np.linalg.solve itself
+    _XGESV = None
+    F_INT_nptype = np.int32
+
+if _XGESV is not None:
+
+    @njit(cache=True)
+    def _solve_into(M, b, MF, ipiv, x):  # pragma: no cover - compiled
+        """x = np.linalg.solve(M, b) with the scratch given: the same checks and errors, the same LAPACK call on
+        the same Fortran-ordered copy, so the same bits (MF, ipiv, x overwritten)."""
+        P = M.shape[0]
+        for i in range(P):
+            for j in range(P):
+                v = M[i, j]
+                if not np.isfinite(v):
+                    raise np.linalg.LinAlgError("Array must not contain infs or NaNs.")
+                MF[j, i] = v
+        for i in range(P):
+            if not np.isfinite(b[i]):
+                raise np.linalg.LinAlgError("Array must not contain infs or NaNs.")
+            x[i] = b[i]
+        r = _XGESV(ord("d"), P, 1, MF.ctypes, P, ipiv.ctypes, x.ctypes, P)
+        if r != 0:
+            raise np.linalg.LinAlgError("Matrix is singular to machine precision.")
+
+else:  # pragma: no cover
+
+    @njit(cache=True)
+    def _solve_into(M, b, MF, ipiv, x):
+        x[:] = np.linalg.solve(M, b)
+
+
 @njit(cache=True)
 def levenberg_marquardt(u0, kinds, tau, nuhat, W, lo, hi, max_iter, rtol):
     """Levenberg–Marquardt (Marquardt scaling) on r(u) = W(ν̂ − ν(u)) within box bounds (paper Eq. 6).
@@ -273,6 +309,9 @@ def levenberg_marquardt(u0, kinds, tau, nuhat, W, lo, hi, max_iter, rtol):
     neg_g = np.empty(P)
     d = np.empty(P)
     un = np.empty(P)
+    step = np.empty(P)
+    MF = np.empty((P, P))
+    ipiv = np.empty(P, dtype=F_INT_nptype)
     _wv_jac(u, kinds, tau, nu, jac, gw, gLw, ar_exp, ar_idx)
     for j in range(J):
         diff[j] = nuhat[j] - nu[j]
@@ -300,7 +339,7 @@ def levenberg_marquardt(u0, kinds, tau, nuhat, W, lo, hi, max_iter, rtol):
             M[:, :] = A
             for i in range(P):
                 M[i, i] += lam * d[i]
-            step = np.linalg.solve(M, neg_g)
+            _solve_into(M, neg_g, MF, ipiv, step)
             for i in range(P):
                 # np.minimum(np.maximum(u + step, lo), hi), NaN kept
                 x = u[i] + step[i]
@@ -309,6 +348,16 @@ def levenberg_marquardt(u0, kinds, tau, nuhat, W, lo, hi, max_iter, rtol):
                 if x > hi[i]:
                     x = hi[i]
                 un[i] = x
+            moved = False
+            for i in range(P):  # un bit for bit u? (a signed zero counts as a move)
+                moved = moved or un[i] != u[i] or math.copysign(1.0, un[i]) != math.copysign(1.0, u[i])
+            if not moved:
+                # the step vanished in rounding: the objective at un is f itself (the same numbers in, the same out),
+                # not a descent; damp more, as the test below would
+                lam *= 4.0
+                if lam > 1e16:
+                    break
+                continue
             _wv_jac(un, kinds, tau, nu_n, jac_n, gw, gLw, ar_exp, ar_idx)
             for j in range(J):
                 diff[j] = nuhat[j] - nu_n[j]
