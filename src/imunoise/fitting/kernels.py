@@ -28,7 +28,7 @@ _AR1_T, _WN_T, _QN_T, _RW_T, _DR_T = AR1.nb_wv_theta, WN.nb_wv_theta, QN.nb_wv_t
 _MA1, _MA1_U, _MA1_T = MA1.code, MA1.nb_wv_u, MA1.nb_wv_theta
 _NP = N_PARAMS
 
-__all__ = ["ar1_g", "ar1_g_levels", "wv_and_jacobian", "objectives", "levenberg_marquardt", "wv_of_theta"]
+__all__ = ["ar1_g", "ar1_g_levels", "wv_and_jacobian", "objectives", "levenberg_marquardt", "wv_of_theta", "u_rows"]
 
 
 @njit(cache=True)
@@ -387,6 +387,86 @@ def levenberg_marquardt(u0, kinds, tau, nuhat, W, lo, hi, max_iter, rtol):
             converged = True
             break
     return u, f, it, converged
+
+
+@njit(cache=True)
+def u_rows(thetas, kinds, scale):  # pragma: no cover - compiled
+    """u of every row of ``thetas`` (before clipping to the bounds), as the processes' ``u_from_theta`` walk of
+    :func:`imunoise.fitting.params.thetas_to_u` computes it: the same operations in the same order (Python's
+    ``max(a, b)`` is ``b if b > a else a``, ``min(a, b)`` is ``b if b < a else a``, NaN kept), so the same bits;
+    a test compares the two on every registered kind. ``ok`` is False for a kind without a compiled form here
+    (the caller falls back to the processes' own walk).
+
+    Parameters
+    ----------
+    thetas
+        (n, P) natural parameter vectors of one structure.
+    kinds
+        Kind codes of the components.
+    scale
+        The normalisation c of the problem's WV.
+
+    Returns
+    -------
+    U, ok
+        (n, P) unconstrained parameters and whether every kind was known.
+    """
+    n, P = thetas.shape
+    U = np.empty((n, P))
+    hi_phi = 1.0 - 1e-15
+    lo_ma = -1.0 + 1e-15
+    for r in range(n):
+        p = 0
+        chain = 0.0
+        chained = False
+        for c in range(kinds.shape[0]):
+            k = kinds[c]
+            if k == _AR1:  # AR1.u_from_theta (the ordering chain of fitting.params)
+                phi = thetas[r, p]
+                if 1e-300 > phi:
+                    phi = 1e-300
+                if hi_phi < phi:
+                    phi = hi_phi
+                v = math.log(-math.log(phi))
+                if not chained:
+                    U[r, p] = v
+                else:
+                    x = v - chain
+                    if 1e-9 > x:
+                        x = 1e-9
+                    U[r, p] = math.log(x)
+                    v = chain + math.exp(U[r, p])
+                chain = v
+                chained = True
+                x = thetas[r, p + 1] / scale
+                if 1e-300 > x:
+                    x = 1e-300
+                U[r, p + 1] = math.log(x)
+            elif k == _WN or k == _QN or k == _RW:  # Process.u_from_theta
+                x = thetas[r, p] / scale
+                if 1e-300 > x:
+                    x = 1e-300
+                U[r, p] = math.log(x)
+            elif k == _DR:  # DR.u_from_theta
+                x = abs(thetas[r, p]) / math.sqrt(scale)
+                if 1e-150 > x:
+                    x = 1e-150
+                U[r, p] = math.log(x)
+            elif k == _MA1:  # MA1.u_from_theta
+                x = thetas[r, p]
+                if lo_ma > x:
+                    x = lo_ma
+                if hi_phi < x:
+                    x = hi_phi
+                U[r, p] = math.atanh(x)
+                x = thetas[r, p + 1] / scale
+                if 1e-300 > x:
+                    x = 1e-300
+                U[r, p + 1] = math.log(x)
+            else:
+                return U, False
+            p += _NP[k]
+    return U, True
 
 
 @njit(cache=True)
