@@ -294,8 +294,9 @@ def _span(nav: Any, a: int, e: int, t, dth, dv, gyro, accel, static, gate, runs)
         while fixes and fixes[0][0] <= ts[-1]:
             fixes.pop(0)
         if cfg.stop_guard == "nav":
-            for _ in range(int(rec.sum())):
-                nav._run_row(math.nan, math.nan, 0.0, math.nan)
+            k = int(rec.sum())
+            nav._run_rows(np.column_stack([np.full(k, math.nan), np.full(k, math.nan), np.zeros(k),
+                                           np.full(k, math.nan)]))
     else:
         _filter_span(nav, ts, dth[a:e], dv[a:e], gate, rec, static)
     # raw samples are needed only back to the start of a possible segment
@@ -343,18 +344,21 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
         t_aided = np.where(last >= 0, ts[np.maximum(last, 0)], nav._t_aided)
         nav._t_aided = float(ts[ua[-1]])
     if guard:
-        for i in np.flatnonzero(rec):
-            v0, v1 = float(rows[i, _VEL]), float(rows[i, _VEL + 1])
-            P_vel = pv[i]
-            nis = math.nan
-            if cfg.stop_chi2 > 0:
+        # the rows _record_nav writes, one block per span: the same scalar operations (math.hypot, math.sqrt of
+        # max(·, 0.0)) on the same values, element by element
+        idx = np.flatnonzero(rec)
+        speed = [math.hypot(v0, v1) for v0, v1 in zip(rows[idx, _VEL].tolist(), rows[idx, _VEL + 1].tolist())]
+        sigma = [math.sqrt(max(p0 + p1, 0.0)) for p0, p1 in zip(pv[idx, 0, 0].tolist(), pv[idx, 1, 1].tolist())]
+        aided = (ts[idx] - t_aided[idx] <= cfg.stop_aided_s).astype(float)
+        nis = np.full(idx.size, math.nan)
+        if cfg.stop_chi2 > 0:
+            for n, i in enumerate(idx):
                 v = rows[i, _VEL:_VEL + 3]
                 try:
-                    nis = float(v @ np.linalg.solve(P_vel + cfg.zupt_sigma_v**2 * np.eye(3), v))
+                    nis[n] = float(v @ np.linalg.solve(pv[i] + cfg.zupt_sigma_v**2 * np.eye(3), v))
                 except np.linalg.LinAlgError:
-                    nis = math.inf
-            nav._run_row(math.hypot(v0, v1), math.sqrt(max(P_vel[0, 0] + P_vel[1, 1], 0.0)),
-                         float(ts[i] - t_aided[i] <= cfg.stop_aided_s), nis)
+                    nis[n] = math.inf
+        nav._run_rows(np.column_stack([speed, sigma, aided, nis]))
     if nav._motion is not None:
         nav._motion.observe_span(ts, dth, dv, static, [f for f, u in zip(fl, used, strict=True) if u])
     if nav._store is not None:
