@@ -318,7 +318,9 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
     while j < len(q) and q[j][0] <= ts[-1]:
         j += 1
     fl, nav._gnss = q[:j], q[j:]
-    fl = [f for f in fl if f[0] > nav.init.t and np.all(np.isfinite(f[1]))]
+    if fl:  # finite positions (one vectorised test; push_gnss keeps (3,) positions)
+        finite = np.isfinite(np.array([f[1] for f in fl], dtype=float).reshape(len(fl), -1)).all(axis=1).tolist()
+        fl = [f for f, ok in zip(fl, finite, strict=True) if f[0] > nav.init.t and ok]
     ft = np.array([f[0] for f in fl], dtype=float)
     sig = np.array([f[2] for f in fl], dtype=float).reshape(-1, 3)
     sig = np.where(np.isfinite(sig), sig, ec.gnss_sigma_nan)
