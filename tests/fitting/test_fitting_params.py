@@ -120,3 +120,26 @@ def test_compiled_rows_are_the_process_walk_to_the_bit():
             assert ok
             ref = _u_rows_walk(TH, steps, P, scale)
             assert U.tobytes() == ref.tobytes(), (text, scale)
+
+
+def test_process_from_values_is_the_keyword_constructor():
+    # the same process for good values, the same error (type and message) for bad ones, every registered kind
+    import pytest
+
+    from imunoise.errors import ModelError
+
+    for cls in PROCESS_TYPES.values():
+        k = len(cls.param_names)
+        for vals in ([0.5] * k, [0.25, 3e-7][:k] if k == 2 else [3e-7], [-1.0] * k, [math.nan] * k, [2.0] * k,
+                     [0.5] * (k - 1), [0.5] * (k + 1), [math.inf] * k):
+            try:
+                ref = cls(**dict(zip(cls.param_names, vals)))
+            except ModelError as exc:
+                with pytest.raises(ModelError) as got:
+                    cls.from_values(vals)
+                assert str(got.value) == str(exc)
+                continue
+            new = cls.from_values(vals)
+            assert type(new) is cls and new == ref and new.known == ref.known
+            if ref.known:
+                assert np.array(new.values).tobytes() == np.array(ref.values).tobytes()
