@@ -48,7 +48,7 @@ def test_chained_ar1_jacobian_matches_finite_differences():
 
 def test_series_tail_stops_early_without_changing_a_bit():
     from imunoise.ar1_math import _tail as reference
-    from imunoise.fitting.kernels import _tail
+    from imunoise.fitting.ar1_levels import series_tail as _tail
 
     xs = np.concatenate([-np.geomspace(1e-300, 0.4999, 3000), np.geomspace(1e-300, 0.4999, 3000),
                          np.linspace(-0.6, 0.6, 1201)])

@@ -13,12 +13,12 @@ import math
 
 from numba import njit
 
-__all__ = ["ar1_g_levels"]
+__all__ = ["ar1_g_levels", "series_tail"]
 
 
 @njit(cache=True)
-def _tail(x, order):
-    """exp(x) − Σ_{n<order} xⁿ/n! as :func:`imunoise.ar1_math._tail` computes it, to the bit, stopping the series
+def series_tail(x, order):
+    """exp(x) − Σ_{n<order} xⁿ/n! as ``imunoise.ar1_math._tail`` computes it, to the bit, stopping the series
     once a term is below 2⁻⁵⁵ of the sum: it cannot change the rounded sum, nor can any later term (smaller
     still, |x| < ½), so the remaining additions would all return the sum unchanged."""
     if abs(x) < 0.5:
@@ -78,9 +78,9 @@ def ar1_g_levels(tau, L, g, gL):
         xb = (2 * m + 1) * L
         if abs(xb) < 1.0:
             if not have3:
-                t31, t32, have3 = _tail(L, 3), _tail(2 * L, 3), True
-            fa = last_n_val if (xa == last_n and last_n_small) else _tail(xa, 3)
-            fb = _tail(xb, 3)
+                t31, t32, have3 = series_tail(L, 3), series_tail(2 * L, 3), True
+            fa = last_n_val if (xa == last_n and last_n_small) else series_tail(xa, 3)
+            fb = series_tail(xb, 3)
             num = -3.0 * t31 - m * t32 + 4.0 * fa - fb
             last_n_small = True
         else:
@@ -93,9 +93,9 @@ def ar1_g_levels(tau, L, g, gL):
         xd = 2 * m * L
         if abs(xd) < 1.0:
             if not have2:
-                t21, have2 = _tail(L, 2), True
-            fc = last_d_val if (xc == last_d and last_d_small) else _tail(xc, 2)
-            fd = _tail(xd, 2)
+                t21, have2 = series_tail(L, 2), True
+            fc = last_d_val if (xc == last_d and last_d_small) else series_tail(xc, 2)
+            fd = series_tail(xd, 2)
             dnum = -2.0 * m * t21 + 4.0 * (m + 1) * fc - (2 * m + 1) * fd
             last_d_small = True
         else:

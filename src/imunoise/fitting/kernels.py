@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit, types
 
 from imunoise.ar1_math import ar1_g
-from imunoise.fitting.ar1_levels import _tail, ar1_g_levels  # noqa: F401 - _tail: its test imports it here
+from imunoise.fitting.ar1_levels import ar1_g_levels
 from imunoise.processes import AR1, DR, MA1, N_PARAMS, QN, RW, V_HI, WN
 
 # kind codes and numba forms of the registry, frozen as compile-time constants of the kernels
