@@ -132,7 +132,21 @@ class Process:
         return self._values
 
     def with_values(self, values: tuple[float, ...] | list[float] | np.ndarray) -> Process:
-        return type(self)(**dict(zip(self.param_names, (float(v) for v in values))))
+        return type(self).from_values(values)
+
+    @classmethod
+    def from_values(cls, values: tuple[float, ...] | list[float] | np.ndarray) -> Process:
+        """``cls(name=value, ...)`` in parameter order: the same checks and errors, without building the keyword
+        dict when every value is there and finite (the model selection builds thousands of processes)."""
+        names = cls.param_names
+        vals = tuple(float(v) for _, v in zip(names, values))
+        # (a process class with its own __init__ goes through it)
+        if cls.__init__ is Process.__init__ and len(vals) == len(names) and all(math.isfinite(v) for v in vals):
+            proc = object.__new__(cls)
+            proc._validate(vals)
+            proc._values = vals
+            return proc
+        return cls(**dict(zip(names, vals)))
 
     def unknown(self) -> Process:
         return type(self)()
@@ -225,7 +239,7 @@ class Process:
     @classmethod
     def embedding(cls, frac: float, nu: np.ndarray, tau: np.ndarray) -> Process:
         """The process added to a fitted sub-model by the model selection: :meth:`start_values` kept off zero."""
-        return cls(**dict(zip(cls.param_names, (max(v, 1e-300) for v in cls.start_values(frac, nu, tau)))))
+        return cls.from_values([max(v, 1e-300) for v in cls.start_values(frac, nu, tau)])
 
     @classmethod
     def negligible(cls) -> Process:

@@ -166,13 +166,15 @@ def select_model(
     cands = candidates(complete_model)
     solved: dict[Candidate, Solved] = {}
     skipped: list[tuple[str, str]] = []
+    memo: dict = {}  # what the candidates' starts share on this problem
     for i, cand in enumerate(cands):
         if not fits_levels(cand.n_params, J):
             skipped.append((str(cand), f"{cand.n_params} parameters on {J} wavelet levels: needs at least "
                                        f"{cand.n_params + 1} (more data)"))
         else:
             try:
-                solved[cand] = fit_candidate(problem, cand, solved, n_random=n_random, n_local=n_local, seed=seed)
+                solved[cand] = fit_candidate(problem, cand, solved, n_random=n_random, n_local=n_local, seed=seed,
+                                             memo=memo)
             except FitError as exc:
                 skipped.append((str(cand), f"fit failed: {exc}"))
         if progress is not None:

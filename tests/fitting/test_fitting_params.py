@@ -99,3 +99,47 @@ def test_embedding_vectors_are_the_models_vectors():
             for v in got:
                 m = child.model.with_vector(v)
                 assert m.vector.tobytes() == v.tobytes()  # already in the order Model sorts it into
+
+
+def test_compiled_rows_are_the_process_walk_to_the_bit():
+    # every registered kind, values from 1e-320 to 1e30, both signs, zeros, NaN and infinities
+    from imunoise.fitting.kernels import u_rows
+    from imunoise.fitting.params import _plan, _u_rows_walk
+
+    rng = np.random.default_rng(7)
+    edge = [0.0, -0.0, 1e-320, -1e-320, 1.0, 1.0 - 1e-16, -1.0, np.nan, np.inf, -np.inf, 0.5, 1e30]
+    for text in ("3*AR1+WN+QN+RW+DR", "2*AR1+MA1+RW", "MA1+WN", "DR"):
+        kinds = kind_codes(Model.parse(text))
+        steps, lo, _ = _plan(kinds)
+        P = len(lo)
+        TH = rng.standard_normal((400, P)) * 10.0 ** rng.uniform(-320, 30, (400, P))
+        TH[:, :] = np.where(rng.uniform(size=(400, P)) < 0.3, rng.uniform(-0.2, 1.2, (400, P)), TH)
+        TH[: len(edge) * P].flat[:] = np.resize(edge, len(edge) * P * P)
+        for scale in (0.02, 1.0, 3e7):
+            U, ok = u_rows(TH, kinds, scale)
+            assert ok
+            ref = _u_rows_walk(TH, steps, P, scale)
+            assert U.tobytes() == ref.tobytes(), (text, scale)
+
+
+def test_process_from_values_is_the_keyword_constructor():
+    # the same process for good values, the same error (type and message) for bad ones, every registered kind
+    import pytest
+
+    from imunoise.errors import ModelError
+
+    for cls in PROCESS_TYPES.values():
+        k = len(cls.param_names)
+        for vals in ([0.5] * k, [0.25, 3e-7][:k] if k == 2 else [3e-7], [-1.0] * k, [math.nan] * k, [2.0] * k,
+                     [0.5] * (k - 1), [0.5] * (k + 1), [math.inf] * k):
+            try:
+                ref = cls(**dict(zip(cls.param_names, vals)))
+            except ModelError as exc:
+                with pytest.raises(ModelError) as got:
+                    cls.from_values(vals)
+                assert str(got.value) == str(exc)
+                continue
+            new = cls.from_values(vals)
+            assert type(new) is cls and new == ref and new.known == ref.known
+            if ref.known:
+                assert np.array(new.values).tobytes() == np.array(ref.values).tobytes()

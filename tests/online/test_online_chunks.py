@@ -166,3 +166,27 @@ def test_push_chunk_equals_push_imu(scenario):
     chunked = nav.finish()
     stream = _push(OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate), sc.imu, gnss)
     _same(chunked, stream)
+
+
+def test_a_bad_fix_in_the_record_raises_where_push_gnss_would(scenario):
+    """run() checks a record's fixes at once; a fix push_gnss refuses (here in degrees) still raises its error,
+    when the replay reaches it (the samples before it are processed), and a good record is taken as checked."""
+    from types import SimpleNamespace
+
+    from imunoise.errors import DataError
+
+    sc = scenario
+    assert chunks._fixes_pass(sc.gnss.t, sc.gnss.llh, sc.gnss.sigma_ned)
+    llh = np.array(sc.gnss.llh, dtype=float)
+    k = llh.shape[0] // 2
+    llh[k, :2] = np.degrees(llh[k, :2])
+    bad = SimpleNamespace(t=sc.gnss.t, llh=llh, sigma_ned=sc.gnss.sigma_ned)
+    assert not chunks._fixes_pass(bad.t, bad.llh, bad.sigma_ned)
+    nav = OnlineNavigator(_config(sc).with_(modelling=False), sc.init, imu_rate_hz=sc.rate)
+    with pytest.raises(DataError) as in_run:
+        nav.run(sc.imu, bad)
+    fresh = OnlineNavigator(_config(sc).with_(modelling=False), sc.init, imu_rate_hz=sc.rate)
+    with pytest.raises(DataError) as pushed:
+        fresh.push_gnss(bad.t[k], llh[k], bad.sigma_ned[k])
+    assert str(in_run.value) == str(pushed.value) and "cannot be radians" in str(in_run.value)
+    assert 0 < nav._t_last <= bad.t[k]

@@ -41,18 +41,42 @@ class Solved:
     elapsed_s: float
 
 
-def _embed_variants(problem: GMWMProblem, parent: Solved, kind: str, child: Candidate) -> list[np.ndarray]:
+def _embed_variants(
+    problem: GMWMProblem, parent: Solved, kind: str, child: Candidate, memo: dict | None = None
+) -> list[np.ndarray]:
     """Natural parameter vectors of ``child`` = parent's solution + one new process (several guesses).
 
     Each vector is what ``Model(parent components + [new]).vector`` is, written without building the model:
     the parent is canonical, so the new process goes where :class:`~imunoise.model.Model` sorts it (after
     the AR1s of larger or equal φ, or after the processes before its kind in :data:`~imunoise.model.ORDER`).
+    The guesses of the new process depend on the data alone: ``memo`` (one dict per problem) keeps them by kind.
     """
-    tau, nu = problem.tau, problem.wv.variance
-    J = len(tau)
     comps = parent.model.components
     base = parent.theta.tolist()
-    new: list[tuple[str, tuple[float, ...]]] = []  # (kind, values) of the added process
+    guesses = memo.get(kind) if memo is not None else None
+    if guesses is None:
+        guesses = _new_process_guesses(problem, kind)
+        if memo is not None:
+            memo[kind] = guesses
+    new = list(guesses)
+    if kind == "AR1":
+        # the zero-amplitude embedding (reproduces the parent's GOF)
+        new.append(("AR1", (_free_phi(parent.model), NEGLIGIBLE)))
+    out = []
+    for k, values in new:
+        if k != kind:
+            continue  # (never: the registry's embedding is of its own kind) the child would not be this one
+        off = _insert_at(comps, k, values)
+        out.append(np.array(base[:off] + list(values) + base[off:], dtype=float))
+    return out
+
+
+def _new_process_guesses(problem: GMWMProblem, kind: str) -> list[tuple[str, tuple[float, ...]]]:
+    """(kind, values) of the process added to a sub-model's fit at several amplitudes (an AR1 also at several
+    correlation scales), read off the problem's WV; the AR1's zero-amplitude embedding is added per parent."""
+    tau, nu = problem.tau, problem.wv.variance
+    J = len(tau)
+    new: list[tuple[str, tuple[float, ...]]] = []
     if kind == "AR1":
         # correlation scales spread over the grid: peak of the AR1 WV near τ ≈ 3.8 T (T in samples)
         levels = sorted(set(np.round(np.linspace(0, J - 1, min(J, 6))).astype(int).tolist()))
@@ -62,19 +86,11 @@ def _embed_variants(problem: GMWMProblem, parent: Solved, kind: str, child: Cand
             for frac in (0.5, 0.1):
                 var_gm = frac * nu[lev] / 0.19
                 new.append(("AR1", (phi, float(var_gm * (1.0 - phi * phi)))))
-        # the zero-amplitude embedding (reproduces the parent's GOF)
-        new.append(("AR1", (_free_phi(parent.model), NEGLIGIBLE)))
     else:
         for frac in (0.5, 0.1, 0.01, 0.0):
             proc = SINGLE[kind].embedding(frac, nu, tau)
             new.append((proc.kind, proc.values))
-    out = []
-    for k, values in new:
-        if k != kind:
-            continue  # (never: the registry's embedding is of its own kind) the child would not be this one
-        off = _insert_at(comps, k, values)
-        out.append(np.array(base[:off] + list(values) + base[off:], dtype=float))
-    return out
+    return new
 
 
 def _insert_at(comps: tuple[Process, ...], kind: str, values: tuple[float, ...]) -> int:
@@ -115,6 +131,7 @@ def fit_candidate(
     n_random: int,
     n_local: int,
     seed: int,
+    memo: dict | None = None,
 ) -> Solved:
     """Fit one candidate on the shared problem from its fitted immediate sub-models (module docstring).
 
@@ -128,6 +145,8 @@ def fit_candidate(
         The candidates fitted so far (its sub-models among them: candidates are visited small first).
     n_random, n_local, seed
         Guided random starts added, starts refined by LM, and their seed (:func:`~imunoise.fitting.estimate.solve`).
+    memo
+        One dict per problem, shared by its candidates: what their starts share is computed once.
 
     Returns
     -------
@@ -139,7 +158,7 @@ def fit_candidate(
     parents = [(solved[p], kind) for p, kind in cand.parents() if p in solved]
     starts: list[np.ndarray] = []
     for par, kind in parents:
-        starts += _embed_variants(problem, par, kind, cand)
+        starts += _embed_variants(problem, par, kind, cand, memo)
     u, _, conv, iters, n_starts = solve(problem, structure, starts, n_random=n_random, n_local=n_local, seed=seed)
     model, gof = finish_solution(problem, structure, u)
     if parents:

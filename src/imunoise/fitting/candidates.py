@@ -17,6 +17,7 @@ __all__ = ["Candidate", "candidates", "candidate_of", "SINGLE", "SINGLE_ORDER"]
 # the processes a model holds at most once, in canonical order (the registry); AR1 is the repeated one
 SINGLE = {k: cls for k, cls in PROCESS_TYPES.items() if cls.singleton}
 SINGLE_ORDER = tuple(SINGLE)
+_MODELS: dict = {}  # Candidate -> its structure (Model is immutable)
 
 
 @dataclass(frozen=True)
@@ -28,8 +29,11 @@ class Candidate:
 
     @property
     def model(self) -> Model:
-        comps = [AR1() for _ in range(self.n_ar1)] + [SINGLE[k]() for k in self.others]
-        return Model(comps)
+        """The structure (parameters unknown); one shared, immutable Model per candidate."""
+        model = _MODELS.get(self)
+        if model is None:
+            model = _MODELS[self] = Model([AR1() for _ in range(self.n_ar1)] + [SINGLE[k]() for k in self.others])
+        return model
 
     @property
     def n_params(self) -> int:

@@ -137,15 +137,7 @@ def theta_to_u(theta: np.ndarray, kinds: np.ndarray, scale: float) -> np.ndarray
     numpy.ndarray
         u, within the solver's bounds.
     """
-    u = np.empty_like(theta, dtype=float)
-    chain = None
-    steps, lo, hi = _plan(kinds)
-    th = theta.tolist() if isinstance(theta, np.ndarray) else theta  # float indexing: the same values, faster
-    for cls, p in steps:
-        chain = cls.u_from_theta(th, p, u, scale, chain)
-    # np.clip(u, lo, hi) (NaN kept), without its Python wrappers: this runs for every start of every candidate
-    np.maximum(u, lo, out=u)
-    return np.minimum(u, hi, out=u)
+    return thetas_to_u([theta], kinds, scale)[0]
 
 
 def thetas_to_u(thetas: list, kinds: np.ndarray, scale: float) -> np.ndarray:
@@ -165,17 +157,28 @@ def thetas_to_u(thetas: list, kinds: np.ndarray, scale: float) -> np.ndarray:
     numpy.ndarray
         (len(thetas), P) array of u, within the solver's bounds.
     """
+    from imunoise.fitting.kernels import u_rows  # numba: imported when a fit runs, not with this module
+
     steps, lo, hi = _plan(kinds)
-    convs = [(cls.u_from_theta, p) for cls, p in steps]
     P = len(lo)
+    TH = np.array(thetas, dtype=float).reshape(len(thetas), P) if len(thetas) else np.empty((0, P))
+    # the processes' walk below, compiled (the same bits; tests/fitting/test_fitting_params.py compares them)
+    U, ok = u_rows(TH, kinds, float(scale))
+    if not ok:
+        U = _u_rows_walk(TH, steps, P, scale)
+    np.maximum(U, lo, out=U)
+    return np.minimum(U, hi, out=U)
+
+
+def _u_rows_walk(TH: np.ndarray, steps: tuple, P: int, scale: float) -> np.ndarray:
+    """The rows of u through each process' ``u_from_theta`` (unclipped)."""
+    convs = [(cls.u_from_theta, p) for cls, p in steps]
     rows = []
-    for theta in thetas:
-        th = theta.tolist() if isinstance(theta, np.ndarray) else theta
+    for theta in TH:
+        th = theta.tolist()
         u = [0.0] * P
         chain = None
         for conv, p in convs:
             chain = conv(th, p, u, scale, chain)
         rows.append(u)
-    U = np.array(rows, dtype=float).reshape(len(rows), P)
-    np.maximum(U, lo, out=U)
-    return np.minimum(U, hi, out=U)
+    return np.array(rows, dtype=float).reshape(len(rows), P)

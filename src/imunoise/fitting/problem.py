@@ -207,19 +207,14 @@ def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: 
     """
     tau = problem.tau
     nu = problem.nuhat_n
-    J = len(tau)
-    n_ar = int(np.sum(kinds == AR1.code))
-    rng = np.random.default_rng(seed)
+    classes, plan = _start_plan(kinds, len(tau), n_random, seed)
 
-    classes = [_TYPES[k] for k in kinds.tolist()]
-
-    def build(ar_levels: np.ndarray, fr: dict[int, float], ar_amp: float) -> list[float]:
+    def build(levels: list[int], fr: dict[str, float], ar_amp: float) -> list[float]:
         theta: list[float] = []
         # AR1 part: peaks of the AR1 WV sit near τ ≈ 3.8 T (T the correlation time in samples), with
         # ν²_peak ≈ 0.19 σ²_GM.
-        levels = np.sort(ar_levels)[::-1]  # slowest first
         ar_params = []
-        for lev in levels:
+        for lev in levels:  # slowest first
             T = max(tau[lev] / 3.8, 0.05)
             phi = math.exp(-1.0 / T)
             var_gm = ar_amp * nu[lev] / 0.19
@@ -233,16 +228,38 @@ def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: 
                 theta += cls.start_values(fr[cls.kind], nu, tau)
         return theta
 
-    starts = []
+    starts = [build(levels, fr, amp) for levels, fr, amp in plan]
+    return thetas_to_u(starts, kinds, 1.0)
+
+
+_PLANS: dict[tuple, tuple[list, list]] = {}
+
+
+def _start_plan(kinds: np.ndarray, J: int, n_random: int, seed: int) -> tuple[list, list]:
+    """What :func:`guided_starts` draws does not depend on the data: the classes of the structure and, per start,
+    (AR1 levels slowest first, fraction per process, AR1 amplitude), the seeded draws included. Computed once per
+    (structure, number of levels, n_random, seed); each selection builds starts for 70-odd candidates from them."""
+    key = (kinds.tobytes(), J, n_random, seed)
+    plan = _PLANS.get(key)
+    if plan is not None:
+        return plan
+    n_ar = int(np.sum(kinds == AR1.code))
+    rng = np.random.default_rng(seed)
+    classes = [_TYPES[k] for k in kinds.tolist()]
+    out = []
     base_levels = (
         np.unique(np.round(np.linspace(J - 2, 1, n_ar)).astype(int)) if n_ar else np.array([], dtype=int)
     )
     if len(base_levels) < n_ar:
         base_levels = np.arange(n_ar)
+
+    def desc(levels: np.ndarray) -> list[int]:
+        return np.sort(levels)[::-1].tolist()
+
     for f_fine in (0.9, 0.5, 0.1):
         for f_coarse in (0.5, 0.05):
             fr = {cls.kind: f_fine if cls.starts_fine else f_coarse for cls in _TYPES}
-            starts.append(build(base_levels, fr, 0.5))
+            out.append((desc(base_levels), fr, 0.5))
     present = {_TYPES[k].kind for k in kinds}
     for _ in range(n_random):
         levels = np.sort(rng.choice(J, size=n_ar, replace=False)) if n_ar <= J else base_levels
@@ -251,8 +268,11 @@ def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: 
         fr = {k: float(10 ** rng.uniform(-3, 0)) for k in ("WN", "QN", "RW", "DR")}
         fr.update({k: float(10 ** rng.uniform(-3, 0)) for k, c in PROCESS_TYPES.items()
                    if c is not AR1 and k not in fr and k in present})
-        starts.append(build(levels, fr, float(10 ** rng.uniform(-1.5, 0.3))))
-    return thetas_to_u(starts, kinds, 1.0)
+        out.append((desc(levels), fr, float(10 ** rng.uniform(-1.5, 0.3))))
+    plan = (classes, out)
+    if len(_PLANS) < 4096:  # bounded: structures × level counts × seeds seen by one process
+        _PLANS[key] = plan
+    return plan
 
 
 def param_cov(problem: GMWMProblem, model: Model) -> np.ndarray | None:

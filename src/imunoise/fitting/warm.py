@@ -25,8 +25,8 @@ __all__ = ["warm_up", "modelling_dispatchers"]
 
 # modules whose kernels the identification and refit paths call
 # (the processes' numba forms are compiled as part of the fitting kernels that call them)
-_MODULES = ("imunoise.fitting.kernels", "imunoise.ar1_math", "imunoise.processes", "imunoise.process_ma1",
-            "imunoise.wv")
+_MODULES = ("imunoise.fitting.kernels", "imunoise.fitting.ar1_levels", "imunoise.ar1_math", "imunoise.processes",
+            "imunoise.process_ma1", "imunoise.wv")
 # the complete model of the online engine: every kind code (AR1, WN, QN, RW, DR) and a multi-AR1 structure
 _COMPLETE = "2*AR1 + DR + WN + QN + RW"
 

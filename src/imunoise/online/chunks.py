@@ -165,6 +165,16 @@ def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: n
     gi = 0
     base = nav.detector.n_samples
     fast = chunked(nav)
+    if _fixes_pass(gt, gllh, gsig):  # what push_gnss checks per fix, at once; then each fix goes in as checked
+
+        def push_gnss(k: int) -> None:
+            nav._push_fix(float(gt[k]), np.asarray(gllh[k], dtype=float).reshape(-1).copy(),
+                          np.asarray(gsig[k], dtype=float).reshape(-1).copy())
+    else:  # push_gnss raises for the first bad fix when the replay reaches it
+
+        def push_gnss(k: int) -> None:
+            nav.push_gnss(gt[k], gllh[k], gsig[k])
+
     for a in range(0, n, RUN_CHUNK):
         t1 = time.perf_counter()
         b = min(a + RUN_CHUNK, n)
@@ -174,12 +184,12 @@ def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: n
             done_at.setdefault(k - base, []).append(s)
         nav._elapsed += time.perf_counter() - t1
         if fast:
-            gi = run_chunk(nav, a, b, t, dth, dv, gyro, accel, det, done_at, gt, gllh, gsig, gi, progress, every, n)
+            gi = run_chunk(nav, a, b, t, dth, dv, gyro, accel, det, done_at, gt, push_gnss, gi, progress, every, n)
             continue
         for k in range(a, b):
             t1 = time.perf_counter()
             while gi < gt.size and gt[gi] <= t[k]:
-                nav.push_gnss(gt[gi], gllh[gi], gsig[gi])
+                push_gnss(gi)
                 gi += 1
             nav._sample(t[k], dth[k], dv[k], gyro[k], accel[k], bool(det.static_raw[k - a]),
                         bool(det.gate_open[k - a]), done_at.get(k, []))
@@ -187,13 +197,29 @@ def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: n
             if progress is not None and k % every == 0:
                 progress(k, n)
     while gi < gt.size:
-        nav.push_gnss(gt[gi], gllh[gi], gsig[gi])
+        push_gnss(gi)
         gi += 1
 
 
-def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: dict, gt, gllh, gsig, gi: int,
+def _fixes_pass(gt, gllh, gsig) -> bool:
+    """True when every fix passes :func:`~imunoise.online.stream_checks.check_fix` (numbers, (3,) position and σ,
+    finite time and position, radians, σ ≥ 0 or NaN): the same tests on the whole arrays."""
+    try:
+        t = np.asarray(gt, dtype=float).reshape(-1)
+        llh = np.asarray(gllh, dtype=float)
+        sig = np.asarray(gsig, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    if llh.shape != (t.size, 3) or sig.shape != (t.size, 3):
+        return False
+    return bool(np.all(np.isfinite(t)) and np.all(np.isfinite(llh)) and np.all(np.abs(llh[:, 0]) <= math.pi / 2)
+                and np.all(np.abs(llh[:, 1]) <= math.pi) and not np.any(sig < 0))
+
+
+def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: dict, gt, push_gnss: Any, gi: int,
               progress: Any, every: int, n_total: int) -> int:
-    """Samples ``a``..``b−1`` (one detector chunk ``det``) from event to event; returns the next fix index."""
+    """Samples ``a``..``b−1`` (one detector chunk ``det``) from event to event; returns the next fix index
+    (``push_gnss(k)`` hands fix k of the record to the navigator)."""
     t1 = time.perf_counter()
     cfg = nav.config
     static = np.asarray(det.static_raw, dtype=bool)
@@ -235,7 +261,7 @@ def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: d
         e = next_event(k, m, sources)
         if e > k:
             while gi < gt.size and gt[gi] <= t[a + e - 1]:
-                nav.push_gnss(gt[gi], gllh[gi], gsig[gi])
+                push_gnss(gi)
                 gi += 1
             _span(nav, a + k, a + e, t, dth, dv, gyro, accel, static[k:e], gate[k:e], runs[k:e])
             if progress is not None:
@@ -244,7 +270,7 @@ def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: d
         if e < m:
             j = a + e
             while gi < gt.size and gt[gi] <= t[j]:
-                nav.push_gnss(gt[gi], gllh[gi], gsig[gi])
+                push_gnss(gi)
                 gi += 1
             nav._sample(t[j], dth[j], dv[j], gyro[j], accel[j], bool(static[e]), bool(det.gate_open[e]),
                         done_at.get(j, []))
@@ -294,8 +320,9 @@ def _span(nav: Any, a: int, e: int, t, dth, dv, gyro, accel, static, gate, runs)
         while fixes and fixes[0][0] <= ts[-1]:
             fixes.pop(0)
         if cfg.stop_guard == "nav":
-            for _ in range(int(rec.sum())):
-                nav._run_row(math.nan, math.nan, 0.0, math.nan)
+            k = int(rec.sum())
+            nav._run_rows(np.column_stack([np.full(k, math.nan), np.full(k, math.nan), np.zeros(k),
+                                           np.full(k, math.nan)]))
     else:
         _filter_span(nav, ts, dth[a:e], dv[a:e], gate, rec, static)
     # raw samples are needed only back to the start of a possible segment
@@ -317,7 +344,9 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
     while j < len(q) and q[j][0] <= ts[-1]:
         j += 1
     fl, nav._gnss = q[:j], q[j:]
-    fl = [f for f in fl if f[0] > nav.init.t and np.all(np.isfinite(f[1]))]
+    if fl:  # finite positions (one vectorised test; push_gnss keeps (3,) positions)
+        finite = np.isfinite(np.array([f[1] for f in fl], dtype=float).reshape(len(fl), -1)).all(axis=1).tolist()
+        fl = [f for f, ok in zip(fl, finite, strict=True) if f[0] > nav.init.t and ok]
     ft = np.array([f[0] for f in fl], dtype=float)
     sig = np.array([f[2] for f in fl], dtype=float).reshape(-1, 3)
     sig = np.where(np.isfinite(sig), sig, ec.gnss_sigma_nan)
@@ -343,18 +372,21 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
         t_aided = np.where(last >= 0, ts[np.maximum(last, 0)], nav._t_aided)
         nav._t_aided = float(ts[ua[-1]])
     if guard:
-        for i in np.flatnonzero(rec):
-            v0, v1 = float(rows[i, _VEL]), float(rows[i, _VEL + 1])
-            P_vel = pv[i]
-            nis = math.nan
-            if cfg.stop_chi2 > 0:
+        # the rows _record_nav writes, one block per span: the same scalar operations (math.hypot, math.sqrt of
+        # max(·, 0.0)) on the same values, element by element
+        idx = np.flatnonzero(rec)
+        speed = [math.hypot(v0, v1) for v0, v1 in zip(rows[idx, _VEL].tolist(), rows[idx, _VEL + 1].tolist())]
+        sigma = [math.sqrt(max(p0 + p1, 0.0)) for p0, p1 in zip(pv[idx, 0, 0].tolist(), pv[idx, 1, 1].tolist())]
+        aided = (ts[idx] - t_aided[idx] <= cfg.stop_aided_s).astype(float)
+        nis = np.full(idx.size, math.nan)
+        if cfg.stop_chi2 > 0:
+            for n, i in enumerate(idx):
                 v = rows[i, _VEL:_VEL + 3]
                 try:
-                    nis = float(v @ np.linalg.solve(P_vel + cfg.zupt_sigma_v**2 * np.eye(3), v))
+                    nis[n] = float(v @ np.linalg.solve(pv[i] + cfg.zupt_sigma_v**2 * np.eye(3), v))
                 except np.linalg.LinAlgError:
-                    nis = math.inf
-            nav._run_row(math.hypot(v0, v1), math.sqrt(max(P_vel[0, 0] + P_vel[1, 1], 0.0)),
-                         float(ts[i] - t_aided[i] <= cfg.stop_aided_s), nis)
+                    nis[n] = math.inf
+        nav._run_rows(np.column_stack([speed, sigma, aided, nis]))
     if nav._motion is not None:
         nav._motion.observe_span(ts, dth, dv, static, [f for f, u in zip(fl, used, strict=True) if u])
     if nav._store is not None:

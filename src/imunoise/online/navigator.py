@@ -226,7 +226,11 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, Mode
             1σ of the fix along north, east, down (m), ≥ 0. A NaN σ is handled by the filter (replaced by
             ``EkfConfig.gnss_sigma_nan``, logged), as in the batch EKF.
         """
-        t, llh, sig = check_fix(t, llh_rad, sigma_ned_m)
+        self._push_fix(*check_fix(t, llh_rad, sigma_ned_m))
+
+    def _push_fix(self, t: float, llh: np.ndarray, sig: np.ndarray) -> None:
+        """:meth:`push_gnss` of a fix :func:`~imunoise.online.stream_checks.check_fix` already passed (the replay
+        checks a record's fixes at once: :func:`imunoise.online.chunks.run_record`)."""
         fix = (t, llh, sig)
         if t <= self._t_last:
             if self._started and t > self.init.t and self.ekf.update_gnss(*fix):

@@ -174,6 +174,14 @@ class NavStopGuard:
         self._run_nav[self._run_len] = (speed, sigma, aided, nis)
         self._run_len += 1
 
+    def _run_rows(self, rows: np.ndarray) -> None:
+        """:meth:`_run_row` for each row of ``rows`` (k, 4), in order (a kernel span's static samples)."""
+        need = self._run_len + rows.shape[0]
+        while need > self._run_nav.shape[0]:
+            self._run_nav = np.concatenate([self._run_nav, np.empty_like(self._run_nav)])
+        self._run_nav[self._run_len:need] = rows
+        self._run_len = need
+
     def _guard(self, seg: StaticSegment, t_now: float) -> list[StaticSegment]:
         """The pieces of a detected segment the navigation solution agrees are a stop (:func:`stop_verdict`):
         ``[seg]`` when nothing contradicts it; otherwise a ``stop_rejected`` event, the dropped pieces added to
