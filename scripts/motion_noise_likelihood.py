@@ -156,8 +156,12 @@ def prepare(seed: int, law: str, gnss_spec: str, family_law: str, duration: floa
             "gt": gt[keep], "gllh": np.asarray(gnss.llh)[keep], "gsig": np.asarray(gnss.sigma_ned)[keep]}
 
 
-def run_member(p: dict, k: float, window_s: float, every_s: float, min_speed: float) -> dict[str, Any]:
-    """The aided filter of family member k over the drive: per fix (a), per window (b), (c)."""
+def run_member(p: dict, k: float, window_s: float, every_s: float, min_speed: float,
+               starts: list[int] | None = None) -> dict[str, Any]:
+    """The aided filter of family member k over the drive: per fix (a), per window (b), (c). ``starts``: the
+    indices of the fixes that open a window (default: chosen here, every ``every_s`` at ≥ ``min_speed``; give
+    the first member's ``starts`` to the others so that every member is scored on the same spans, as the
+    learner tests the speed once per round for all its shadows)."""
     from imunoise.nav.filter_loop import FilterArrays, Fixes, ImuInput, Outputs, flush, gnss_position_update, run_batch
     from imunoise.nav.noise_schedule import NoiseControl
     from imunoise.nav.state import StateView
@@ -202,6 +206,8 @@ def run_member(p: dict, k: float, window_s: float, every_s: float, min_speed: fl
     nll3, nllh, used = np.empty(gt.size), np.empty(gt.size), np.zeros(gt.size, dtype=bool)
     windows: list[dict] = []
     next_w = -math.inf
+    opened: list[int] = []
+    start_set = None if starts is None else set(starts)
     for j in range(gt.size):
         i = int(at[j])
         if i > cur:
@@ -214,8 +220,11 @@ def run_member(p: dict, k: float, window_s: float, every_s: float, min_speed: fl
         nllh[j] = gaussian_nll(dz[None, :2], S[None, :2, :2])[0]
         used[j] = bool(ok)
         reject = 0 if ok else reject + 1
-        if gt[j] >= next_w and StateView(f.nav, f.P, f.xm).speed_h >= min_speed:
+        due = (j in start_set) if start_set is not None else (
+            gt[j] >= next_w and StateView(f.nav, f.P, f.xm).speed_h >= min_speed)
+        if due:
             next_w = gt[j] + every_s
+            opened.append(j)
             sel = np.flatnonzero((gt > gt[j]) & (gt <= gt[j] + window_s))
             if sel.size == 0:
                 continue
@@ -236,14 +245,15 @@ def run_member(p: dict, k: float, window_s: float, every_s: float, min_speed: fl
                             "b": float(np.sum(w3)), "b_h": float(np.sum(wh)), "b_end": float(w3[-1]),
                             "c": math.log(max(math.sqrt(float(np.mean(e2))), 1e-3))})
     return {"k": k, "t": gt.tolist(), "a": nll3.tolist(), "a_h": nllh.tolist(), "used": used.tolist(),
-            "windows": windows}
+            "windows": windows, "starts": opened}
 
 
 def drive_job(args: tuple) -> dict[str, Any]:
     seed, law, gnss, family_law, duration, stops, grid, window_s, every_s, min_speed = args
     logging.getLogger("imunoise").setLevel(logging.WARNING)
     p = prepare(seed, law, gnss, family_law, duration, stops)
-    runs = [run_member(p, k, window_s, every_s, min_speed) for k in grid]
+    first = run_member(p, 0.0, window_s, every_s, min_speed)  # the static model's filter picks the spans
+    runs = [first if k == 0.0 else run_member(p, k, window_s, every_s, min_speed, first["starts"]) for k in grid]
     return {"seed": seed, "t0": float(p["sc"].imu.t[0]), "W": p["W"].tolist(), "B": p["B"].tolist(),
             "scale_source": p["scale_source"], "moving_share": float(np.mean(p["moving"])), "runs": runs}
 
