@@ -46,6 +46,7 @@ CRITERIA = ("a", "b", "b_h", "c")
 LABELS = {"a": "(a) one-step innovation NLL", "b": "(b) 20-s predictive NLL", "b_h": "(b) horizontal only",
           "c": "(c) log RMS drift (learner)"}
 LOG2PI = math.log(2.0 * math.pi)
+LR_CRIT = 2.706  # 5 % test of k = 0 on the boundary (½χ²₀ + ½χ²₁): the χ²₁ 90 % quantile
 
 
 def gaussian_nll(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
@@ -302,6 +303,7 @@ def summarize(drives: list[dict], grid: tuple, horizons: list[float], block_s: f
             z = np.array([paired_z(p[c]["blocks"][i1] - p[c]["blocks"][i0]) for p in per])
             argk = [grid[p[c]["argmin"]] for p in per]
             best_gain = np.array([min(p[c]["values"]) - p[c]["values"][i0] for p in per])
+            lr = -2.0 * best_gain  # likelihood ratio of the best k against k = 0 (for the likelihoods (a), (b))
             nd = delta.size
             m, s = float(delta.mean()), float(delta.std(ddof=1)) if nd > 1 else math.nan
             half = float(student.ppf(0.975, nd - 1) * s / math.sqrt(nd)) if nd > 1 else math.nan
@@ -312,6 +314,7 @@ def summarize(drives: list[dict], grid: tuple, horizons: list[float], block_s: f
                 "median_z": float(np.nanmedian(z)) if np.any(np.isfinite(z)) else math.nan,
                 "argmin_k": argk, "share_argmin_pos": float(np.mean(np.array(argk) > 0)),
                 "median_argmin_k": float(np.median(argk)), "best_minus_k0": best_gain.tolist(),
+                "lr": lr.tolist(), "share_lr_rejects_k0": float(np.mean(lr > LR_CRIT)),
                 "values": [p[c]["values"] for p in per]}
     return res
 
@@ -321,16 +324,19 @@ def markdown(meta: dict, res: dict) -> str:
              f"log-variance, applied while moving) on {len(meta['seeds'])} drives of law `{meta['law']}` "
              f"(seeds {meta['seeds_text']}, GNSS {meta['gnss']}, {meta['duration']:g} s), grid {list(meta['grid'])}. "
              "Δ = crit(k=1) − crit(k=0) summed over the horizon (negative: prefers the oracle's model), paired "
-             "95 % t-CI over drives; z: one drive's paired test over 20-s blocks; 'z decides' = z < −1.645.", "",
+             "95 % t-CI over drives; z: one drive's paired test over 20-s blocks; 'z decides' = z < −1.645; "
+             "LR = 2(crit(0) − min_k crit(k)) > 2.71: the likelihood-ratio test of k = 0 at 5 % (boundary: "
+             "½χ²₀ + ½χ²₁; calibrated for (a), not for the composite (b)).", "",
              "| horizon | criterion | Δ mean [95 % CI] | sd over drives | Δ<0 | z decides k=1 | median z | "
-             "argmin k: median, share > 0 |", "|---|---|---:|---:|---:|---:|---:|---:|"]
+             "argmin k: median, share > 0 | LR > 2.71 |", "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for h, per in res.items():
         for c in CRITERIA:
             r = per[c]
             lines.append(f"| {float(h) / 60:g} min | {LABELS[c]} | {r['delta_mean']:.2f} [{r['delta_ci'][0]:.2f}, "
                          f"{r['delta_ci'][1]:.2f}] | {r['delta_sd']:.2f} | {r['share_prefers_k1']:.0%} | "
                          f"{r['share_z_decides_k1']:.0%} | {r['median_z']:.2f} | {r['median_argmin_k']:g}, "
-                         f"{r['share_argmin_pos']:.0%} |")
+                         f"{r['share_argmin_pos']:.0%} | "
+                         + (f"{r['share_lr_rejects_k0']:.0%} |" if c != "c" else "n/a |"))
     last = list(res)[-1]
     lines += ["", f"Mean over drives of crit(k) − crit(k=0) over the first {float(last) / 60:g} min (curve shape; "
               "sd over drives in brackets):", "",
