@@ -23,7 +23,10 @@ side). For every k:
 
 Per drive and horizon (first 2, 5, 10 min): each criterion's argmin k, Δ = crit(k=1) − crit(k=0), and a
 within-drive z (the paired differences per 20-s block, mean / SE: the test one drive could run online). Over the
-drives: paired 95 % t-interval of Δ, the share of drives with Δ < 0 and with z < −1.645.
+drives: paired 95 % t-interval of Δ, the share of drives with Δ < 0 and with z < −1.645, and the share whose
+likelihood-ratio test of k = 0 against the best k of the grid, LR = 2(crit(0) − min_k crit(k)) > 2.71, rejects
+k = 0 (a 5 % test on the boundary, ½χ²₀ + ½χ²₁; meaningful for (a), the exact likelihood of all fixes by the
+prediction-error decomposition, not for the composite (b)).
 
     python scripts/motion_noise_likelihood.py --seeds 3200-3219 --law drive0708 --out out/lik_drive0708
     python scripts/motion_noise_likelihood.py --seeds 3200-3219 --law none --out out/lik_none
