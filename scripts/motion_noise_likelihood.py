@@ -5,8 +5,8 @@ Per simulated drive (the simulator's default 10-min drive, ``--law``, meter-leve
 filter (no outages) runs with the TRUE static per-axis models (the ``oracle`` mapping, no floor) and a one-parameter
 family of in-motion inflations, k on a grid: while the online engine's static detector says "moving" (its raw
 per-sample test with λ_0 learned from the first ``learn_lambda0_s``, as :class:`~imunoise.online.OnlineNavigator`
-does; the first N samples, before its window is full, count as not moving), the white PSD of axis a is
-multiplied by W_a^k and the driving noise of its bias states by B_a^k
+does; the first N samples, before its window is full, count as not moving; ``--switch truth``: the simulator's
+true motion), the white PSD of axis a is multiplied by W_a^k and the driving noise of its bias states by B_a^k
 (:class:`~imunoise.nav.noise_schedule.NoiseControl`), where W_a = mean m_w², B_a = mean m_b² of the family law
 (``--family-law``, default ``drive0708``) over the drive's moving samples: k = 0 is the static model, k = 1 the
 oracle's moving model (:func:`imunoise.sim.motion.oracle_models`, applied while moving only), i.e. k is the way
@@ -136,7 +136,8 @@ def _folded_psd(sc, models: list) -> np.ndarray:
                      for a, (m, f) in enumerate(models)])
 
 
-def prepare(seed: int, law: str, gnss_spec: str, family_law: str, duration: float, stops: int = 4) -> dict[str, Any]:
+def prepare(seed: int, law: str, gnss_spec: str, family_law: str, duration: float, stops: int = 4,
+            switch: str = "detector") -> dict[str, Any]:
     from imunoise.experiments.common import filter_models, simulate_scenario
     from imunoise.experiments.gnss_regimes import parse_gnss
     from imunoise.experiments.oracle_law import law_filter
@@ -155,7 +156,9 @@ def prepare(seed: int, law: str, gnss_spec: str, family_law: str, duration: floa
     W, B, src = family_scales(sc, family_law, law)
     gt = np.asarray(gnss.t, dtype=float)
     keep = (gt > sc.init.t) & (gt <= lf.imu.t[-1])
-    return {"sc": sc, "models": models, "imu": lf.imu, "moving": moving_flags(sc, lf.imu.t, i0),
+    moving = (moving_flags(sc, lf.imu.t, i0) if switch == "detector"
+              else ~np.asarray(sc.static_truth, dtype=bool)[i0 : i0 + lf.imu.t.size])
+    return {"sc": sc, "models": models, "imu": lf.imu, "moving": moving,
             "W": W, "B": B, "scale_source": src, "folded": _folded_psd(sc, models),
             "gt": gt[keep], "gllh": np.asarray(gnss.llh)[keep], "gsig": np.asarray(gnss.sigma_ned)[keep]}
 
@@ -253,9 +256,9 @@ def run_member(p: dict, k: float, window_s: float, every_s: float, min_speed: fl
 
 
 def drive_job(args: tuple) -> dict[str, Any]:
-    seed, law, gnss, family_law, duration, stops, grid, window_s, every_s, min_speed = args
+    seed, law, gnss, family_law, duration, stops, switch, grid, window_s, every_s, min_speed = args
     logging.getLogger("imunoise").setLevel(logging.WARNING)
-    p = prepare(seed, law, gnss, family_law, duration, stops)
+    p = prepare(seed, law, gnss, family_law, duration, stops, switch)
     first = run_member(p, 0.0, window_s, every_s, min_speed)  # the static model's filter picks the spans
     runs = [first if k == 0.0 else run_member(p, k, window_s, every_s, min_speed, first["starts"]) for k in grid]
     return {"seed": seed, "t0": float(p["sc"].imu.t[0]), "W": p["W"].tolist(), "B": p["B"].tolist(),
@@ -325,7 +328,8 @@ def summarize(drives: list[dict], grid: tuple, horizons: list[float], block_s: f
 def markdown(meta: dict, res: dict) -> str:
     lines = [f"In-motion noise family k (0 = static, 1 = the oracle's moving model of `{meta['family_law']}`, "
              f"log-variance, applied while moving) on {len(meta['seeds'])} drives of law `{meta['law']}` "
-             f"(seeds {meta['seeds_text']}, GNSS {meta['gnss']}, {meta['duration']:g} s), grid {list(meta['grid'])}. "
+             f"(seeds {meta['seeds_text']}, GNSS {meta['gnss']}, {meta['duration']:g} s, switch: {meta['switch']}), "
+             f"grid {list(meta['grid'])}. "
              "Δ = crit(k=1) − crit(k=0) summed over the horizon (negative: prefers the oracle's model), paired "
              "95 % t-CI over drives; z: one drive's paired test over 20-s blocks; 'z decides' = z < −1.645; "
              "LR = 2(crit(0) − min_k crit(k)) > 2.71: the likelihood-ratio test of k = 0 at 5 % (boundary: "
@@ -368,6 +372,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--gnss", default="noise:1.5,3,1")
     ap.add_argument("--duration", type=float, default=600.0, help="drive length [s] (default 600, the simulator's)")
     ap.add_argument("--stops", type=int, default=4, help="stops in a drive (default 4, the simulator's)")
+    ap.add_argument("--switch", choices=("detector", "truth"), default="detector",
+                    help="moving/stopped switch of the family: the online engine's static detector (default) or the "
+                         "simulator's true motion")
     ap.add_argument("--grid", default=",".join(f"{k:g}" for k in GRID), help="k values (must hold 0 and 1)")
     ap.add_argument("--horizons", default="120,300,600", help="first seconds of the drive scored")
     ap.add_argument("--window", type=float, default=20.0, help="free propagation of (b), (c) [s]")
@@ -386,15 +393,16 @@ def main(argv: list[str] | None = None) -> int:
     if any(s >= 1_000_000 for s in seeds) or 0.0 not in grid or 1.0 not in grid:
         raise ImunoiseError("--seeds must be development seeds (< 1 000 000) and --grid must hold 0 and 1")
     horizons = [min(float(x), a.duration) for x in a.horizons.split(",")]
-    jobs = [(s, a.law, a.gnss, a.family_law, a.duration, a.stops, grid, a.window, a.every, a.min_speed) for s in seeds]
+    jobs = [(s, a.law, a.gnss, a.family_law, a.duration, a.stops, a.switch, grid, a.window, a.every, a.min_speed)
+            for s in seeds]
     if a.workers > 1:
         with mp.get_context("fork").Pool(a.workers) as pool:
             drives = pool.map(drive_job, jobs)
     else:
         drives = [drive_job(j) for j in jobs]
     meta = {"seeds": seeds, "seeds_text": a.seeds, "law": a.law, "family_law": a.family_law, "gnss": a.gnss,
-            "duration": a.duration, "stops": a.stops, "grid": grid, "window_s": a.window, "every_s": a.every,
-            "min_speed": a.min_speed}
+            "duration": a.duration, "stops": a.stops, "switch": a.switch, "grid": grid, "window_s": a.window,
+            "every_s": a.every, "min_speed": a.min_speed}
     res = summarize(drives, grid, horizons, a.every)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
