@@ -137,7 +137,7 @@ def _folded_psd(sc, models: list) -> np.ndarray:
 
 
 def prepare(seed: int, law: str, gnss_spec: str, family_law: str, duration: float, stops: int = 4,
-            switch: str = "detector") -> dict[str, Any]:
+            switch: str = "detector", sigma_scale: float = 1.0) -> dict[str, Any]:
     from imunoise.experiments.common import filter_models, simulate_scenario
     from imunoise.experiments.gnss_regimes import parse_gnss
     from imunoise.experiments.oracle_law import law_filter
@@ -160,7 +160,7 @@ def prepare(seed: int, law: str, gnss_spec: str, family_law: str, duration: floa
               else ~np.asarray(sc.static_truth, dtype=bool)[i0 : i0 + lf.imu.t.size])
     return {"sc": sc, "models": models, "imu": lf.imu, "moving": moving,
             "W": W, "B": B, "scale_source": src, "folded": _folded_psd(sc, models),
-            "gt": gt[keep], "gllh": np.asarray(gnss.llh)[keep], "gsig": np.asarray(gnss.sigma_ned)[keep]}
+            "gt": gt[keep], "gllh": np.asarray(gnss.llh)[keep], "gsig": sigma_scale * np.asarray(gnss.sigma_ned)[keep]}
 
 
 def run_member(p: dict, k: float, window_s: float, every_s: float, min_speed: float,
@@ -256,9 +256,9 @@ def run_member(p: dict, k: float, window_s: float, every_s: float, min_speed: fl
 
 
 def drive_job(args: tuple) -> dict[str, Any]:
-    seed, law, gnss, family_law, duration, stops, switch, grid, window_s, every_s, min_speed = args
+    seed, law, gnss, family_law, duration, stops, switch, sigma_scale, grid, window_s, every_s, min_speed = args
     logging.getLogger("imunoise").setLevel(logging.WARNING)
-    p = prepare(seed, law, gnss, family_law, duration, stops, switch)
+    p = prepare(seed, law, gnss, family_law, duration, stops, switch, sigma_scale)
     first = run_member(p, 0.0, window_s, every_s, min_speed)  # the static model's filter picks the spans
     runs = [first if k == 0.0 else run_member(p, k, window_s, every_s, min_speed, first["starts"]) for k in grid]
     return {"seed": seed, "t0": float(p["sc"].imu.t[0]), "W": p["W"].tolist(), "B": p["B"].tolist(),
@@ -328,7 +328,8 @@ def summarize(drives: list[dict], grid: tuple, horizons: list[float], block_s: f
 def markdown(meta: dict, res: dict) -> str:
     lines = [f"In-motion noise family k (0 = static, 1 = the oracle's moving model of `{meta['family_law']}`, "
              f"log-variance, applied while moving) on {len(meta['seeds'])} drives of law `{meta['law']}` "
-             f"(seeds {meta['seeds_text']}, GNSS {meta['gnss']}, {meta['duration']:g} s, switch: {meta['switch']}), "
+             f"(seeds {meta['seeds_text']}, GNSS {meta['gnss']}, filter told {meta['gnss_sigma_scale']:g}× its σ, "
+             f"{meta['duration']:g} s, switch: {meta['switch']}), "
              f"grid {list(meta['grid'])}. "
              "Δ = crit(k=1) − crit(k=0) summed over the horizon (negative: prefers the oracle's model), paired "
              "95 % t-CI over drives; z: one drive's paired test over 20-s blocks; 'z decides' = z < −1.645; "
@@ -375,6 +376,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--switch", choices=("detector", "truth"), default="detector",
                     help="moving/stopped switch of the family: the online engine's static detector (default) or the "
                          "simulator's true motion")
+    ap.add_argument("--gnss-sigma-scale", type=float, default=1.0,
+                    help="the filter is told this times the fixes' true 1σ (a misstated receiver σ; default 1)")
     ap.add_argument("--grid", default=",".join(f"{k:g}" for k in GRID), help="k values (must hold 0 and 1)")
     ap.add_argument("--horizons", default="120,300,600", help="first seconds of the drive scored")
     ap.add_argument("--window", type=float, default=20.0, help="free propagation of (b), (c) [s]")
@@ -393,15 +396,16 @@ def main(argv: list[str] | None = None) -> int:
     if any(s >= 1_000_000 for s in seeds) or 0.0 not in grid or 1.0 not in grid:
         raise ImunoiseError("--seeds must be development seeds (< 1 000 000) and --grid must hold 0 and 1")
     horizons = [min(float(x), a.duration) for x in a.horizons.split(",")]
-    jobs = [(s, a.law, a.gnss, a.family_law, a.duration, a.stops, a.switch, grid, a.window, a.every, a.min_speed)
-            for s in seeds]
+    jobs = [(s, a.law, a.gnss, a.family_law, a.duration, a.stops, a.switch, a.gnss_sigma_scale, grid, a.window,
+             a.every, a.min_speed) for s in seeds]
     if a.workers > 1:
         with mp.get_context("fork").Pool(a.workers) as pool:
             drives = pool.map(drive_job, jobs)
     else:
         drives = [drive_job(j) for j in jobs]
     meta = {"seeds": seeds, "seeds_text": a.seeds, "law": a.law, "family_law": a.family_law, "gnss": a.gnss,
-            "duration": a.duration, "stops": a.stops, "switch": a.switch, "grid": grid, "window_s": a.window,
+            "duration": a.duration, "stops": a.stops, "switch": a.switch, "gnss_sigma_scale": a.gnss_sigma_scale,
+            "grid": grid, "window_s": a.window,
             "every_s": a.every, "min_speed": a.min_speed}
     res = summarize(drives, grid, horizons, a.every)
     out = Path(a.out)
