@@ -14,7 +14,12 @@ from imunoise.errors import ModelError
 from imunoise.experiments.common import Scenario
 from imunoise.experiments.dense_methods import STATIC_WARM_METHODS, Updater, base_method, method_setup
 from imunoise.experiments.dense_spec import BRANCH_MARGIN_S
-from imunoise.experiments.window_errors import branch_errors, window_metrics
+from imunoise.experiments.window_errors import (
+    branch_errors,
+    navigator_window_metrics,
+    window_last_sample,
+    window_metrics,
+)
 from imunoise.nav.metrics import nav_errors
 from imunoise.online import MotionNoisePrior, OnlineConfig, OnlineNavigator
 
@@ -38,6 +43,7 @@ def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, sh
     pushes in the same places (push_chunk equals push_imu/push_gnss in time order to the bit)."""
     t, dth, dv, gt, gllh, gsig = data
     n = t.size
+    ref_t = np.asarray(sc.ref.t, dtype=float)
     if nav.detector is None and n:
         # λ_0 from the first learn_lambda0_s of the record at once, as OnlineNavigator.run does (push_imu holds
         # those samples, learns from the same accelerations at the first later sample, then replays them one by
@@ -54,12 +60,13 @@ def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, sh
         nav.push_chunk(t[i0:i], dth[i0:i], dv[i0:i], gt[k:ks], gllh[k:ks], gsig[k:ks])
         i0, k = i, ks
         br, _ = _fork(nav, None, shared)
-        ie = max(int(np.searchsorted(t, s + length + BRANCH_MARGIN_S, side="left")), i)
+        ie = int(np.searchsorted(t, s + length + BRANCH_MARGIN_S, side="left"))
+        ie = max(window_last_sample(t, ref_t, s, length, ie), i)  # no sample after the window's last epoch
         # inside the window no fix; after its end those up to the branch's last sample
         kb = int(np.searchsorted(gt, s + length, side="left"))
         ke = max(int(np.searchsorted(gt, t[ie - 1], side="right")), kb) if ie > i else kb
         br.push_chunk(t[i:ie], dth[i:ie], dv[i:ie], gt[kb:ke], gllh[kb:ke], gsig[kb:ke])
-        out[j] = window_metrics(branch_errors(br.finish(), sc, s), s, length)
+        out[j] = navigator_window_metrics(br, sc, s, length)
     ke = max(int(np.searchsorted(gt, t[-1], side="right")), k)  # fixes after the last sample are never pushed
     nav.push_chunk(t[i0:], dth[i0:], dv[i0:], gt[k:ke], gllh[k:ke], gsig[k:ke])
 

@@ -14,7 +14,7 @@ from imunoise.nav.metrics import nav_errors
 if TYPE_CHECKING:
     from imunoise.experiments.common import Scenario
 
-__all__ = ["branch_errors", "window_metrics"]
+__all__ = ["branch_errors", "window_metrics", "window_last_sample", "navigator_window_metrics"]
 
 
 def window_metrics(err, start: float, length: float) -> dict:
@@ -29,7 +29,38 @@ def window_metrics(err, start: float, length: float) -> dict:
 def branch_errors(res, sc: Scenario, start: float):
     # a copy of the first epoch just before the window start: nav_errors keeps only reference epochs from
     # the first estimate on, and the epochs in [start, t_first] belong to the first sample of the branch
-    t = np.concatenate([[start - 1e-6], res.t])
-    llh = res.antenna_llh(sc.lever)
-    return nav_errors(t, np.vstack([llh[:1], llh]), np.vstack([res.vel_ned[:1], res.vel_ned]),
-                      np.vstack([res.euler[:1], res.euler]), sc.ref)
+    return _errors(res.t, res.antenna_llh(sc.lever), res.vel_ned, res.euler, sc, start)
+
+
+def window_last_sample(t: np.ndarray, ref_t: np.ndarray, start: float, length: float, default: int) -> int:
+    """One past the last IMU sample a branch from ``start`` needs for :func:`window_metrics`: the first sample
+    at or after the window's last reference epoch (:func:`imunoise.nav.metrics.nav_errors` takes the estimate
+    at the first epoch ≥ each reference epoch). The filter is causal, so the samples after it cannot change the
+    window's values; ``default`` (never exceeded) when the window holds no reference epoch."""
+    r = int(np.searchsorted(ref_t, start + length, side="left")) - 1
+    if r < 0 or ref_t[r] < start:
+        return default
+    return min(int(np.searchsorted(t, ref_t[r], side="left")) + 1, default)
+
+
+def navigator_window_metrics(nav, sc: Scenario, start: float, length: float) -> dict:
+    """:func:`window_metrics` of a branch navigator's stored epochs (an :class:`~imunoise.online.OnlineNavigator`
+    with ``store=True`` forked at ``start``), without closing it: ``finish()`` would build the whole result,
+    per-sample logs over the entire drive included, of which the window needs the positions, velocities and
+    attitudes. Equal to ``window_metrics(branch_errors(nav.finish(), sc, start), start, length)`` to the bit
+    (same columns, same Euler kernel as :func:`imunoise.online.nav_output.build_result`)."""
+    from imunoise.nav.filter_loop import euler_rows
+    from imunoise.nav.solution import antenna_llh
+
+    store = nav._store
+    if store is None or not store.n:
+        return window_metrics(branch_errors(nav.finish(), sc, start), start, length)
+    b = store.buf[: store.n]  # EpochStore columns: t, position (3), velocity (3), quaternion (4), ...
+    t, llh, vel = b[:, 0], b[:, 1:4], b[:, 4:7]
+    eul = euler_rows(np.ascontiguousarray(b[:, 7:11]))
+    return window_metrics(_errors(t, antenna_llh(llh, eul, sc.lever), vel, eul, sc, start), start, length)
+
+
+def _errors(t, llh, vel, eul, sc: Scenario, start: float):
+    return nav_errors(np.concatenate([[start - 1e-6], t]), np.vstack([llh[:1], llh]), np.vstack([vel[:1], vel]),
+                      np.vstack([eul[:1], eul]), sc.ref)
