@@ -47,8 +47,10 @@ def navigator_window_metrics(nav, sc: Scenario, start: float, length: float) -> 
     """:func:`window_metrics` of a branch navigator's stored epochs (an :class:`~imunoise.online.OnlineNavigator`
     with ``store=True`` forked at ``start``), without closing it: ``finish()`` would build the whole result,
     per-sample logs over the entire drive included, of which the window needs the positions, velocities and
-    attitudes. Equal to ``window_metrics(branch_errors(nav.finish(), sc, start), start, length)`` to the bit
-    (same columns, same Euler kernel as :func:`imunoise.online.nav_output.build_result`)."""
+    attitudes. Only the epochs :func:`imunoise.nav.metrics.nav_errors` reads (the first at or after each
+    reference epoch; one in ten at 100 Hz against a 10 Hz reference) are converted, each row as
+    :func:`imunoise.online.nav_output.build_result` and :func:`branch_errors` convert it, so the values equal
+    ``window_metrics(branch_errors(nav.finish(), sc, start), start, length)`` to the bit."""
     from imunoise.nav.filter_loop import euler_rows
     from imunoise.nav.solution import antenna_llh
 
@@ -56,9 +58,17 @@ def navigator_window_metrics(nav, sc: Scenario, start: float, length: float) -> 
     if store is None or not store.n:
         return window_metrics(branch_errors(nav.finish(), sc, start), start, length)
     b = store.buf[: store.n]  # EpochStore columns: t, position (3), velocity (3), quaternion (4), ...
-    t, llh, vel = b[:, 0], b[:, 1:4], b[:, 4:7]
-    eul = euler_rows(np.ascontiguousarray(b[:, 7:11]))
-    return window_metrics(_errors(t, antenna_llh(llh, eul, sc.lever), vel, eul, sc, start), start, length)
+    t = np.concatenate([[start - 1e-6], b[:, 0]])  # the copy of the first epoch branch_errors prepends
+    ref_t = np.asarray(sc.ref.t)
+    tr = ref_t[(ref_t >= t[0]) & (ref_t <= t[-1])]
+    if not tr.size:  # nav_errors says why
+        return window_metrics(branch_errors(nav.finish(), sc, start), start, length)
+    rows = np.unique(np.searchsorted(t, tr, side="left"))  # the epochs nav_errors reads, in t's numbering
+    src = np.maximum(rows - 1, 0)  # ... in the store's (row 0 of t is the store's row 0)
+    llh, vel = b[src, 1:4], b[src, 4:7]
+    eul = euler_rows(np.ascontiguousarray(b[src, 7:11]))
+    err = nav_errors(t[rows], antenna_llh(llh, eul, sc.lever), vel, eul, sc.ref)
+    return window_metrics(err, start, length)
 
 
 def _errors(t, llh, vel, eul, sc: Scenario, start: float):
