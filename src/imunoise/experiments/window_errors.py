@@ -48,7 +48,7 @@ def navigator_window_metrics(nav, sc: Scenario, start: float, length: float) -> 
     with ``store=True`` forked at ``start``), without closing it: ``finish()`` would build the whole result,
     per-sample logs over the entire drive included, of which the window needs the positions, velocities and
     attitudes. Only the epochs :func:`imunoise.nav.metrics.nav_errors` reads (the first at or after each
-    reference epoch; one in ten at 100 Hz against a 10 Hz reference) are converted, each row as
+    reference epoch, and the first; one in ten at 100 Hz against a 10 Hz reference) are converted, each row as
     :func:`imunoise.online.nav_output.build_result` and :func:`branch_errors` convert it, so the values equal
     ``window_metrics(branch_errors(nav.finish(), sc, start), start, length)`` to the bit."""
     from imunoise.nav.filter_loop import euler_rows
@@ -63,7 +63,8 @@ def navigator_window_metrics(nav, sc: Scenario, start: float, length: float) -> 
     tr = ref_t[(ref_t >= t[0]) & (ref_t <= t[-1])]
     if not tr.size:  # nav_errors says why
         return window_metrics(branch_errors(nav.finish(), sc, start), start, length)
-    rows = np.unique(np.searchsorted(t, tr, side="left"))  # the epochs nav_errors reads, in t's numbering
+    # the epochs nav_errors reads, in t's numbering, and the first, which bounds the reference epochs it takes
+    rows = np.unique(np.concatenate([[0], np.searchsorted(t, tr, side="left")]))
     src = np.maximum(rows - 1, 0)  # ... in the store's (row 0 of t is the store's row 0)
     llh, vel = b[src, 1:4], b[src, 4:7]
     eul = euler_rows(np.ascontiguousarray(b[src, 7:11]))
