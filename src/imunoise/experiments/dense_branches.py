@@ -17,6 +17,7 @@ from imunoise.experiments.dense_spec import BRANCH_MARGIN_S
 from imunoise.experiments.window_errors import (
     branch_errors,
     navigator_window_metrics,
+    stored_errors,
     window_last_sample,
     window_metrics,
 )
@@ -132,8 +133,12 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
         _aided_chunks(nav, sc, windows, order_w, data, shared, out)
     else:
         _aided_samples(nav, updater, sc, windows, order_w, data, shared, out)
-    full = nav.finish()
-    err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
+    full = err = None
+    if not keep:  # the errors from the stored epochs they read, the result over the whole drive not built
+        err = stored_errors(nav, sc)
+    if err is None:
+        full = nav.finish()
+        err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
     for j, (s, length) in enumerate(windows):
         m = (err.t >= s) & (err.t < s + length)
         h = err.horizontal[m]
