@@ -240,7 +240,8 @@ def test_chunked_windows_equal_the_per_sample_run_to_the_bit(short_drive, method
     """The aided run and its branches pushed in chunks give the per-sample values exactly (two windows
     opening at the same sample, one overlapping the next, one past the end of the record), although the chunked
     branches stop at the sample of the window's last reference epoch and are read from the navigator's stored
-    epochs instead of its finished result."""
+    epochs instead of its finished result, and plain's chunked run drops the stop guard (it models nothing)
+    while the per-sample run (an updater) keeps it."""
     sc = short_drive
     s0 = sc.init.t + 60.0
     windows = [(s0 + 20.0, 60.0), (s0, 60.0), (s0 + 1e-4, 30.0), (float(sc.imu.t[-1]) + 5.0, 10.0)]

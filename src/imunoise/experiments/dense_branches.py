@@ -107,6 +107,17 @@ def _aided_samples(nav: OnlineNavigator, updater: Updater, sc: Scenario, windows
         updater.step(nav)
 
 
+def _unguarded(config: OnlineConfig, updater: Updater | None) -> OnlineConfig:
+    """``config`` without the stop guard where it has no effect on the navigation: the guard only chooses which
+    detected stops are modelled (:mod:`imunoise.online.stops`), so a run that models nothing (no modelling, no
+    ZUPT, no in-motion learner, no updater reading the kept stops) navigates the same to the bit without it,
+    and skips the guard's per-sample rows over every static sample of the aided run and of each branch."""
+    if (config.modelling or config.zupt or config.motion_noise is not None or updater is not None
+            or config.stop_guard == "none"):
+        return config
+    return config.with_(stop_guard="none")
+
+
 def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tuple[float, float]], *,
                 initial_models=None, updater: Updater | None = None, keep: bool = False,
                 earlier_static: Sequence[np.ndarray] | None = None) -> dict:
@@ -115,6 +126,7 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
 
     Returns ``windows`` (per window ``drift``, ``rms``, ``drift_v``, ``aided_rms``) and the aided run's
     ``horizontal_rms_m``/``vertical_rms_m``; ``_full`` (the aided OnlineResult) when ``keep``."""
+    config = _unguarded(config, updater)
     t = np.asarray(sc.imu.t, dtype=float)
     dth, dv = sc.imu.increments()
     gt = np.asarray(gnss.t, dtype=float)
