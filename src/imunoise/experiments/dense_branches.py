@@ -126,7 +126,8 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
 
     Returns ``windows`` (per window ``drift``, ``rms``, ``drift_v``, ``aided_rms``) and the aided run's
     ``horizontal_rms_m``/``vertical_rms_m``; ``_full`` (the aided OnlineResult) when ``keep``."""
-    config = _unguarded(config, updater)
+    if not keep:  # a kept result reports its stops as guarded
+        config = _unguarded(config, updater)
     t = np.asarray(sc.imu.t, dtype=float)
     dth, dv = sc.imu.increments()
     gt = np.asarray(gnss.t, dtype=float)
