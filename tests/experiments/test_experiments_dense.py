@@ -17,6 +17,7 @@ from imunoise.experiments.gnss_regimes import GnssRegime, parse_gnss
 from imunoise.io.kfgins import GnssData
 from imunoise.nav.earth import radii
 from imunoise.nav.metrics import nav_errors
+from imunoise.online import OnlineNavigator
 
 
 def test_parse_outages_and_gnss(tmp_path):
@@ -237,7 +238,10 @@ class _NoUpdate:
 @pytest.mark.parametrize("method", ["plain", "gmwm"])
 def test_chunked_windows_equal_the_per_sample_run_to_the_bit(short_drive, method):
     """The aided run and its branches pushed in chunks give the per-sample values exactly (two windows
-    opening at the same sample, one overlapping the next, one past the end of the record)."""
+    opening at the same sample, one overlapping the next, one past the end of the record), although the chunked
+    branches stop at the sample of the window's last reference epoch and are read from the navigator's stored
+    epochs instead of its finished result, and plain's chunked run drops the stop guard (it models nothing)
+    while the per-sample run (an updater) keeps it."""
     sc = short_drive
     s0 = sc.init.t + 60.0
     windows = [(s0 + 20.0, 60.0), (s0, 60.0), (s0 + 1e-4, 30.0), (float(sc.imu.t[-1]) + 5.0, 10.0)]
@@ -247,3 +251,32 @@ def test_chunked_windows_equal_the_per_sample_run_to_the_bit(short_drive, method
     slow = dense.run_windows(sc, cfg, sc.gnss, windows, initial_models=models, updater=_NoUpdate())
     assert fast == slow
     assert fast["windows"][1]["drift"] > 1.0 and fast["windows"][3]["drift"] is None
+
+
+def test_errors_from_the_stored_epochs_equal_the_finished_results(short_drive):
+    """The aided run's and a branch's errors read from the navigator's stored epochs (only those the error
+    computation uses) equal those of the finished result, to the bit (the reference here is off the IMU grid)."""
+    from imunoise.experiments.window_errors import branch_errors, stored_errors
+
+    sc = short_drive
+    w = [(sc.init.t + 70.0, 60.0), (sc.init.t + 90.0, 30.0)]
+    cfg, models, _ = dense.method_setup("plain", sc, cache={})
+    kept = dense.run_windows(sc, cfg, sc.gnss, w, initial_models=models, keep=True)  # errors of the result
+    cfg, models, _ = dense.method_setup("plain", sc, cache={})
+    got = dense.run_windows(sc, cfg, sc.gnss, w, initial_models=models)  # errors of the stored epochs
+    assert got["windows"] == kept["windows"]
+    assert (got["horizontal_rms_m"], got["vertical_rms_m"]) == (kept["horizontal_rms_m"], kept["vertical_rms_m"])
+    # a branch: its copy of the first epoch just before the start, as branch_errors makes it
+    cfg, models, _ = dense.method_setup("plain", sc, cache={})
+    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
+    t, (dth, dv) = sc.imu.t, sc.imu.increments()
+    i = int(np.searchsorted(t, w[0][0]))
+    nav.push_chunk(t[:i], dth[:i], dv[:i], sc.gnss.t[sc.gnss.t < w[0][0]], sc.gnss.llh[sc.gnss.t < w[0][0]],
+                   sc.gnss.sigma_ned[sc.gnss.t < w[0][0]])
+    br = nav.fork()[0]
+    br.push_chunk(t[i:i + 3000], dth[i:i + 3000], dv[i:i + 3000])
+    a = stored_errors(br, sc, w[0][0])
+    b = branch_errors(br.finish(), sc, w[0][0])
+    assert a.t.size == b.t.size > 100
+    assert np.array_equal(a.t, b.t) and np.array_equal(a.ned, b.ned) and np.array_equal(a.vel, b.vel)
+    assert np.array_equal(a.att, b.att, equal_nan=True)

@@ -11,12 +11,13 @@ to the next (the filter in kernel spans between events; equal to ``push_imu``/``
 to the bit, which a method with a per-sample policy, the stop refits and the adaptive noise, still uses). When
 the stream reaches a window's start the navigator is copied (:meth:`OnlineNavigator.fork`; inline worker, so
 there is no thread to copy; the modelling-job cache and the IMU arrays are shared, not copied) and the copy
-continues with the window's IMU and no GNSS inside the window, to L + 1 s, in one chunk. The copy *is* a full
-run with that window's GNSS removed, up to the window end: tests/experiments/test_experiments_dense.py checks it
-to 1e-9 m. Per window: the end drift (horizontal error at the last reference epoch inside the window, as
-:func:`imunoise.nav.metrics.outage_drift`), the horizontal RMS inside the window, and the aided run's
-horizontal RMS over the same span (``aided_rms``: the GNSS-available metric of the paper's Table 5, per
-window, so it can be paired too).
+continues with the window's IMU and no GNSS inside the window, in one chunk, to the sample of the window's
+last reference epoch (the per-sample path, to L + 1 s). The copy *is* a full run with that window's GNSS
+removed, up to the window end: tests/experiments/test_experiments_dense.py checks it to 1e-9 m. Per window
+(read from the branch's stored epochs; no result over the whole drive is built): the end drift (horizontal
+error at the last reference epoch inside the window, as :func:`imunoise.nav.metrics.outage_drift`), the
+horizontal RMS inside the window, and the aided run's horizontal RMS over the same span (``aided_rms``: the
+GNSS-available metric of the paper's Table 5, per window, so it can be paired too).
 
 Methods (:data:`EVIDENCE_METHODS`; every other name of :func:`imunoise.experiments.online_exp.method_config`
 works too): ``plain``; ``static_var`` — the model-free baseline: for each axis the variance of the

@@ -14,7 +14,13 @@ from imunoise.errors import ModelError
 from imunoise.experiments.common import Scenario
 from imunoise.experiments.dense_methods import STATIC_WARM_METHODS, Updater, base_method, method_setup
 from imunoise.experiments.dense_spec import BRANCH_MARGIN_S
-from imunoise.experiments.window_errors import branch_errors, window_metrics
+from imunoise.experiments.window_errors import (
+    branch_errors,
+    navigator_window_metrics,
+    stored_errors,
+    window_last_sample,
+    window_metrics,
+)
 from imunoise.nav.metrics import nav_errors
 from imunoise.online import MotionNoisePrior, OnlineConfig, OnlineNavigator
 
@@ -38,6 +44,7 @@ def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, sh
     pushes in the same places (push_chunk equals push_imu/push_gnss in time order to the bit)."""
     t, dth, dv, gt, gllh, gsig = data
     n = t.size
+    ref_t = np.asarray(sc.ref.t, dtype=float)
     if nav.detector is None and n:
         # λ_0 from the first learn_lambda0_s of the record at once, as OnlineNavigator.run does (push_imu holds
         # those samples, learns from the same accelerations at the first later sample, then replays them one by
@@ -54,12 +61,13 @@ def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, sh
         nav.push_chunk(t[i0:i], dth[i0:i], dv[i0:i], gt[k:ks], gllh[k:ks], gsig[k:ks])
         i0, k = i, ks
         br, _ = _fork(nav, None, shared)
-        ie = max(int(np.searchsorted(t, s + length + BRANCH_MARGIN_S, side="left")), i)
+        ie = int(np.searchsorted(t, s + length + BRANCH_MARGIN_S, side="left"))
+        ie = max(window_last_sample(t, ref_t, s, length, ie), i)  # no sample after the window's last epoch
         # inside the window no fix; after its end those up to the branch's last sample
         kb = int(np.searchsorted(gt, s + length, side="left"))
         ke = max(int(np.searchsorted(gt, t[ie - 1], side="right")), kb) if ie > i else kb
         br.push_chunk(t[i:ie], dth[i:ie], dv[i:ie], gt[kb:ke], gllh[kb:ke], gsig[kb:ke])
-        out[j] = window_metrics(branch_errors(br.finish(), sc, s), s, length)
+        out[j] = navigator_window_metrics(br, sc, s, length)
     ke = max(int(np.searchsorted(gt, t[-1], side="right")), k)  # fixes after the last sample are never pushed
     nav.push_chunk(t[i0:], dth[i0:], dv[i0:], gt[k:ke], gllh[k:ke], gsig[k:ke])
 
@@ -99,6 +107,17 @@ def _aided_samples(nav: OnlineNavigator, updater: Updater, sc: Scenario, windows
         updater.step(nav)
 
 
+def _unguarded(config: OnlineConfig, updater: Updater | None) -> OnlineConfig:
+    """``config`` without the stop guard where it has no effect on the navigation: the guard only chooses which
+    detected stops are modelled (:mod:`imunoise.online.stops`), so a run that models nothing (no modelling, no
+    ZUPT, no in-motion learner, no updater reading the kept stops) navigates the same to the bit without it,
+    and skips the guard's per-sample rows over every static sample of the aided run and of each branch."""
+    if (config.modelling or config.zupt or config.motion_noise is not None or updater is not None
+            or config.stop_guard == "none"):
+        return config
+    return config.with_(stop_guard="none")
+
+
 def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tuple[float, float]], *,
                 initial_models=None, updater: Updater | None = None, keep: bool = False,
                 earlier_static: Sequence[np.ndarray] | None = None) -> dict:
@@ -107,6 +126,8 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
 
     Returns ``windows`` (per window ``drift``, ``rms``, ``drift_v``, ``aided_rms``) and the aided run's
     ``horizontal_rms_m``/``vertical_rms_m``; ``_full`` (the aided OnlineResult) when ``keep``."""
+    if not keep:  # a kept result reports its stops as guarded
+        config = _unguarded(config, updater)
     t = np.asarray(sc.imu.t, dtype=float)
     dth, dv = sc.imu.increments()
     gt = np.asarray(gnss.t, dtype=float)
@@ -125,8 +146,12 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
         _aided_chunks(nav, sc, windows, order_w, data, shared, out)
     else:
         _aided_samples(nav, updater, sc, windows, order_w, data, shared, out)
-    full = nav.finish()
-    err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
+    full = err = None
+    if not keep:  # the errors from the stored epochs they read, the result over the whole drive not built
+        err = stored_errors(nav, sc)
+    if err is None:
+        full = nav.finish()
+        err = nav_errors(full.t, full.antenna_llh(sc.lever), full.vel_ned, full.euler, sc.ref)
     for j, (s, length) in enumerate(windows):
         m = (err.t >= s) & (err.t < s + length)
         h = err.horizontal[m]
