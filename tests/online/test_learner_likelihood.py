@@ -129,3 +129,14 @@ def test_state_machine_refuses_at_choose_when_nothing_beats_the_current_model():
         _round(L, [100.0, 101.0, 99.0])
     h = L.history[-1]
     assert h["decision"] == "refuse" and h["stage"] == "choose" and h["candidates"]["1"]["delta_nll"] == 3.0
+
+
+def test_cli_bad_statistic_is_one_line_and_exit_2(tmp_path, capsys):
+    from imunoise.cli import main
+
+    rc = main(["online", "--imu", str(tmp_path / "none.txt"), "--learn-motion-noise", "--motion-noise-statistic",
+               "nll", "--out", str(tmp_path / "y")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1
+    assert "--motion-noise-statistic must be one of drift, likelihood, got 'nll'" in err[0]
+    assert not (tmp_path / "y").exists()
