@@ -111,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig, load_axis_models
     from imunoise.online import MotionNoiseConfig, MotionNoisePrior, OnlineConfig, OnlineNavigator
+    from imunoise.online.learner.candidates import LIKELIHOOD_FAMILIES
     from imunoise.online.learner.config import STATISTICS
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
@@ -122,7 +123,9 @@ def run(args: argparse.Namespace) -> int:
     motion = None  # the learner's prior is read first: a bad file fails before anything is made
     if args.learn_motion_noise or args.motion_noise_prior:
         prior = MotionNoisePrior.load(args.motion_noise_prior) if args.motion_noise_prior else None
-        motion = MotionNoiseConfig(prior=prior, statistic=args.motion_noise_statistic)
+        lik = args.motion_noise_statistic == "likelihood"
+        motion = MotionNoiseConfig(prior=prior, **({"statistic": "likelihood", "families": LIKELIHOOD_FAMILIES}
+                                                   if lik else {}))
     inp = read_nav_inputs(args, log)
     imu, gnss, ref, notes, windows, lever = inp.imu, inp.gnss, inp.ref, inp.notes, inp.windows, inp.lever
     earlier = load_static_pieces(args.earlier_static, imu.rate_hz) if args.earlier_static else None

@@ -188,7 +188,10 @@ def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None, cach
         return cfg.with_(motion_noise=replace(cfg.motion_noise, prior=prior)), models, upd
     if name == "gmwm_lik":  # gmwm_dyn deciding by likelihood-ratio tests (MotionNoiseConfig.statistic)
         cfg, models, upd = method_setup("gmwm_dyn", sc, base, cache)
-        return cfg.with_(motion_noise=replace(cfg.motion_noise, statistic="likelihood")), models, upd
+        from imunoise.online.learner.candidates import LIKELIHOOD_FAMILIES
+
+        mn = replace(cfg.motion_noise, statistic="likelihood", families=LIKELIHOOD_FAMILIES)
+        return cfg.with_(motion_noise=mn), models, upd
     plain_cfg, _ = method_config("plain", sc, base)
     if name in ONLINE_BASELINES:
         gyro, accel = sc.imu.rates()

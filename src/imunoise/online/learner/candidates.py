@@ -28,8 +28,8 @@ from imunoise.errors import ModelError
 from imunoise.model import Model
 from imunoise.processes import AR1, WN
 
-__all__ = ["Process", "Family", "DEFAULT_FAMILIES", "compose", "with_process", "describe", "departure_variance",
-           "search_candidates", "refine", "spec_from_dicts", "DPH"]
+__all__ = ["Process", "Family", "DEFAULT_FAMILIES", "LIKELIHOOD_FAMILIES", "compose", "with_process", "describe",
+           "departure_variance", "search_candidates", "refine", "spec_from_dicts", "DPH"]
 
 DPH = math.pi / 180.0 / 3600.0  # °/h → rad/s
 SENSORS = ("gyro", "accel")
@@ -110,6 +110,12 @@ DEFAULT_FAMILIES: tuple[Family, ...] = (
     Family("step", "gyro", 100.0 * DPH, 3.0),
     Family("step", "accel", 0.01, 3.0),
 )
+
+# the likelihood statistic's scales: gyro Gauss–Markov with T_c = 100 s only. The one-step innovation likelihood
+# sees seconds ahead; a T_c shorter than an outage makes the filter forget, within the outage, the bias it had
+# estimated, so a 10-s process that fits the fixes better drifted more in 60-s outages (development seeds,
+# docs/acceptance/issue24_likelihood.md)
+LIKELIHOOD_FAMILIES: tuple[Family, ...] = (Family("gm", "gyro", 100.0 * DPH, 3.0, (100.0,)), *DEFAULT_FAMILIES[1:])
 
 
 def with_process(spec: Spec, p: Process) -> Spec:
