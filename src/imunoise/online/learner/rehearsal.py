@@ -179,7 +179,7 @@ def run_round(job: dict, specs: Sequence[Spec], lever: np.ndarray, rate: float, 
         if e is None:
             continue
         var = departure_variance(specs[k])
-        acc = [0.0] if want_nll else None
+        nll_sum = [0.0] if want_nll else None
         adv = job["adv"]
         if want_nll and job["rscale"][k] != 1.0:
             adv = (adv[0], adv[1], adv[2] * job["rscale"][k])
@@ -191,16 +191,16 @@ def run_round(job: dict, specs: Sequence[Spec], lever: np.ndarray, rate: float, 
         for ts, models in job["statics"]:
             j1 = int(np.searchsorted(t[:n_adv], ts, side="right"))
             if j1 - j0 >= 2:
-                _, _, s, n = _advance(e, t, dth, dv, j0, j1, adv, dep_idx, var, True, acc)
+                _, _, s, n = _advance(e, t, dth, dv, j0, j1, adv, dep_idx, var, True, nll_sum)
                 nis[k, 0] += s
                 nis[k, 1] += n
                 j0 = j1 - 1
             e.swap_model(compose(models, specs[k], rate), preserve=True)
-        _, _, s, n = _advance(e, t, dth, dv, j0, n_adv, adv, dep_idx, var, True, acc)
+        _, _, s, n = _advance(e, t, dth, dv, j0, n_adv, adv, dep_idx, var, True, nll_sum)
         nis[k, 0] += s
         nis[k, 1] += n
-        if acc is not None:
-            nll_out[k] = acc[0]
+        if nll_sum is not None:
+            nll_out[k] = nll_sum[0]
     res = {"scores": scores, "nis": nis, "rehearsed": bool(rehearse)}
     if want_nll:
         res["nll"] = nll_out
