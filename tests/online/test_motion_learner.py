@@ -233,3 +233,40 @@ def test_warm_prior_chains_the_earlier_drives_oldest_first():
     assert 0 < oldest.rounds < chained.rounds
     with pytest.raises(ModelError, match="at least one earlier drive"):
         earlier_prior(9, regime, 1, n_drives=0, earlier=[sc])
+
+
+# the decisions of the default (drift) learner on this drive, recorded before the likelihood statistic existed:
+# (event, t_round, the chosen processes' gyro Gauss–Markov σ [°/h] and T_c [s]); the last position too
+DRIFT_DECISIONS = [("motion_noise_choose", 100125.0, 100.0, 10.0), ("motion_noise_refuse", 100170.0, 100.0, 10.0),
+                   ("motion_noise_choose", 100235.0, 100.0, 10.0), ("motion_noise_refuse", 100340.0, 100.0, 10.0),
+                   ("motion_noise_refuse", 100401.0, None, None)]
+DRIFT_LLH_END = (0.6996594497413903, -1.8349096982370954, 1584.4744804412762)
+
+
+@pytest.mark.slow
+def test_the_default_statistic_is_the_drift_and_decides_as_before(drive, inline_run):
+    sc, gnss = drive
+    nav, res = inline_run
+    assert nav.config.motion_noise.statistic == "drift" and not nav._motion._lik
+    got = []
+    for e in res.events:
+        if e["event"] in ("motion_noise_choose", "motion_noise_confirm", "motion_noise_refuse", "motion_noise_revert"):
+            p = (e.get("processes") or [{}])[0]
+            got.append((e["event"], e["t_round"], p.get("sigma_dph"), p.get("tc_s")))
+    assert got == DRIFT_DECISIONS
+    assert np.allclose(res.llh[-1], DRIFT_LLH_END, rtol=0, atol=1e-12 * np.array([1, 1, 1e6]))
+
+
+@pytest.mark.slow
+def test_likelihood_statistic_logs_its_tests_on_a_drive(drive):
+    sc, gnss = drive
+    nav, res = _dyn_run(sc, gnss, push=False, statistic="likelihood")
+    L = nav._motion
+    assert L._lik and sorted(r for r, role in zip(L._rscale, L._roles, strict=True) if role == "rscale") == [0.7, 1.4]
+    dec = [e for e in res.events if e["event"] in ("motion_noise_confirm", "motion_noise_refuse", "motion_noise_revert")
+           and e.get("stage") != "choose"]
+    assert dec and all(e["statistic"] == "likelihood" for e in dec)
+    for e in dec:  # the evidence: LR = −2 ΔNLL against its χ² threshold, over the confirm rounds
+        assert e["lr"] == pytest.approx(-2.0 * e["delta_nll"]) and e["threshold"] > 0 and e["n_rounds"] >= 3
+        if e["event"] == "motion_noise_confirm":
+            assert e["lr"] > e["threshold"] and e["r_lr"] > e["r_threshold"] and e["nis_position"]["inside"]

@@ -121,7 +121,7 @@ def select_methods(which: str, sim: bool, methods: str | None, evidence: bool = 
         default = (*dense.EVIDENCE_METHODS, *(dense.SIM_EXTRA if sim else ()))
     allowed = tuple(dict.fromkeys((*mod.METHODS, *default)))
     if evidence:
-        extra = ("static_var_hindsight", "adaptive", "gmwm_dyn",
+        extra = ("static_var_hindsight", "adaptive", "gmwm_dyn", "gmwm_lik",
                  *(("oracle", *dense.WARM_METHODS, *dense.STATIC_WARM_METHODS) if sim else ()))
         allowed = tuple(dict.fromkeys((*allowed, *extra)))
     chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else default

@@ -85,6 +85,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--motion-noise-prior", metavar="METRICS_JSON",
                    help="start the in-motion noise learner with what it learned on an earlier drive of the same IMU "
                         "in the same vehicle: that run's metrics.json (implies --learn-motion-noise)")
+    p.add_argument("--motion-noise-statistic", default="drift", metavar="STAT",
+                   help="the learner's evidence: drift (rehearsed-outage drift, paired t tests; the reported default) "
+                        "or likelihood (likelihood-ratio tests on the GNSS innovations; development only)")
     p.add_argument("--earlier-static", nargs="+", metavar="STATIC_NPZ",
                    help="pool the stops of earlier drives of the same IMU with this drive's: the static.npz those "
                         "runs wrote (the last of a chain holds all before it); the model of the earlier stops runs "
@@ -108,14 +111,21 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig, load_axis_models
     from imunoise.online import MotionNoiseConfig, MotionNoisePrior, OnlineConfig, OnlineNavigator
+    from imunoise.online.learner.candidates import LIKELIHOOD_FAMILIES
+    from imunoise.online.learner.config import STATISTICS
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     if args.lambda0 is not None and not (math.isfinite(args.lambda0) and args.lambda0 > 0):
         raise ModelError(f"--lambda0 must be a positive threshold in m/s², got {args.lambda0:g}")
+    if args.motion_noise_statistic not in STATISTICS:
+        raise ModelError(f"--motion-noise-statistic must be one of {', '.join(STATISTICS)}, got "
+                         f"{args.motion_noise_statistic!r}")
     motion = None  # the learner's prior is read first: a bad file fails before anything is made
     if args.learn_motion_noise or args.motion_noise_prior:
         prior = MotionNoisePrior.load(args.motion_noise_prior) if args.motion_noise_prior else None
-        motion = MotionNoiseConfig(prior=prior)
+        lik = args.motion_noise_statistic == "likelihood"
+        motion = MotionNoiseConfig(prior=prior, **({"statistic": "likelihood", "families": LIKELIHOOD_FAMILIES}
+                                                   if lik else {}))
     inp = read_nav_inputs(args, log)
     imu, gnss, ref, notes, windows, lever = inp.imu, inp.gnss, inp.ref, inp.notes, inp.windows, inp.lever
     earlier = load_static_pieces(args.earlier_static, imu.rate_hz) if args.earlier_static else None
@@ -173,7 +183,9 @@ def run(args: argparse.Namespace) -> int:
                          "timing": res.timing, "config": {"criterion": config.criterion, "zupt": config.zupt,
                                                            "floor": config.floor, "latency": config.latency,
                                                            "learn_motion_noise": motion is not None,
-                                                           "motion_noise_prior": args.motion_noise_prior}}
+                                                           "motion_noise_prior": args.motion_noise_prior,
+                                                           **({"motion_noise_statistic": "likelihood"} if motion
+                                                              and motion.statistic == "likelihood" else {})}}
         metrics.update(run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)[0])
         if args.outage_runs and windows:
             outs = []

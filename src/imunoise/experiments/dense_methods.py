@@ -32,6 +32,7 @@ LABELS = {
     "gmwm_hindsight": "GMWM, GOF (all static data)",
     "adaptive": "plain + innovation-based adaptive bias noise (covariance matching)",
     "gmwm_dyn": "GMWM + in-motion gyro noise learned by rehearsed outages",
+    "gmwm_lik": "gmwm_dyn deciding by the GNSS innovation likelihood (development)",
     "gmwm_dyn_warm": "gmwm_dyn carrying what it learned on an earlier drive of the same vehicle",
     "gmwm_dyn_warm3": "gmwm_dyn carrying what it learned on three earlier drives of the same vehicle",
     "gmwm_warm": "GMWM pooling the stops of an earlier drive of the same vehicle",
@@ -185,6 +186,12 @@ def method_setup(name: str, sc: Scenario, base: OnlineConfig | None = None, cach
                              "--motion-noise-prior METRICS.json` of an earlier drive")
         cfg, models, upd = method_setup("gmwm_dyn", sc, base, cache)
         return cfg.with_(motion_noise=replace(cfg.motion_noise, prior=prior)), models, upd
+    if name == "gmwm_lik":  # gmwm_dyn deciding by likelihood-ratio tests (MotionNoiseConfig.statistic)
+        cfg, models, upd = method_setup("gmwm_dyn", sc, base, cache)
+        from imunoise.online.learner.candidates import LIKELIHOOD_FAMILIES
+
+        mn = replace(cfg.motion_noise, statistic="likelihood", families=LIKELIHOOD_FAMILIES)
+        return cfg.with_(motion_noise=mn), models, upd
     plain_cfg, _ = method_config("plain", sc, base)
     if name in ONLINE_BASELINES:
         gyro, accel = sc.imu.rates()

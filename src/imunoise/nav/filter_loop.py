@@ -31,7 +31,7 @@ from imunoise.nav.mechanization import quat_to_dcm
 from imunoise.nav.state import A_LAST_DT, A_STEPS, I_POS, I_Q, I_VEL, N_NAV, X_VEL
 
 __all__ = [
-    "FilterArrays", "ModelArrays", "Settings", "ImuInput", "Fixes", "VelocityFixes", "Outputs",
+    "FilterArrays", "ModelArrays", "Settings", "ImuInput", "Fixes", "VelocityFixes", "Outputs", "innovation_nll",
     "flush", "gnss_position_update", "gnss_velocity_update", "zupt_update", "nhc_due", "nhc_update", "fix_status",
     "run_batch", "run_span", "SPAN_COLS", "next_event", "euler_rows",
 ]
@@ -85,7 +85,9 @@ class ImuInput(NamedTuple):
 
 class Fixes(NamedTuple):
     """GNSS position fixes (sorted): times, llh (rad, rad, m), 1σ NED (m), the lever arm (body FRD, m); the
-    loop writes ``status`` (1 used, 0 rejected, 2 forced, −1 outside the run) and ``nis``."""
+    loop writes ``status`` (1 used, 0 rejected, 2 forced, −1 outside the run) and ``nis`` (the gate's), and the
+    batch loop ``nll`` when it has a row per fix (default: none): the one-step innovation −log density
+    ½(νᵀS⁻¹ν + log det S + 3 log 2π), S = HPHᵀ + R before the update (:func:`innovation_nll`)."""
 
     t: np.ndarray
     llh: np.ndarray
@@ -93,6 +95,7 @@ class Fixes(NamedTuple):
     lever: np.ndarray
     status: np.ndarray
     nis: np.ndarray
+    nll: np.ndarray = np.zeros(0)  # not written (0 rows) unless the caller asks for it
 
 
 class VelocityFixes(NamedTuple):
@@ -172,6 +175,15 @@ def nhc_update(f, m, s, nh, n_reject):
 
 
 @njit(cache=True)
+def innovation_nll(dz, S):
+    """−log N(dz; 0, S) = ½(dzᵀS⁻¹dz + log det S + m log 2π) (the prediction-error decomposition's term of one
+    fix; the gate's NIS adds gate_abs² to S and is not this quadratic form)."""
+    L = np.linalg.cholesky(S)
+    z = np.linalg.solve(L, dz)
+    return 0.5 * (z @ z + 2.0 * np.sum(np.log(np.diag(L))) + dz.shape[0] * np.log(2.0 * np.pi))
+
+
+@njit(cache=True)
 def fix_status(ok, force, chi2, nis):
     """Status of a GNSS fix: 1 used, 0 rejected by the gate, 2 forced in after too many rejections."""
     if not ok:
@@ -210,8 +222,10 @@ def run_batch(imu, f, m, s, nh, fx, vfx, out):
             std_nav(f.P, std)
         while gi < ng and gt[gi] <= t[k]:
             force = n_reject >= s.max_reject
-            nis, ok, _, _, _ = gnss_position_update(f, m, s, fx.llh[gi], fx.sigma[gi], fx.lever, t[k] - gt[gi], force)
+            nis, ok, dz, S, _ = gnss_position_update(f, m, s, fx.llh[gi], fx.sigma[gi], fx.lever, t[k] - gt[gi], force)
             fx.nis[gi] = nis
+            if fx.nll.shape[0] == ng:
+                fx.nll[gi] = innovation_nll(dz, S)
             fx.status[gi] = fix_status(ok, force, s.chi2, nis)
             n_reject = 0 if ok else n_reject + 1
             std_nav(f.P, std)

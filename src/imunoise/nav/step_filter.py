@@ -369,7 +369,7 @@ class LooselyCoupledEKF:
     # -- what-if runs -------------------------------------------------------------------------------
     def rehearse(self, t: np.ndarray, dtheta: np.ndarray, dv: np.ndarray, gnss_t: np.ndarray, gnss_llh: np.ndarray,
                  gnss_sigma: np.ndarray, *, gate: np.ndarray | None = None, with_nis: bool = False,
-                 with_std: bool = False, in_place: bool = False) -> tuple:
+                 with_std: bool = False, in_place: bool = False, with_nll: bool = False) -> tuple:
         """Run a copy of the filter on from its current state (the filter itself is not changed, unless
         ``in_place``): the batch kernel of :func:`~imunoise.nav.ekf.run_ekf` over IMU samples ``t[1:]`` (``t[0]``
         must be the filter time) with the fixes ``gnss_*`` (sorted; σ as given). Used to rehearse a GNSS outage on data
@@ -386,10 +386,9 @@ class LooselyCoupledEKF:
             Fixes to apply (times [s], (m, 3) lat/lon rad, h m, (m, 3) 1σ NED m); may be empty.
         gate : numpy.ndarray, optional
             Angular-rate gate per sample (default closed).
-        with_nis : bool
-            Also return the NIS of every fix (NaN where the fix was not reached).
-        with_std : bool
-            Also return the 1σ of δr, δv, φ at every sample, (n, 9) (NED m, m/s, rad).
+        with_nis, with_nll, with_std : bool
+            Also return the NIS, then the innovation NLL (:class:`Fixes`), of every fix (NaN where not reached),
+            then the 1σ of δr, δv, φ at every sample, (n, 9) (NED m, m/s, rad).
         in_place : bool
             Advance this filter itself to ``t[-1]`` (``last_innovation`` is not updated).
 
@@ -397,7 +396,7 @@ class LooselyCoupledEKF:
         -------
         tuple of numpy.ndarray
             ``(llh, euler)`` of the IMU point at every sample, (n, 3) each, followed by ``nis`` with
-            ``with_nis`` and ``std`` with ``with_std``.
+            ``with_nis``, ``nll`` with ``with_nll`` and ``std`` with ``with_std``.
         """
         t = np.ascontiguousarray(t, dtype=float)
         if t.size < 2 or abs(t[0] - self.t) > 1e-9 or np.any(np.diff(t) <= 0):
@@ -411,16 +410,17 @@ class LooselyCoupledEKF:
         gt = np.ascontiguousarray(gnss_t, dtype=float)
         gsig = np.maximum(np.ascontiguousarray(gnss_sigma, dtype=float).reshape(-1, 3), self.config.gnss_sigma_floor)
         fixes = Fixes(gt, np.ascontiguousarray(gnss_llh, dtype=float).reshape(-1, 3), gsig, self.lever,
-                      np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan))
+                      np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan),
+                      np.full(gt.size if with_nll else 0, np.nan))
         imu = ImuInput(t, np.ascontiguousarray(dtheta, dtype=float), np.ascontiguousarray(dv, dtype=float),
                        np.zeros(n, dtype=np.bool_) if gate is None else np.ascontiguousarray(gate, dtype=np.bool_),
                        np.zeros(n, dtype=np.bool_))
-        f = self.arrays() if in_place else FilterArrays(self.nav.copy(), self.xm.copy(), self.P.copy(),
-                                                          self.acc.copy())
+        f = self.arrays() if in_place else FilterArrays(*(a.copy() for a in self.arrays()))
         run_batch(imu, f, *self.kernel_parts(), self.nhc_settings(), fixes, velocity_fixes(None, self.lever), out)
         if in_place:
             self.t = float(t[-1])
-        return (out.pos, out.att, *((fixes.nis,) if with_nis else ()), *((out.std,) if with_std else ()))
+        extra = [a for a, w in ((fixes.nis, with_nis), (fixes.nll, with_nll), (out.std, with_std)) if w]
+        return (out.pos, out.att, *extra)
 
     # -- output -----------------------------------------------------------------------------------
     def sensor_errors(self) -> np.ndarray:

@@ -11,7 +11,9 @@ from typing import Any
 from imunoise.errors import DataError, ModelError
 from imunoise.online.learner.candidates import DEFAULT_FAMILIES, Family, Process, Spec, describe, spec_from_dicts
 
-__all__ = ["MotionNoiseConfig", "MotionNoisePrior"]
+__all__ = ["MotionNoiseConfig", "MotionNoisePrior", "STATISTICS"]
+
+STATISTICS = ("drift", "likelihood")  # the decision statistics of the learner (MotionNoiseConfig.statistic)
 
 
 @dataclass(frozen=True)
@@ -80,7 +82,15 @@ class MotionNoiseConfig:
     revert; ``margin``: the confirmed mean log ratio must be below −margin; ``nis_alpha``: two-sided level of the
     NIS band; ``min_speed_mps``: rehearse only while the current model's shadow moves faster; ``min_stop_s``: a
     departure follows a raw static run of at least this; ``prior``: what earlier drives of the same IMU and
-    vehicle learned (:class:`MotionNoisePrior`) or None."""
+    vehicle learned (:class:`MotionNoisePrior`) or None.
+
+    ``statistic``: the evidence of a decision. ``"drift"`` (the default, the reported learner): the log RMS
+    drift of the rehearsed outages, paired t tests. ``"likelihood"`` (development only until reported): the
+    shadows' accumulated one-step GNSS innovation NLL, likelihood-ratio tests against χ²(``lr_df``) at
+    1 − ``alpha``/m (:mod:`imunoise.online.learner.likelihood`), every round with fixes counted; ``r_scales``: the
+    GNSS σ factors of the R-only nuisance candidates an in-motion change must also beat; ``harm_margin``: the
+    rehearsal drift guard (refuse when the chosen candidate's mean log drift ratio over the rehearsed confirm
+    rounds exceeds it)."""
 
     families: tuple[Family, ...] = DEFAULT_FAMILIES
     outage_s: float = 20.0
@@ -94,8 +104,20 @@ class MotionNoiseConfig:
     min_speed_mps: float = 2.0
     min_stop_s: float = 2.0
     prior: MotionNoisePrior | None = None
+    statistic: str = "drift"
+    r_scales: tuple[float, ...] = (0.7, 1.4)
+    lr_df: int = 1
+    harm_margin: float = 0.05
 
     def __post_init__(self) -> None:
+        if self.statistic not in STATISTICS:
+            raise ModelError(f"MotionNoiseConfig.statistic must be one of {', '.join(STATISTICS)}, "
+                             f"got {self.statistic!r}")
+        rs = tuple(float(r) for r in self.r_scales)
+        if not all(math.isfinite(r) and r > 0 and r != 1.0 for r in rs) or not (self.lr_df >= 1
+                                                                                and self.harm_margin >= 0):
+            raise ModelError("MotionNoiseConfig: r_scales finite, > 0 and ≠ 1; lr_df ≥ 1; harm_margin ≥ 0")
+        object.__setattr__(self, "r_scales", rs)
         fams = tuple(self.families)
         if not fams or not all(isinstance(f, Family) for f in fams):
             raise ModelError("MotionNoiseConfig.families needs at least one Family (σ scale)")

@@ -36,13 +36,15 @@ from imunoise.online.learner.candidates import (
     search_candidates,
 )
 from imunoise.online.learner.config import MotionNoiseConfig, MotionNoisePrior
+from imunoise.online.learner.likelihood import LikelihoodRule
 from imunoise.online.learner.rehearsal import SampleBuffer, run_round
 
 __all__ = ["MotionNoiseLearner"]
 
 
-class MotionNoiseLearner:
-    """The learner the navigator owns when ``OnlineConfig.motion_noise`` is set.
+class MotionNoiseLearner(LikelihoodRule):
+    """The learner the navigator owns when ``OnlineConfig.motion_noise`` is set (``statistic="likelihood"``:
+    the decisions of :class:`~imunoise.online.learner.likelihood.LikelihoodRule`).
 
     The navigator calls :meth:`observe` / :meth:`observe_span` after filter steps with the samples, their raw
     static flags and the fixes it applied, :meth:`static_changed` when it swaps in a new static model,
@@ -73,6 +75,8 @@ class MotionNoiseLearner:
         self._shadows: list[Any] | None = None
         self._specs: list[Spec] = []
         self._roles: list[str] = []
+        self._rscale: list[float] = []  # GNSS σ factor per shadow (1 but for the likelihood's R-only rivals)
+        self._lik = config.statistic == "likelihood"
         self._stale = False
         self._t_sh = math.nan
         self._static: list[tuple[float, list]] = []
@@ -185,6 +189,12 @@ class MotionNoiseLearner:
             if s not in specs:
                 specs.append(s)
                 roles.append("candidate")
+        self._rscale = [1.0] * len(specs)
+        if self._lik:  # the R-only nuisance candidates: the current model with the fixes' σ scaled
+            for r in self.config.r_scales:
+                specs.append(self.spec)
+                roles.append("rscale")
+                self._rscale.append(float(r))
         self._specs, self._roles = specs, roles
         self._shadows = []
         for s in specs:
@@ -197,8 +207,10 @@ class MotionNoiseLearner:
         self._round = 0
         self._phase = "warm"
         self._scores: list[np.ndarray] = []
+        self._nll: list[np.ndarray] = []
         self._nis = np.zeros((len(self._specs), 4))
         self._chosen: int | None = None
+        self._rival: int | None = None
         self._n_cands = sum(r == "candidate" for r in self._roles)
 
     def _job(self) -> dict | None:
@@ -225,6 +237,8 @@ class MotionNoiseLearner:
         job = {"t": tb[i0:i1].copy(), "n_out": i_out - i0, "dth": b.dth[i0:i1].copy(), "dv": b.dv[i0:i1].copy(),
                "dep": b.dep[i0:i1].copy(), "n_adv": i1 - i0, "adv": b.fix_arrays(adv), "out": b.fix_arrays(out),
                "statics": statics, "shadows": self._shadows, "specs": list(self._specs)}
+        if self._lik:
+            job.update(nll=True, rscale=list(self._rscale))
         self._t_sh = float(tb[i1 - 1])
         b.fixes = [f for f in b.fixes if f[0] > self._t_sh]
         return job
@@ -267,10 +281,12 @@ class MotionNoiseLearner:
     # -- decisions ----------------------------------------------------------------------------------
     def _decide(self, res: dict, nav: Any) -> None:
         self.round_s.append(res["cpu_s"])
-        if not res["rehearsed"] or self._shadows is None:
+        # the drift counts rehearsed rounds only; the likelihood every round with fixes
+        if not (res["rehearsed"] or self._lik) or self._shadows is None:
             return
-        self.n_rehearsals += 1
-        self._all_scores.append(res["scores"])
+        if res["rehearsed"]:
+            self.n_rehearsals += 1
+            self._all_scores.append(res["scores"])
         self._round += 1
         c = self.config
         if self._phase == "warm":
@@ -279,11 +295,13 @@ class MotionNoiseLearner:
             return
         self._nis += res["nis"]
         self._scores.append(res["scores"])
+        if self._lik:
+            self._nll.append(res["nll"])
         n = len(self._scores)
         if self._phase == "choose" and n >= c.choose_rounds:
-            self._after_choose(res["t"], nav)
+            (self._lik_after_choose if self._lik else self._after_choose)(res["t"], nav)
         elif self._phase == "confirm" and n >= c.confirm_rounds:
-            self._after_confirm(res["t"], nav)
+            (self._lik_after_confirm if self._lik else self._after_confirm)(res["t"], nav)
 
     def _nis_check(self, k: int) -> tuple[bool, list[dict]]:
         return decision.nis_ok(self._nis[k, 0::2], self._nis[k, 1::2], 3, self.config.nis_alpha)

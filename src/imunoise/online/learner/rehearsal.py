@@ -127,22 +127,28 @@ def _pieces(j0: int, j1: int, dep_idx: np.ndarray) -> list[tuple[int, int, bool]
     return [p for p in out if p[1] > p[0]]
 
 
-def _advance(e: Any, t, dth, dv, j0: int, j1: int, fixes, dep_idx: np.ndarray, var, with_nis: bool) -> tuple:
+def _advance(e: Any, t, dth, dv, j0: int, j1: int, fixes, dep_idx: np.ndarray, var, with_nis: bool,
+             nll: list | None = None) -> tuple:
     """Shadow ``e`` in place over samples j0..j1−1 with ``fixes`` (t, llh, σ) there and the departure
-    variance ``var`` after each departure sample; returns (rows llh, rows euler, ΣNIS, #fixes)."""
+    variance ``var`` after each departure sample; returns (rows llh, rows euler, ΣNIS, #fixes). With a list
+    ``nll`` (and ``with_nis``), its first item accumulates the fixes' one-step innovation NLL (likelihood
+    statistic)."""
     at, allh, asig = fixes
     llh_parts, eul_parts = [], []
     s_nis, n_nis = 0.0, 0
+    kw = {"with_nll": True} if nll is not None else {}
     for a, b, bump in _pieces(j0, j1, dep_idx if var is not None else np.zeros(0, dtype=np.int64)):
         m = (at > t[a]) & (at <= t[b])
         out = e.rehearse(t[a:b + 1], dth[a:b + 1], dv[a:b + 1], at[m], allh[m], asig[m], with_nis=with_nis,
-                         in_place=True)
+                         in_place=True, **kw)
         llh_parts.append(out[0] if not llh_parts else out[0][1:])
         eul_parts.append(out[1] if not eul_parts else out[1][1:])
         if with_nis:
             g = out[2]
             s_nis += float(np.nansum(g))
             n_nis += int(np.isfinite(g).sum())
+            if nll is not None:
+                nll[0] += float(np.nansum(out[3]))
         if bump:
             add_departure(e, var)
     if not llh_parts:
@@ -153,7 +159,9 @@ def _advance(e: Any, t, dth, dv, j0: int, j1: int, fixes, dep_idx: np.ndarray, v
 def run_round(job: dict, specs: Sequence[Spec], lever: np.ndarray, rate: float, min_speed: float) -> dict:
     """One round (module docstring) for the active shadows of ``job``. Returns ``scores`` (NaN where not
     rehearsed or not active) and ``nis`` (per shadow: ΣNIS position, #position fixes, ΣNIS velocity, #velocity
-    fixes; the engine aids with position fixes only, so the velocity columns stay 0)."""
+    fixes; the engine aids with position fixes only, so the velocity columns stay 0). With ``job["nll"]`` (the
+    likelihood statistic) also ``nll``: per shadow the Σ one-step innovation NLL of the round's aided fixes (NaN
+    where not active), shadow k seeing the fixes' σ × ``job["rscale"][k]`` (R-only nuisance candidates)."""
     t, dth, dv, n_adv, n_out = job["t"], job["dth"], job["dv"], job["n_adv"], job["n_out"]
     ot, ollh, _ = job["out"]
     dep_idx = np.flatnonzero(job["dep"])
@@ -165,10 +173,16 @@ def run_round(job: dict, specs: Sequence[Spec], lever: np.ndarray, rate: float, 
     ks = np.minimum(np.searchsorted(t[:n_out], ot, side="left"), n_out - 1)
     scores = np.full(len(shadows), np.nan)
     nis = np.zeros((len(shadows), 4))
+    want_nll = bool(job.get("nll", False))
+    nll_out = np.full(len(shadows), np.nan)
     for k, e in enumerate(shadows):
         if e is None:
             continue
         var = departure_variance(specs[k])
+        nll_sum = [0.0] if want_nll else None
+        adv = job["adv"]
+        if want_nll and job["rscale"][k] != 1.0:
+            adv = (adv[0], adv[1], adv[2] * job["rscale"][k])
         if rehearse:
             llh, eul, _, _ = _advance(_light_copy(e), t, dth, dv, 0, n_out, no_fix, dep_idx, var, False)
             dn, de = ned_offset(antenna_llh(llh[ks], eul[ks], lever), ollh)
@@ -177,12 +191,17 @@ def run_round(job: dict, specs: Sequence[Spec], lever: np.ndarray, rate: float, 
         for ts, models in job["statics"]:
             j1 = int(np.searchsorted(t[:n_adv], ts, side="right"))
             if j1 - j0 >= 2:
-                _, _, s, n = _advance(e, t, dth, dv, j0, j1, job["adv"], dep_idx, var, True)
+                _, _, s, n = _advance(e, t, dth, dv, j0, j1, adv, dep_idx, var, True, nll_sum)
                 nis[k, 0] += s
                 nis[k, 1] += n
                 j0 = j1 - 1
             e.swap_model(compose(models, specs[k], rate), preserve=True)
-        _, _, s, n = _advance(e, t, dth, dv, j0, n_adv, job["adv"], dep_idx, var, True)
+        _, _, s, n = _advance(e, t, dth, dv, j0, n_adv, adv, dep_idx, var, True, nll_sum)
         nis[k, 0] += s
         nis[k, 1] += n
-    return {"scores": scores, "nis": nis, "rehearsed": bool(rehearse)}
+        if nll_sum is not None:
+            nll_out[k] = nll_sum[0]
+    res = {"scores": scores, "nis": nis, "rehearsed": bool(rehearse)}
+    if want_nll:
+        res["nll"] = nll_out
+    return res
