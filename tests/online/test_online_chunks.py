@@ -174,14 +174,15 @@ def test_a_bad_fix_in_the_record_raises_where_push_gnss_would(scenario):
     from types import SimpleNamespace
 
     from imunoise.errors import DataError
+    from imunoise.online.stream_checks import fixes_pass
 
     sc = scenario
-    assert chunks._fixes_pass(sc.gnss.t, sc.gnss.llh, sc.gnss.sigma_ned)
+    assert fixes_pass(sc.gnss.t, sc.gnss.llh, sc.gnss.sigma_ned)
     llh = np.array(sc.gnss.llh, dtype=float)
     k = llh.shape[0] // 2
     llh[k, :2] = np.degrees(llh[k, :2])
     bad = SimpleNamespace(t=sc.gnss.t, llh=llh, sigma_ned=sc.gnss.sigma_ned)
-    assert not chunks._fixes_pass(bad.t, bad.llh, bad.sigma_ned)
+    assert not fixes_pass(bad.t, bad.llh, bad.sigma_ned)
     nav = OnlineNavigator(_config(sc).with_(modelling=False), sc.init, imu_rate_hz=sc.rate)
     with pytest.raises(DataError) as in_run:
         nav.run(sc.imu, bad)

@@ -29,7 +29,10 @@ def window_metrics(err, start: float, length: float) -> dict:
 def branch_errors(res, sc: Scenario, start: float):
     # a copy of the first epoch just before the window start: nav_errors keeps only reference epochs from
     # the first estimate on, and the epochs in [start, t_first] belong to the first sample of the branch
-    return _errors(res.t, res.antenna_llh(sc.lever), res.vel_ned, res.euler, sc, start)
+    t = np.concatenate([[start - 1e-6], res.t])
+    llh = res.antenna_llh(sc.lever)
+    return nav_errors(t, np.vstack([llh[:1], llh]), np.vstack([res.vel_ned[:1], res.vel_ned]),
+                      np.vstack([res.euler[:1], res.euler]), sc.ref)
 
 
 def window_last_sample(t: np.ndarray, ref_t: np.ndarray, start: float, length: float, default: int) -> int:
@@ -49,18 +52,16 @@ def stored_errors(nav, sc: Scenario, start: float | None = None):
     nothing that meets the reference. ``finish()`` would build the whole result (every epoch's attitude, the
     per-sample logs over the entire drive) of which the errors need the positions, velocities and attitudes
     at the epochs nav_errors reads: the first at or after each reference epoch, and the first (one in ten at
-    100 Hz against a 10 Hz reference). Only those rows are converted, each as
-    :func:`imunoise.online.nav_output.build_result` converts it, so the errors equal those of the finished
-    result to the bit. ``start``: a branch forked at ``start``, with its first epoch copied to just before it
+    100 Hz against a 10 Hz reference). Only those rows are converted (:meth:`imunoise.online.EpochStore.arrays`,
+    as :func:`imunoise.online.nav_output.build_result` converts them all), so the errors equal those of the
+    finished result to the bit. ``start``: a branch forked at ``start``, with its first epoch copied to just before it
     (:func:`branch_errors`)."""
-    from imunoise.nav.filter_loop import euler_rows
     from imunoise.nav.solution import antenna_llh
 
     store = nav._store
     if store is None or not store.n:
         return None
-    b = store.buf[: store.n]  # EpochStore columns: t, position (3), velocity (3), quaternion (4), ...
-    t = b[:, 0] if start is None else np.concatenate([[start - 1e-6], b[:, 0]])
+    t = store.t if start is None else np.concatenate([[start - 1e-6], store.t])
     ref_t = np.asarray(sc.ref.t)
     tr = ref_t[(ref_t >= t[0]) & (ref_t <= t[-1])]
     if not tr.size:
@@ -68,8 +69,7 @@ def stored_errors(nav, sc: Scenario, start: float | None = None):
     # the epochs nav_errors reads, in t's numbering, and the first, which bounds the reference epochs it takes
     rows = np.unique(np.concatenate([[0], np.searchsorted(t, tr, side="left")]))
     src = rows if start is None else np.maximum(rows - 1, 0)  # ... in the store's
-    llh, vel = b[src, 1:4], b[src, 4:7]
-    eul = euler_rows(np.ascontiguousarray(b[src, 7:11]))
+    _, llh, vel, eul, *_ = store.arrays(src)
     return nav_errors(t[rows], antenna_llh(llh, eul, sc.lever), vel, eul, sc.ref)
 
 
@@ -80,8 +80,3 @@ def navigator_window_metrics(nav, sc: Scenario, start: float, length: float) -> 
     if err is None:  # nothing stored, or no reference epoch: the finished result's path (nav_errors says why)
         err = branch_errors(nav.finish(), sc, start)
     return window_metrics(err, start, length)
-
-
-def _errors(t, llh, vel, eul, sc: Scenario, start: float):
-    return nav_errors(np.concatenate([[start - 1e-6], t]), np.vstack([llh[:1], llh]), np.vstack([vel[:1], vel]),
-                      np.vstack([eul[:1], eul]), sc.ref)

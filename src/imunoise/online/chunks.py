@@ -35,7 +35,7 @@ import numpy as np
 
 from imunoise.errors import DataError
 from imunoise.nav.filter_loop import SPAN_COLS, Fixes, ImuInput, next_event
-from imunoise.online.result import EpochStore
+from imunoise.online.stream_checks import fixes_pass
 
 __all__ = ["chunked", "push_chunk", "replay", "run_chunk", "run_record"]
 
@@ -165,7 +165,7 @@ def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: n
     gi = 0
     base = nav.detector.n_samples
     fast = chunked(nav)
-    if _fixes_pass(gt, gllh, gsig):  # what push_gnss checks per fix, at once; then each fix goes in as checked
+    if fixes_pass(gt, gllh, gsig):  # what push_gnss checks per fix, at once; then each fix goes in as checked
 
         def push_gnss(k: int) -> None:
             nav._push_fix(float(gt[k]), np.asarray(gllh[k], dtype=float).reshape(-1).copy(),
@@ -199,21 +199,6 @@ def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: n
     while gi < gt.size:
         push_gnss(gi)
         gi += 1
-
-
-def _fixes_pass(gt, gllh, gsig) -> bool:
-    """True when every fix passes :func:`~imunoise.online.stream_checks.check_fix` (numbers, (3,) position and σ,
-    finite time and position, radians, σ ≥ 0 or NaN): the same tests on the whole arrays."""
-    try:
-        t = np.asarray(gt, dtype=float).reshape(-1)
-        llh = np.asarray(gllh, dtype=float)
-        sig = np.asarray(gsig, dtype=float)
-    except (TypeError, ValueError):
-        return False
-    if llh.shape != (t.size, 3) or sig.shape != (t.size, 3):
-        return False
-    return bool(np.all(np.isfinite(t)) and np.all(np.isfinite(llh)) and np.all(np.abs(llh[:, 0]) <= math.pi / 2)
-                and np.all(np.abs(llh[:, 1]) <= math.pi) and not np.any(sig < 0))
 
 
 def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: dict, gt, push_gnss: Any, gi: int,
@@ -390,17 +375,4 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
     if nav._motion is not None:
         nav._motion.observe_span(ts, dth, dv, static, [f for f, u in zip(fl, used, strict=True) if u])
     if nav._store is not None:
-        _store_rows(nav._store, rows)
-
-
-def _store_rows(store: EpochStore, rows: np.ndarray) -> None:
-    need = store.n + rows.shape[0]
-    if need > store.buf.shape[0]:
-        cap = store.buf.shape[0]
-        while cap < need:
-            cap *= 2
-        buf = np.empty((cap, store.buf.shape[1]))
-        buf[: store.n] = store.buf[: store.n]
-        store.buf = buf
-    store.buf[store.n:need] = rows
-    store.n = need
+        nav._store.extend(rows)

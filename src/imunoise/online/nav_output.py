@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import ModelError
-from imunoise.nav.filter_loop import euler_rows
 from imunoise.online.result import EpochStore, OnlineResult
 
 __all__ = ["store_epoch", "build_result", "fork_navigator"]
@@ -50,11 +49,7 @@ def fork_navigator(nav: Any, others: Sequence[Any], share: tuple) -> tuple:
 def build_result(nav: Any) -> OnlineResult:
     """The :class:`OnlineResult` of navigator ``nav`` (:meth:`OnlineNavigator.finish`)."""
     if nav._store is not None and nav._store.n:
-        # EpochStore.arrays' columns, the Euler angles in one kernel call instead of one per epoch
-        b = nav._store.buf[: nav._store.n]
-        t, pos, vel, eg, ea, std = (b[:, 0].copy(), b[:, 1:4].copy(), b[:, 4:7].copy(), b[:, 11:14].copy(),
-                                    b[:, 14:17].copy(), b[:, 17:26].copy())
-        eul = euler_rows(np.ascontiguousarray(b[:, 7:11]))
+        t, pos, vel, eul, eg, ea, std = nav._store.arrays()
     else:
         z = np.zeros((0, 3))
         t, pos, vel, eul, eg, ea, std = np.zeros(0), z, z, z, z, z, np.zeros((0, 9))

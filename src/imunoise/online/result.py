@@ -14,8 +14,7 @@ from imunoise.detect import StaticSegment
 from imunoise.estimator import GMWMFit
 from imunoise.io.jsonutil import json_default as _json_default
 from imunoise.model import Model
-from imunoise.nav.earth import dcm_to_euler
-from imunoise.nav.mechanization import quat_to_dcm
+from imunoise.nav.filter_loop import euler_rows
 from imunoise.nav.solution import NavSolution
 
 __all__ = ["ModelUpdate", "OnlineResult", "EpochStore", "log_event"]
@@ -109,10 +108,29 @@ class EpochStore:
         self.buf[self.n] = row
         self.n += 1
 
-    def arrays(self):
-        b = self.buf[: self.n]
-        eul = np.empty((self.n, 3))
-        for k in range(self.n):
-            eul[k] = dcm_to_euler(quat_to_dcm(b[k, 7:11]))
+    @property
+    def t(self) -> np.ndarray:
+        """Times [s] of the stored epochs (a view)."""
+        return self.buf[: self.n, 0]
+
+    def extend(self, rows: np.ndarray) -> None:
+        """:meth:`add` of each row of ``rows`` (k, COLS), in order (a kernel span's epochs)."""
+        need = self.n + rows.shape[0]
+        if need > self.buf.shape[0]:
+            cap = self.buf.shape[0]
+            while cap < need:
+                cap *= 2
+            buf = np.empty((cap, self.COLS))
+            buf[: self.n] = self.buf[: self.n]
+            self.buf = buf
+        self.buf[self.n:need] = rows
+        self.n = need
+
+    def arrays(self, rows: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+        """(t, llh, velocity NED, Euler angles, gyro errors, accel errors, σ) of the stored epochs, or of the
+        epochs ``rows`` (indices); the Euler angles of the quaternions in one kernel call
+        (:func:`~imunoise.nav.filter_loop.euler_rows`, the per-sample outputs' conversion)."""
+        b = self.buf[: self.n] if rows is None else self.buf[: self.n][rows]
+        eul = euler_rows(np.ascontiguousarray(b[:, 7:11]))
         return b[:, 0].copy(), b[:, 1:4].copy(), b[:, 4:7].copy(), eul, b[:, 11:14].copy(), b[:, 14:17].copy(), \
             b[:, 17:26].copy()

@@ -9,7 +9,7 @@ import numpy as np
 
 from imunoise.errors import DataError
 
-__all__ = ["check_fix", "check_increment"]
+__all__ = ["check_fix", "check_increment", "fixes_pass"]
 
 
 def check_fix(t, llh_rad, sigma_ned_m) -> tuple[float, np.ndarray, np.ndarray]:
@@ -38,6 +38,22 @@ def check_fix(t, llh_rad, sigma_ned_m) -> tuple[float, np.ndarray, np.ndarray]:
     if np.any(sig < 0):
         raise DataError(f"push_gnss: sigma_ned_m must be ≥ 0 m (1σ per axis), got {sig.tolist()}")
     return t, llh, sig
+
+
+def fixes_pass(gt, gllh, gsig) -> bool:
+    """True when every fix of a record (times, (m, 3) llh, (m, 3) σ) passes :func:`check_fix` (numbers, (3,)
+    position and σ, finite time and position, radians, σ ≥ 0 or NaN): the same tests on the whole arrays, so a
+    replay checks its record once (:func:`imunoise.online.chunks.run_record`)."""
+    try:
+        t = np.asarray(gt, dtype=float).reshape(-1)
+        llh = np.asarray(gllh, dtype=float)
+        sig = np.asarray(gsig, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    if llh.shape != (t.size, 3) or sig.shape != (t.size, 3):
+        return False
+    return bool(np.all(np.isfinite(t)) and np.all(np.isfinite(llh)) and np.all(np.abs(llh[:, 0]) <= math.pi / 2)
+                and np.all(np.abs(llh[:, 1]) <= math.pi) and not np.any(sig < 0))
 
 
 def check_increment(t, dtheta, dv, t_in: float) -> tuple[float, np.ndarray, np.ndarray]:
