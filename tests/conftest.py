@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from pathlib import Path
+from types import ModuleType
 
 import matplotlib
 import pytest
@@ -12,6 +14,14 @@ matplotlib.use("Agg")
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = Path(os.environ.get("IMUNOISE_SHARED_DATA", REPO.parent / "shared" / "data"))
+
+
+def load_script(name: str) -> ModuleType:
+    """The module of ``scripts/NAME.py`` (the scripts are not a package; their tests import them by path)."""
+    spec = importlib.util.spec_from_file_location(name, REPO / "scripts" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def shared_path(*parts: str) -> Path:

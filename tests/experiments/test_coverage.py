@@ -5,15 +5,11 @@ collapses (the naive t of one drive's windows, which takes them as independent, 
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
 
-_SPEC = importlib.util.spec_from_file_location(
-    "coverage_study", Path(__file__).resolve().parents[2] / "scripts" / "coverage_study.py")
-coverage_study = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(coverage_study)
+from conftest import load_script
+
+coverage_study = load_script("coverage_study")
 
 
 @pytest.mark.slow

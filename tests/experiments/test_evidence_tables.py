@@ -2,19 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from conftest import load_script
 from imunoise.experiments.stats import paired_entry
 
-_SPEC = importlib.util.spec_from_file_location(
-    "evidence_tables", Path(__file__).resolve().parents[2] / "scripts" / "evidence_tables.py")
-evidence_tables = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(evidence_tables)
+evidence_tables = load_script("evidence_tables")
 
 
 def _results() -> dict:

@@ -3,17 +3,14 @@ decomposition on a linear case), and the script runs one short simulated drive e
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 from scipy.stats import multivariate_normal
 
-_SPEC = importlib.util.spec_from_file_location(
-    "motion_noise_likelihood", Path(__file__).resolve().parents[2] / "scripts" / "motion_noise_likelihood.py")
-lik = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(lik)
+from conftest import load_script
+
+lik = load_script("motion_noise_likelihood")
 
 
 def test_gaussian_nll_is_the_negative_log_density():

@@ -3,16 +3,12 @@ law) scored at the same epochs as the online engine's methods."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-_SPEC = importlib.util.spec_from_file_location(
-    "nees_check", Path(__file__).resolve().parents[2] / "scripts" / "nees_check.py")
-nees_check = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(nees_check)
+from conftest import load_script
+
+nees_check = load_script("nees_check")
 
 
 def test_nees_of_position_velocity_and_both():

@@ -2,18 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy import stats
 
-_SPEC = importlib.util.spec_from_file_location(
-    "unit_tables", Path(__file__).resolve().parents[2] / "scripts" / "unit_tables.py")
-unit_tables = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(unit_tables)
+from conftest import load_script
+
+unit_tables = load_script("unit_tables")
 
 
 def _mc(rng, effect):
