@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from imunoise.batch import run_batch, run_sequential
-from imunoise.model import Model
+from imunoise.noise.model import Model
 from imunoise.units import G0
 
 N_FILES = 24

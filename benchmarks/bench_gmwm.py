@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from imunoise import AR1, RW, WN
-from imunoise.estimator import gmwm
+from imunoise.noise.estimator import gmwm
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 

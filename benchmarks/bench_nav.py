@@ -200,11 +200,11 @@ def mechanization_acceptance(duration: float = 600.0, seed: int = 1) -> str:
 
 
 def main(quick: bool | None = None) -> str:
-    from imunoise.model import Model
     from imunoise.nav.defaults import EkfConfig, default_axis_models, kfgins_loose
     from imunoise.nav.ekf import run_ekf
     from imunoise.nav.mechanization import integrate
     from imunoise.nav.metrics import nav_errors, summarize
+    from imunoise.noise.model import Model
     from imunoise.sim.imu_errors import preset_model
 
     name, imu, gnss, ref, windows, lever, init = _load()

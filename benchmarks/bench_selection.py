@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from imunoise.estimator import fit_problem, prepare
-from imunoise.model import Model
-from imunoise.selection import candidates, refit, select_model
+from imunoise.noise.estimator import fit_problem, prepare
+from imunoise.noise.model import Model
+from imunoise.noise.selection import candidates, refit, select_model
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 FREQ = 125.0  # the paper's rate; 40 000 samples = 318 s
@@ -149,7 +149,7 @@ def recovery_rows(seeds: int = 20) -> list[str]:
         f"{seeds} seeds per row at {FREQ:g} Hz. GOF (Eq. 8) always prefers a bigger model when it nests the "
         "truth (its ties go to the smaller model), so it almost never picks the truth; the paper's ranking "
         'therefore needs the penalised WVIC (`criterion="wvic"`: −2 log-likelihood of the WV + p·ln n, see '
-        "`imunoise.selection`). Target: WVIC ≥ 80 % for (a) and (c) at both sizes; (b) reported as measured "
+        "`imunoise.noise.selection`). Target: WVIC ≥ 80 % for (a) and (c) at both sizes; (b) reported as measured "
         "(its slow AR1 has T_c = 80 s and its RW crosses the AR1s only near the longest scales).",
     ]
     return rows

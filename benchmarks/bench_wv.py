@@ -1,4 +1,4 @@
-"""Wavelet variance speed: imunoise.wv vs allantools' overlapping ADEV on an octave tau grid (SPEC §13).
+"""Wavelet variance speed: imunoise.noise.wv vs allantools' overlapping ADEV on an octave tau grid (SPEC §13).
 
 Both compute the same numbers (overlapping AVAR at m = 2**(j-1) equals 2*nu^2_j), on the same 1e6
 samples, CPU time (``time.process_time``: one thread each), median of 5 after a warm-up call. The floor of
@@ -13,7 +13,7 @@ import time
 import allantools
 import numpy as np
 
-from imunoise.wv import WVAccumulator, wavelet_variance
+from imunoise.noise.wv import WVAccumulator, wavelet_variance
 
 N = 1_000_000
 REPEATS = 5
@@ -64,7 +64,7 @@ def main() -> str:
 
     return "\n".join(
         [
-            "## Wavelet variance (`imunoise.wv`)",
+            "## Wavelet variance (`imunoise.noise.wv`)",
             "",
             f"{N:,} samples (WN + small RW), {len(wv)} levels (tau = 2..2^{wv.levels[-1]}), classical "
             "estimate including eta3 CIs and the batch-means covariance; allantools `oadev` "

@@ -46,8 +46,8 @@ def _rss_mb() -> float:
 
 
 def _child(mode: str, n: int, chunk: int) -> dict:
-    from imunoise.wv import wavelet_variance
-    from imunoise.wv_stream import WVStream
+    from imunoise.noise.wv import wavelet_variance
+    from imunoise.noise.wv_stream import WVStream
 
     warm = np.random.default_rng(0).standard_normal(1 << 16)
     wavelet_variance(warm)
@@ -113,7 +113,7 @@ def main(n: int = N, chunk: int = CHUNK) -> str:
 
     return "\n".join(
         [
-            "## Long logs in bounded memory (`imunoise.wv_stream`)",
+            "## Long logs in bounded memory (`imunoise.noise.wv_stream`)",
             "",
             f"{n:.3g} samples (0.5 + white noise + random walk) streamed in chunks of {chunk:.3g} into "
             f"`WVStream`, vs the batch `wavelet_variance` of the whole array ({data_mb:,.0f} MiB). One child "

@@ -14,10 +14,10 @@ import argparse
 
 import numpy as np
 
-from imunoise.allan import allan_fit
 from imunoise.calibrate import ImuLog, calibrate, read_log
 from imunoise.export import axis_noise
-from imunoise.imu_model import fit_axis
+from imunoise.noise.allan import allan_fit
+from imunoise.noise.imu_model import fit_axis
 from imunoise.sim import DriveConfig, resolve_imu_models, simulate_drive
 
 DEV_SEEDS = (101, 102, 103)

@@ -8,9 +8,9 @@ does what ``imunoise fit FILE --freq 100 --columns gyro_x,...,accel_z --units gy
 imu.yaml), checks that the Kalibr file has no zero or non-finite density, and compares each axis's exported
 pair (before the max over x/y/z) with the Allan variance of the same data:
 
-- Allan N: the −½-line reading of ``imunoise allan`` (dense grid, :func:`imunoise.allan.read_allan`);
+- Allan N: the −½-line reading of ``imunoise allan`` (dense grid, :func:`imunoise.noise.allan.read_allan`);
 - Allan bound on K: min_τ AD(τ)·√(3/τ), the largest random walk whose +½ line stays under the Allan
-  deviation (:func:`imunoise.allan.rw_bound`) over the points with ≥ 3 equivalent degrees of freedom — those
+  deviation (:func:`imunoise.noise.allan.rw_bound`) over the points with ≥ 3 equivalent degrees of freedom — those
   the Allan reading itself uses; the acceptance criterion, and the bound the export caps K at. Reported
   beside it, not a criterion: the same minimum over every dense-grid point, down to the 1-dof tail at N/2.
 
@@ -31,9 +31,9 @@ UNITS = {"gyro": math.pi / 180.0, "accel": 9.80665}  # deg/s -> rad/s, g -> m/s�
 
 
 def main(argv: list[str] | None = None) -> int:
-    from imunoise.allan import allan_variance, read_allan, rw_bound
     from imunoise.export import axis_noise, read_export, write_export
-    from imunoise.imu_model import ImuModel, fit_axis
+    from imunoise.noise.allan import allan_variance, read_allan, rw_bound
+    from imunoise.noise.imu_model import ImuModel, fit_axis
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=str(Path(__file__).resolve().parents[1].parent / "shared/data/imudata_adis16405"))

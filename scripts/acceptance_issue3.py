@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from imunoise.allan import allan_fit
-from imunoise.em import em_fit
-from imunoise.model import Model
-from imunoise.plots import plot_wv_fits
-from imunoise.selection import select_model
+from imunoise.noise.allan import allan_fit
+from imunoise.noise.em import em_fit
+from imunoise.noise.model import Model
+from imunoise.noise.plots import plot_wv_fits
+from imunoise.noise.selection import select_model
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared" / "data"

@@ -11,7 +11,7 @@ import numpy as np
 from imunoise.cli import main
 from imunoise.export import read_export
 from imunoise.io.rosbag import write_imu_bag
-from imunoise.model import Model
+from imunoise.noise.model import Model
 
 F, n = 200.0, 2**22
 TRUTH = {"gyro": (1.6968e-4, 1.9393e-5), "accel": (2.0e-3, 3.0e-3)}  # EuRoC-like N [u/√Hz], K [u/s/√Hz]

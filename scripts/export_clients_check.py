@@ -120,7 +120,7 @@ def check(name: str, model_path: Path, folder: Path, rows: list[str], bag_topic:
     ``folder``), read each back, one row per file; returns the number of failures."""
     from imunoise.cli import main
     from imunoise.export import sensor_noise
-    from imunoise.imu_model import load_model
+    from imunoise.noise.imu_model import load_model
 
     model = load_model(model_path)
     g, a = sensor_noise(model, "gyro"), sensor_noise(model, "accel")

@@ -127,8 +127,8 @@ def family_scales(sc, family_law: str, law: str) -> tuple[np.ndarray, np.ndarray
 def _folded_psd(sc, models: list) -> np.ndarray:
     """Per axis the part of the filter's white PSD that is folded short AR1 noise (scales as bias noise)."""
     from imunoise.imu import AXES
-    from imunoise.model import Model
-    from imunoise.processes import WN
+    from imunoise.noise.model import Model
+    from imunoise.noise.processes import WN
 
     none = Model([WN(sigma2=1e-30)])
     st = sc.extra["static_models"]
@@ -142,9 +142,9 @@ def prepare(seed: int, law: str, gnss_spec: str, family_law: str, duration: floa
     from imunoise.experiments.gnss_regimes import parse_gnss
     from imunoise.experiments.oracle_law import law_filter
     from imunoise.imu import AXES
-    from imunoise.model import Model
+    from imunoise.noise.model import Model
+    from imunoise.noise.processes import WN
     from imunoise.online import OnlineConfig
-    from imunoise.processes import WN
 
     sc = simulate_scenario(seed, n_outages=0, motion_noise=law, duration_s=duration, n_stops=stops)
     gnss = parse_gnss(gnss_spec).apply(sc.gnss, 1_000_003 * seed + 1)

@@ -11,8 +11,8 @@ import pytest
 from imunoise.batch import _names, expand_paths, process_file, run_batch, run_sequential
 from imunoise.cli import main
 from imunoise.errors import DataError
-from imunoise.imu_model import ImuModel
-from imunoise.model import Model
+from imunoise.noise.imu_model import ImuModel
+from imunoise.noise.model import Model
 
 CFG = {"freq": 100.0, "model": "WN+RW", "units": {"gyro": "deg/s", "accel": "g"}}
 
@@ -74,4 +74,4 @@ def test_cli_batch_sequential(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "modelled 2/3 files" in text and f"FAILED {paths[-1]}" in text
     d = json.loads((out / "log01.model.json").read_text())
-    assert d["kind"] == "imunoise.imu_model" and d["axes"]["accel_z"]["unit"] == "m/s²"
+    assert d["kind"] == "imunoise.noise.imu_model" and d["axes"]["accel_z"]["unit"] == "m/s²"

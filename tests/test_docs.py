@@ -109,10 +109,11 @@ def test_exported_names_document_parameters():
 
 
 def _main_entry_points():
-    from imunoise import allan, export
+    from imunoise import export
     from imunoise.detect import StaticDetector, detect_static
     from imunoise.io.kfgins import read_gnss, read_imu
     from imunoise.nav import LooselyCoupledEKF, run_ekf
+    from imunoise.noise import allan
     from imunoise.online import OnlineNavigator, run_online
     from imunoise.sim import simulate_drive
 
@@ -165,10 +166,7 @@ STAGE = {
     "imu": 1,
     "io": 1,
     "detect": 2,
-    **dict.fromkeys(["ar1_math", "process_base", "process_ma1", "process_white", "process_bias", "process_ar1",
-                     "processes", "state_space", "model", "wv", "wv_stream", "wv_log", "estimator", "fitting",
-                     "selection", "allan", "em", "em_kalman",
-                     "imu_model", "equivalent_noise", "export", "plots"], 3),
+    "noise": 3, "export": 3,
     "nav": 4,
     "online": 5,
     "sim": 6,
@@ -184,7 +182,8 @@ def _imported_stages(path: Path) -> list[tuple[int, str, int]]:
         if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
             mods = [node.module]
             if node.module == "imunoise":  # the facade: judge by what is taken from it
-                mods = [imunoise._LAZY.get(a.name, "imunoise.model") if a.name != "__version__" else "imunoise.errors"
+                mods = [imunoise._LAZY.get(a.name, "imunoise.noise.model")
+                        if a.name != "__version__" else "imunoise.errors"
                         for a in node.names]
         elif isinstance(node, ast.Import):
             mods = [a.name for a in node.names]

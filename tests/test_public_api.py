@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from imunoise import AR1, QN, WN, DataError, Model, ModelError, UnitError, as_model
-from imunoise.em import em_fit
-from imunoise.estimator import gmwm
-from imunoise.selection import refit, select_model
+from imunoise.noise.em import em_fit
+from imunoise.noise.estimator import gmwm
+from imunoise.noise.selection import refit, select_model
 
 # One fresh interpreter: import every submodule first (importing the estimator's submodule, then called
 # imunoise/gmwm.py, used to replace the exported function gmwm by the module), then use every exported

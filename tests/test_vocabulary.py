@@ -94,8 +94,8 @@ def test_simulator_produces_the_one_imudata_and_axes():
 
 
 def test_model_file_is_read_and_written_only_by_imu_model():
-    kind = _where(lambda n: _str_const(n, "imunoise.imu_model"))
-    assert {k.split(":")[0] for k in kind} == {"imu_model.py"}
+    kind = _where(lambda n: _str_const(n, "imunoise.noise.imu_model"))
+    assert {k.split(":")[0] for k in kind} == {"noise/imu_model.py"}
     by_hand = ("nav/defaults.py", "cli/em.py", "cli/online.py", "cli/demo.py")
 
     def json_read(n) -> bool:
@@ -114,9 +114,9 @@ def test_model_file_is_read_and_written_only_by_imu_model():
 def test_load_axis_models_reads_old_and_new_truth_and_imu_model_files(tmp_path):
     """The simulator's truth.json with short (old) or AXES (new) keys, and the imu_model file written by
     ImuModel.save, give the same filter models through the one parser."""
-    from imunoise.imu_model import ImuModel, axis_fit_dicts
-    from imunoise.model import Model
     from imunoise.nav.defaults import default_axis_models, load_axis_models
+    from imunoise.noise.imu_model import ImuModel, axis_fit_dicts
+    from imunoise.noise.model import Model
     from imunoise.sim import simulate_static
 
     rec = simulate_static({"gyro": "WN + RW", "az": "AR1 + WN"}, 2.0, 100.0, seed=3)
@@ -154,11 +154,11 @@ def _calls_in_functions(module: str, callee: str) -> list[str]:
 def test_one_filter_mapping_used_by_engine_and_experiments():
     """The six-axis fit → filter loop exists once (online.filter_axis_models); the navigator and the
     experiments' fixed-model baselines both call it."""
-    from imunoise.estimator import gmwm
     from imunoise.experiments.common import filter_models
     from imunoise.nav.defaults import default_axis_models
+    from imunoise.noise.estimator import gmwm
+    from imunoise.noise.processes import AR1, RW, WN
     from imunoise.online import OnlineConfig, data_horizon, ekf_axis_model, filter_axis_models
-    from imunoise.processes import AR1, RW, WN
 
     calls = _where(lambda n: isinstance(n, ast.Call) and getattr(n.func, "id", None) == "ekf_axis_model")
     assert [c.split(":")[0] for c in calls] == ["online/to_filter.py"]

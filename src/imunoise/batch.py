@@ -7,7 +7,7 @@ that fails becomes a row with ``status = "error"`` and the one-line reason; the 
 
 The table has one row per file and axis: the model, the continuous-time white-noise density N
 (``noise_density``) and bias random walk K (``random_walk_eq``) exactly as :mod:`imunoise.export` writes
-them (the one model → (N, K) mapping of :mod:`imunoise.equivalent_noise`, SPEC §12), the fitted RW term
+them (the one model → (N, K) mapping of :mod:`imunoise.noise.equivalent_noise`, SPEC §12), the fitted RW term
 alone (``random_walk``), their units, the longest averaging time matched on and the worst AV ratio of the
 pair against the model there, the GOF, the fit time and the handled data problems and export notes
 (``notes``: sorted or duplicated stamps, gaps, unidentified white noise). With a remote
@@ -105,8 +105,8 @@ def process_file(path: str, cfg: dict[str, Any], out_dir: str, name: str) -> lis
     ``decimate``.
     """
     from imunoise.export import axis_noise, density_units
-    from imunoise.imu_model import ImuModel, fit_axis
     from imunoise.io.imu_input import read_imu_source, sensor_of
+    from imunoise.noise.imu_model import ImuModel, fit_axis
 
     try:
         with warnings.catch_warnings(record=True) as caught:

@@ -15,8 +15,8 @@ from imunoise.cli import main
 from imunoise.errors import DataError
 from imunoise.imu import ImuData
 from imunoise.io.kfgins import write_imu
+from imunoise.noise.wv import wavelet_variance
 from imunoise.sim import DriveConfig, resolve_imu_models, simulate_drive
-from imunoise.wv import wavelet_variance
 
 RATE = 100.0
 
@@ -93,8 +93,8 @@ def test_log_without_stop_is_refused_with_the_static_time(drive, tmp_path, capsy
 @pytest.mark.slow
 def test_bag_input_with_exports_names_the_topic_read(tmp_path, capsys):
     from imunoise.export import read_export
-    from imunoise.imu_model import ImuModel
     from imunoise.io.navinput import write_nav_bag
+    from imunoise.noise.imu_model import ImuModel
 
     cfg = DriveConfig(duration_s=300.0, n_stops=3, stop_range_s=(20.0, 40.0), static_s=40.0)
     d = simulate_drive(cfg, "WN+RW", seed=11)
@@ -134,9 +134,9 @@ def test_drive_accel_z_white_level_matches_the_allan_reading_of_its_stops():
     variance (no difference across a stop boundary) gives the same point."""
     import allantools
 
-    from imunoise.allan import allan_variance
     from imunoise.calibrate import detect_stops, pooled_fit, read_log
     from imunoise.export import axis_noise
+    from imunoise.noise.allan import allan_variance
 
     log = read_log(DRIVE)
     f = log.rate_hz
@@ -174,7 +174,7 @@ def test_drive_export_forced_with_the_warnings_kept(tmp_path, capsys):
     """drive_0708's stops (engine vibration) leave the WV band of every structure: without --force the export is
     refused (the one-line message: tests/test_fit_check.py); with it the warnings go into the file, on top, and
     into both JSON outputs."""
-    from imunoise.imu_model import ImuModel
+    from imunoise.noise.imu_model import ImuModel
 
     out = tmp_path / "forced"
     assert main(["calibrate", str(DRIVE), "--complete", "WN", "--export", "kalibr", "--force", "--out", str(out)]) == 0

@@ -155,7 +155,7 @@ def test_zeros_with_one_spike_are_refused(tmp_path, capsys):
 
 
 def test_selection_needs_more_wavelet_levels_than_parameters(tmp_path, capsys):
-    from imunoise.selection import select_model
+    from imunoise.noise.selection import select_model
 
     ranking = select_model(X[:50, 0], freq=100.0, criterion="gof")  # 50 samples: J = 5 levels
     J = len(ranking.best.wv.variance)
@@ -168,7 +168,7 @@ def test_selection_needs_more_wavelet_levels_than_parameters(tmp_path, capsys):
     np.savetxt(p, X[:50, 0], header="gyro_x", comments="")
     code, _, err = run_cli(["fit", p, "--freq", 100, "--auto", "--criterion", "gof", "--out", tmp_path / "o"], capsys)
     assert code == 0, err
-    from imunoise.model import Model
+    from imunoise.noise.model import Model
 
     assert Model.parse(json.loads((tmp_path / "o" / "model.json").read_text())["model"]).n_params < 5
 
@@ -191,7 +191,7 @@ def test_select_limit(tmp_path, capsys):
 # files and options
 # ----------------------------------------------------------------------------------------------
 def test_gmwmfit_load_of_a_yaml_names_the_file(tmp_path):
-    from imunoise.fitting.result import GMWMFit
+    from imunoise.noise.fitting.result import GMWMFit
 
     p = write(tmp_path / "model.yaml", "kind: imunoise.fit\nmodel: WN\nparams: {WN.sigma2: 1.0e-6}\n")
     with pytest.raises(ImunoiseError, match="model.yaml is not JSON") as exc:
@@ -217,8 +217,8 @@ def test_workers_zero_is_refused(tmp_path, capsys):
 # the Python API's defaults are the CLI's
 # ----------------------------------------------------------------------------------------------
 def test_select_model_defaults_to_wvic_and_needs_the_rate():
-    from imunoise.selection import select_model
-    from imunoise.wv import wavelet_variance
+    from imunoise.noise.selection import select_model
+    from imunoise.noise.wv import wavelet_variance
 
     x = np.random.default_rng(5).standard_normal(40_000)
     ranking = select_model(x, freq=100.0)

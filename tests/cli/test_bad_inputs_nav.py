@@ -327,7 +327,7 @@ def test_staged_run_publishes_all_or_nothing(tmp_path):
 
 def test_ctrl_c_inside_the_em_kernel_is_one_line(tmp_path, capsys, monkeypatch):
     """A Ctrl-C inside a numba kernel reaches Python as a SystemError chained to the KeyboardInterrupt."""
-    import imunoise.em as em
+    import imunoise.noise.em as em
 
     def kernel_interrupted(*a, **kw):
         try:

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from imunoise.cli import main
-from imunoise.estimator import gmwm
 from imunoise.export import read_export, sensor_noise
-from imunoise.imu_model import ImuModel
 from imunoise.io.rosbag import write_imu_bag
-from imunoise.model import Model
+from imunoise.noise.estimator import gmwm
+from imunoise.noise.imu_model import ImuModel
+from imunoise.noise.model import Model
 from imunoise.units import G0
 
 F = 200.0

@@ -59,8 +59,8 @@ def test_lazy_exports_are_the_objects_of_their_modules(name):
 
     import imunoise
 
-    home = {"AR1": "imunoise.processes", "Model": "imunoise.model", "as_model": "imunoise.model"}
-    module = importlib.import_module(home.get(name, "imunoise.estimator"))
+    home = {"AR1": "imunoise.noise.processes", "Model": "imunoise.noise.model", "as_model": "imunoise.noise.model"}
+    module = importlib.import_module(home.get(name, "imunoise.noise.estimator"))
     assert getattr(imunoise, name) is getattr(module, name)
 
 

@@ -13,8 +13,8 @@ from imunoise.cli import main
 from imunoise.io.imu_input import read_imu_source
 from imunoise.io.imu_stream import StreamOrderError, open_imu_blocks
 from imunoise.io.rosbag import write_imu_bag
-from imunoise.wv import wavelet_variance
-from imunoise.wv_log import stream_wavelet_variance
+from imunoise.noise.wv import wavelet_variance
+from imunoise.noise.wv_log import stream_wavelet_variance
 
 N = 6000
 F = 100.0

@@ -22,7 +22,7 @@ import sys
 import numpy as np
 from imunoise.cli.kernel_cache import announce_cold_cache
 installed = announce_cold_cache(sys.argv[1])
-from imunoise.allan.variance import _avar_sums
+from imunoise.noise.allan.variance import _avar_sums
 c = np.concatenate([[0.0], np.cumsum(np.arange(64.0))])
 out = _avar_sums(c, np.array([1, 2, 4], dtype=np.int64))
 print(installed, "numba" in sys.modules, float(np.sum(out)))

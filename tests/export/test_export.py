@@ -11,7 +11,6 @@ import pytest
 
 from imunoise.cli import main
 from imunoise.errors import ModelError, UnitError
-from imunoise.estimator import GMWMFit, gmwm
 from imunoise.export import (
     axis_noise,
     export_text,
@@ -21,8 +20,9 @@ from imunoise.export import (
     sensor_noise,
     write_export,
 )
-from imunoise.imu_model import ImuModel, load_model
-from imunoise.model import Model
+from imunoise.noise.estimator import GMWMFit, gmwm
+from imunoise.noise.imu_model import ImuModel, load_model
+from imunoise.noise.model import Model
 
 F = 200.0
 AXES = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]

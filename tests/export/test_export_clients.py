@@ -33,10 +33,10 @@ import pytest
 import yaml
 
 from imunoise.cli import main
-from imunoise.estimator import GMWMFit, gmwm
 from imunoise.export import export_text, sensor_noise, update_into, write_export
-from imunoise.imu_model import ImuModel
-from imunoise.model import Model
+from imunoise.noise.estimator import GMWMFit, gmwm
+from imunoise.noise.imu_model import ImuModel
+from imunoise.noise.model import Model
 
 F = 200.0
 FIX = Path(__file__).resolve().parents[1] / "fixtures"

@@ -42,9 +42,9 @@ def test_manifest_validation(tmp_path):
 def test_load_axis_models_reads_the_multi_axis_model_file(tmp_path):
     """The file written by `imunoise fit --columns ...` feeds `imunoise nav --model` axis by axis."""
     from imunoise import AR1, WN
-    from imunoise.estimator import gmwm
-    from imunoise.imu_model import ImuModel
     from imunoise.nav.defaults import load_axis_models
+    from imunoise.noise.estimator import gmwm
+    from imunoise.noise.imu_model import ImuModel
 
     fits = {}
     for i, axis in enumerate(("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")):

@@ -15,8 +15,8 @@ from imunoise.experiments import dense
 from imunoise.experiments.common import simulate_scenario
 from imunoise.nav.adaptive import AdaptiveConfig, AdaptiveNoise, scale_bias_noise
 from imunoise.nav.defaults import ImuSpec, default_axis_models
+from imunoise.noise.processes import AR1, RW, WN
 from imunoise.online import OnlineNavigator
-from imunoise.processes import AR1, RW, WN
 
 
 @pytest.fixture(scope="module")

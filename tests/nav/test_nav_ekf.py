@@ -11,11 +11,11 @@ import pytest
 from imunoise.errors import DataError
 from imunoise.imu import AXES
 from imunoise.io.kfgins import GnssData, ImuData
-from imunoise.model import Model
 from imunoise.nav.defaults import DEG_PER_H, EkfConfig, default_axis_models
 from imunoise.nav.earth import dcm_to_euler, euler_to_dcm, radii
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, run_ekf
-from imunoise.processes import AR1, RW, WN
+from imunoise.noise.model import Model
+from imunoise.noise.processes import AR1, RW, WN
 from imunoise.sim.drive import DriveConfig, simulate_drive
 
 AX = AXES

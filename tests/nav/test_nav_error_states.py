@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from imunoise.errors import DataError
-from imunoise.model import Model
 from imunoise.nav.defaults import EkfConfig, default_axis_models
 from imunoise.nav.ekf import EkfResult, InitialState, LooselyCoupledEKF
 from imunoise.nav.error_states import ModelLayout, carried_states, initial_covariance, swap_map
 from imunoise.nav.solution import antenna_llh
-from imunoise.processes import AR1, DR, RW, WN
+from imunoise.noise.model import Model
+from imunoise.noise.processes import AR1, DR, RW, WN
 
 RATE = 100.0
 

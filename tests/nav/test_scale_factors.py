@@ -14,7 +14,7 @@ from imunoise.io.kfgins import ImuData
 from imunoise.nav.defaults import DEG_PER_H, EkfConfig, default_axis_models
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, run_ekf
 from imunoise.nav.error_states import ModelLayout, initial_covariance, scale_spec, swap_map
-from imunoise.processes import AR1
+from imunoise.noise.processes import AR1
 from imunoise.sim.drive import DriveConfig, simulate_drive
 
 RATE = 100.0

@@ -93,5 +93,5 @@ def test_first_identification_compiles_nothing_after_the_warm_up():
     cold = _probe(False)
     assert [e["event"] for e in cold["events"]] == ["identified"]
     # without the warm-up the solver kernels get their first signature inside the identification
-    assert "imunoise.fitting.kernels.levenberg_marquardt" in cold["added"], cold["added"]
-    assert "imunoise.fitting.kernels.objectives" in cold["added"], cold["added"]
+    assert "imunoise.noise.fitting.kernels.levenberg_marquardt" in cold["added"], cold["added"]
+    assert "imunoise.noise.fitting.kernels.objectives" in cold["added"], cold["added"]

@@ -31,8 +31,8 @@ SCALES = np.array([2.0, 4.0, 8.0, 16.0, 64.0])  # samples
 
 
 def _wv_white(sigma2: float) -> np.ndarray:
-    from imunoise.model import Model
-    from imunoise.processes import WN
+    from imunoise.noise.model import Model
+    from imunoise.noise.processes import WN
 
     return Model([WN(sigma2=sigma2)]).wv(SCALES)
 

@@ -10,6 +10,7 @@ import pytest
 
 from imunoise.errors import ModelError
 from imunoise.nav.defaults import default_axis_models
+from imunoise.noise.processes import AR1, WN
 from imunoise.online.learner import MotionNoiseConfig, MotionNoiseLearner, MotionNoisePrior, Process
 from imunoise.online.learner import decision as dec
 from imunoise.online.learner.candidates import (
@@ -20,7 +21,6 @@ from imunoise.online.learner.candidates import (
     refine,
     search_candidates,
 )
-from imunoise.processes import AR1, WN
 
 
 def test_a_truly_better_candidate_is_confirmed():

@@ -16,11 +16,11 @@ from imunoise.experiments.common import simulate_scenario
 from imunoise.experiments.dense import PRIOR_SEED_OFFSET, earlier_prior, learn_prior, method_setup
 from imunoise.experiments.gnss_regimes import parse_gnss
 from imunoise.nav.defaults import default_axis_models
+from imunoise.noise.processes import AR1
 from imunoise.online import OnlineNavigator
 from imunoise.online.learner import Process
 from imunoise.online.learner.candidates import DPH
 from imunoise.online.motion_noise import MotionNoiseConfig, MotionNoisePrior, add_motion_gm, horizontal_distance
-from imunoise.processes import AR1
 
 
 @pytest.fixture(scope="module")

@@ -10,9 +10,9 @@ import pytest
 
 from imunoise.errors import DataError, ImunoiseError
 from imunoise.experiments.common import simulate_scenario
+from imunoise.noise.processes import AR1, QN, RW, WN
 from imunoise.online import OnlineConfig, OnlineNavigator, ekf_axis_model
 from imunoise.online.jobs import _implausible
-from imunoise.processes import AR1, QN, RW, WN
 
 FAST = "2*AR1 + WN + RW"  # small complete model: 11 candidates, keeps the tests fast
 
@@ -289,8 +289,8 @@ def test_swap_preserving_keeps_learned_states(scenario):
 
 def test_drift_maps_to_the_random_walk_with_the_same_wv_at_the_horizon():
     """DR → RW (dr="rw"): ν²_DR(τ_J) = ν²_RW(τ_J) exactly at the data's longest scale τ_J (SPEC §2 closed forms)."""
+    from imunoise.noise.processes import DR
     from imunoise.online import dr_equivalent_rw
-    from imunoise.processes import DR
 
     omega, tau = 2e-6, 4096.0
     g2 = dr_equivalent_rw(omega, tau)

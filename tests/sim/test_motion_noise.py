@@ -10,6 +10,7 @@ import pytest
 from imunoise.cli import main as cli_main
 from imunoise.errors import ModelError
 from imunoise.imu import AXES
+from imunoise.noise.wv import wavelet_variance
 from imunoise.sim import DriveConfig, resolve_imu_models, simulate_drive
 from imunoise.sim.imu_errors import simulate_model_errors
 from imunoise.sim.motion import (
@@ -22,7 +23,6 @@ from imunoise.sim.motion import (
     resolve_motion,
     scaled_models,
 )
-from imunoise.wv import wavelet_variance
 
 SHORT = dict(duration_s=300.0, n_stops=1)
 

@@ -13,9 +13,9 @@ from imunoise.cli import main as cli_main
 from imunoise.errors import ImunoiseError, ModelError
 from imunoise.imu import AXES
 from imunoise.io.kfgins import read_gnss, read_imu, read_outages, read_reference
-from imunoise.model import Model
 from imunoise.nav.earth import OMEGA_E, gravity, llh_to_ned, radii
-from imunoise.processes import AR1, RW, WN
+from imunoise.noise.model import Model
+from imunoise.noise.processes import AR1, RW, WN
 from imunoise.sim import DriveConfig, preset_model, resolve_imu_models, simulate_drive, simulate_static
 
 DEG = math.pi / 180.0

@@ -3,7 +3,7 @@
 :func:`calibrate` takes one or more logs of the same IMU (:func:`read_log`: a ROS bag, a table with a column
 mapping and units, a KF-GINS increment file or a dataset folder), finds the stops in each
 (:func:`detect_stops`), pools the static segments per axis into one wavelet variance, identifies the model
-(:func:`imunoise.selection.select_model`, WVIC by default) and states what the stops can say. The package:
+(:func:`imunoise.noise.selection.select_model`, WVIC by default) and states what the stops can say. The package:
 :mod:`~imunoise.calibrate.logs` (the logs and their speed sources), :mod:`~imunoise.calibrate.stops` (the stops of
 one log), :mod:`~imunoise.calibrate.stream` (the same, streamed), :mod:`~imunoise.calibrate.result` (what the
 horizon determines) and :mod:`~imunoise.calibrate.fit` (the pooled fit and :func:`calibrate`).
@@ -23,11 +23,11 @@ Stops, per log (as the online engine does, with the same public pieces):
   (:func:`imunoise.online.stop_verdict`): samples faster than ``OnlineConfig.stop_max_speed`` and their
   ``stop_edge_s`` neighbourhood are dropped.
 * bias removed per segment (segment mean, SPEC §7); no wavelet coefficient spans two segments
-  (:class:`imunoise.wv.WVAccumulator`).
+  (:class:`imunoise.noise.wv.WVAccumulator`).
 
 The horizon. Pooled stops support scales up to the longest Haar scale τ_J with at least
-:data:`imunoise.wv.MIN_COEFFICIENTS` coefficients; in averaging time T_h = τ_J/(2f)
-(:func:`imunoise.equivalent_noise.default_horizon_s`). What that horizon determines, per axis
+:data:`imunoise.noise.wv.MIN_COEFFICIENTS` coefficients; in averaging time T_h = τ_J/(2f)
+(:func:`imunoise.noise.equivalent_noise.default_horizon_s`). What that horizon determines, per axis
 (:class:`AxisCalibration`):
 
 * the white noise N (and QN, and Gauss–Markov terms with T_c ≤ T_h): values with CIs;

@@ -34,9 +34,9 @@ def pooled_fit(
     seed: int = 0,
 ) -> Any:
     """The model of one axis from its pooled stops: WV pooled over the segments (no coefficient spans two),
-    structure selected (:func:`imunoise.selection.select_model`), its parameters estimated as
-    :func:`imunoise.estimator.gmwm` estimates a given structure, and a richer candidate where the selected one
-    leaves the WV band (:func:`imunoise.fitting.quality.within_band`).
+    structure selected (:func:`imunoise.noise.selection.select_model`), its parameters estimated as
+    :func:`imunoise.noise.estimator.gmwm` estimates a given structure, and a richer candidate where the selected one
+    leaves the WV band (:func:`imunoise.noise.fitting.quality.within_band`).
 
     Why the re-estimate: the selection fits every candidate on one Ω built from ν̂, which favours the levels
     whose estimate fell low; on drive_0708's accel_z the top level (τ = 20.5 s, 52 coefficients of one stop,
@@ -50,7 +50,7 @@ def pooled_fit(
     freq : float
         Sample rate [Hz].
     unit, complete, criterion, weights, seed
-        As for :func:`imunoise.selection.select_model`.
+        As for :func:`imunoise.noise.selection.select_model`.
 
     Returns
     -------
@@ -58,10 +58,10 @@ def pooled_fit(
         With ``extra["data_allan"]`` (dense Allan curve of the stops), ``data_span``, ``selection`` and
         ``fit_check`` (the band check and what the retry gave).
     """
-    from imunoise.allan import allan_variance, curve_to_dict
-    from imunoise.fitting.quality import within_band
-    from imunoise.selection import select_model
-    from imunoise.wv import WVAccumulator
+    from imunoise.noise.allan import allan_variance, curve_to_dict
+    from imunoise.noise.fitting.quality import within_band
+    from imunoise.noise.selection import select_model
+    from imunoise.noise.wv import WVAccumulator
 
     acc = WVAccumulator(freq=freq)
     for x in segments:
@@ -164,7 +164,7 @@ def calibrate(
     learn_s : float
         Length of the quietest stretch λ_0 is learned from [s] (default).
     criterion : {"wvic", "gof"}
-        Selection criterion (:func:`imunoise.selection.select_model`).
+        Selection criterion (:func:`imunoise.noise.selection.select_model`).
     complete : str, optional
         Largest structure searched (default the paper's 4*AR1+DR+WN+QN+RW).
     weights : str
@@ -185,7 +185,7 @@ def calibrate(
     DataError
         A log without a usable stop, too little pooled static time, or logs at different rates.
     """
-    from imunoise.imu_model import ImuModel
+    from imunoise.noise.imu_model import ImuModel
 
     if not logs:
         raise DataError("calibrate needs at least one log")

@@ -26,7 +26,7 @@ def k_upper_bound(wv: Any) -> tuple[float, float]:
 
     Parameters
     ----------
-    wv : imunoise.wv.WaveletVariance
+    wv : imunoise.noise.wv.WaveletVariance
         The pooled WV (with its chi-square band).
 
     Returns
@@ -78,9 +78,9 @@ class AxisCalibration:
         Worst factor between the pair's AV and the fitted **model's** there (not the data's: ``pair_data``).
     determined, undetermined : tuple of str
         Per process of the model: what the horizon determines, and what it does not (with why).
-    band : imunoise.fitting.quality.BandCheck
+    band : imunoise.noise.fitting.quality.BandCheck
         The fitted model's WV against the pooled WV's 95 % band (``refused``: outside over a range of scales).
-    pair_data : imunoise.fitting.quality.PairCheck
+    pair_data : imunoise.noise.fitting.quality.PairCheck
         The exported pair's AV against the **data's** AV and its band over ``tau_range_s``.
     retry : str, optional
         What the selection's richer candidates gave when the selected structure left the band.
@@ -109,7 +109,7 @@ class AxisCalibration:
 
     @property
     def refused(self) -> bool:
-        """The fit leaves its WV band over a range of scales (:class:`imunoise.fitting.quality.BandCheck`):
+        """The fit leaves its WV band over a range of scales (:class:`imunoise.noise.fitting.quality.BandCheck`):
         an export is refused without ``--force``."""
         return bool(self.band is not None and self.band.refused)
 
@@ -134,9 +134,9 @@ class AxisCalibration:
 
 
 def axis_calibration(axis: str, fit: Any) -> AxisCalibration:
-    from imunoise.equivalent_noise import default_horizon_s
     from imunoise.export import axis_noise
-    from imunoise.fitting.quality import band_check, pair_check
+    from imunoise.noise.equivalent_noise import default_horizon_s
+    from imunoise.noise.fitting.quality import band_check, pair_check
 
     h = float(default_horizon_s(fit))
     a = axis_noise(fit, axis)
@@ -197,10 +197,10 @@ class CalibrationResult:
     logs : list of LogStops
         Per log: λ_0, the detection, the stops modelled and what was dropped.
     fits : dict
-        Per axis the selected :class:`~imunoise.estimator.GMWMFit` (parameters per sample at ``freq_hz``).
+        Per axis the selected :class:`~imunoise.noise.estimator.GMWMFit` (parameters per sample at ``freq_hz``).
     axes : dict
         Per axis the :class:`AxisCalibration`.
-    model : imunoise.imu_model.ImuModel
+    model : imunoise.noise.imu_model.ImuModel
         The six fits as one model (``imu_model.json``; the input of the exports).
     freq_hz : float
         Sample rate [Hz].

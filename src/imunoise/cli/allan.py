@@ -57,8 +57,8 @@ def reading_table(fit, unit: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from imunoise.allan import allan_fit, curve_from_fit, plot_allan, read_allan
     from imunoise.io.atomic import atomic_path, atomic_write_text
+    from imunoise.noise.allan import allan_fit, curve_from_fit, plot_allan, read_allan
 
     series = load_series(args)
     out = out_dir(args, "allan")

@@ -259,7 +259,7 @@ def write_report(res, out: Path) -> Path:
     """report.html: detection per log, WV fits with the horizon, stop list, values with units and CIs."""
     import math
 
-    from imunoise.plots import plot_wv_fit
+    from imunoise.noise.plots import plot_wv_fit
     from imunoise.report import Report
 
     rep = Report("IMU calibration from moving logs")

@@ -44,11 +44,11 @@ def compare_fits(
     values: Any, freq: float, unit: str, criterion: str = "wvic", em_model: str | None = None, em_max_iter: int = 300
 ) -> dict[str, Any]:
     """Run the three modellers; return {"gmwm": fit, "av": fit, "em": fit or None, "em_error": str}."""
-    from imunoise.allan import allan_fit
-    from imunoise.em import em_fit
     from imunoise.errors import ImunoiseError
-    from imunoise.model import Model
-    from imunoise.selection import select_model
+    from imunoise.noise.allan import allan_fit
+    from imunoise.noise.em import em_fit
+    from imunoise.noise.model import Model
+    from imunoise.noise.selection import select_model
 
     ranking = select_model(values, freq=freq, criterion=criterion, unit=unit)
     ranking.best.extra["selection_s"] = ranking.elapsed_s
@@ -108,9 +108,9 @@ def parameter_table(fits: dict[str, Any], unit: str) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from imunoise.allan import curve_from_fit, plot_allan, read_allan
     from imunoise.io.atomic import atomic_path, atomic_write_text
-    from imunoise.plots import METHOD_COLORS, plot_wv_fits
+    from imunoise.noise.allan import curve_from_fit, plot_allan, read_allan
+    from imunoise.noise.plots import METHOD_COLORS, plot_wv_fits
 
     series = load_series(args)
     out = out_dir(args, "compare")

@@ -135,10 +135,10 @@ def run_static_demo(out: Path, *, duration_s: float = 3600.0, seed: int = 7, fre
     import numpy as np
     from tqdm import tqdm
 
-    from imunoise.estimator import gmwm
     from imunoise.imu import AXES
-    from imunoise.imu_model import ImuModel
-    from imunoise.plots import plot_wv_fit
+    from imunoise.noise.estimator import gmwm
+    from imunoise.noise.imu_model import ImuModel
+    from imunoise.noise.plots import plot_wv_fit
     from imunoise.report import Report
 
     t_start = time.perf_counter()

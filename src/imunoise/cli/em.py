@@ -41,7 +41,7 @@ def load_init(spec: str):
     if spec == "av":
         return "av"
     from imunoise.errors import ModelError
-    from imunoise.imu_model import ImuModel, parse_model, read_model_json
+    from imunoise.noise.imu_model import ImuModel, parse_model, read_model_json
 
     path = Path(spec)
     if not path.exists():
@@ -56,10 +56,10 @@ def load_init(spec: str):
 def run(args: argparse.Namespace) -> int:
     import math
 
-    from imunoise.em import em_fit
     from imunoise.errors import ModelError
     from imunoise.io.atomic import atomic_path, atomic_write_text
-    from imunoise.plots import plot_wv_fit
+    from imunoise.noise.em import em_fit
+    from imunoise.noise.plots import plot_wv_fit
 
     if args.max_iter < 1:
         raise ModelError(f"--max-iter must be ≥ 1 iteration, got {args.max_iter}")

@@ -103,10 +103,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def load_for_export(path: str | Path):
-    """The model of ``path`` as :func:`imunoise.imu_model.load_model` reads it; an incomplete file becomes a
+    """The model of ``path`` as :func:`imunoise.noise.imu_model.load_model` reads it; an incomplete file becomes a
     one-line :class:`ModelError` instead of a traceback."""
     from imunoise.errors import ModelError
-    from imunoise.imu_model import ImuModel, load_model
+    from imunoise.noise.imu_model import ImuModel, load_model
 
     try:
         model = load_model(path)
@@ -124,7 +124,7 @@ def gate(model, sensor: str | None, force: bool, where: str) -> list[str]:
     """The fit-quality gate of ``calibrate``/``fit --export`` applied again when a saved model is exported: the
     fit of every exported axis is checked against its data's WV band (:func:`imunoise.cli.export_gate.refusal`),
     so a model that needed ``--force`` there needs it here too, and its warnings go into the file."""
-    from imunoise.imu_model import ImuModel
+    from imunoise.noise.imu_model import ImuModel
 
     if isinstance(model, ImuModel):
         axes = model.sensor_axes(sensor) if sensor else list(model.axes)
@@ -152,8 +152,8 @@ def report(sensors, file=None) -> None:
 def run(args: argparse.Namespace) -> int:
     from imunoise.errors import ModelError
     from imunoise.export import DEFAULT_FILENAMES, export_text, model_sensors, parse_inflate
-    from imunoise.imu_model import ImuModel
     from imunoise.io.atomic import atomic_write_text
+    from imunoise.noise.imu_model import ImuModel
 
     if args.horizon is not None and not args.horizon > 0:
         raise ModelError(f"--horizon must be a positive time in seconds, got {args.horizon}")

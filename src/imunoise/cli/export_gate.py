@@ -1,5 +1,5 @@
 """The fit-quality gate of ``--export`` (``calibrate``, ``fit``): a fit that leaves its WV band over a range of
-scales (:class:`imunoise.fitting.quality.BandCheck`) is not exported, unless ``--force``, and then with the
+scales (:class:`imunoise.noise.fitting.quality.BandCheck`) is not exported, unless ``--force``, and then with the
 warning written into the file (comment lines at the top of the YAML formats, a ``warnings`` key in JSON).
 
 Built around :func:`imunoise.export.export_text`: the text is formed, the warnings put in, and the file
@@ -28,9 +28,9 @@ def add_force(p: argparse.ArgumentParser) -> None:
 
 
 def band_checks(fits: Mapping[str, Any]) -> dict[str, Any]:
-    """Per axis the :class:`~imunoise.fitting.quality.BandCheck` of a fit (a GMWMFit or its dict)."""
-    from imunoise.fitting.quality import band_check
-    from imunoise.fitting.result import GMWMFit
+    """Per axis the :class:`~imunoise.noise.fitting.quality.BandCheck` of a fit (a GMWMFit or its dict)."""
+    from imunoise.noise.fitting.quality import band_check
+    from imunoise.noise.fitting.result import GMWMFit
 
     out = {}
     for axis, fit in fits.items():
@@ -69,11 +69,11 @@ def refusal(checks: Mapping[str, Any], force: bool, *, where: str = "") -> list[
 
 def data_lines(fits: Mapping[str, Any], horizon_s: float | None = None) -> list[str]:
     """Per axis: the axis's exported (N, K) pair against the **data's** Allan variance and band
-    (:func:`imunoise.fitting.quality.pair_check`), beside the worst ratio against the fitted model that the
+    (:func:`imunoise.noise.fitting.quality.pair_check`), beside the worst ratio against the fitted model that the
     export notes print (a file writes the largest pair of a sensor's axes)."""
     from imunoise.export import axis_noise
-    from imunoise.fitting.quality import pair_check
-    from imunoise.fitting.result import GMWMFit
+    from imunoise.noise.fitting.quality import pair_check
+    from imunoise.noise.fitting.result import GMWMFit
 
     lines = []
     for axis, fit in fits.items():

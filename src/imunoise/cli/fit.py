@@ -53,7 +53,7 @@ nominal step. The rate comes from --freq, or the bag's header stamps / --time-co
 would inflate the noise density by sqrt(K) and is refused.
 
 Large logs: an input of more than --stream-above samples (or any with --stream) is read block by block
-with a progress bar and its wavelet variance computed in one pass (imunoise.wv_stream.WVStream): the
+with a progress bar and its wavelet variance computed in one pass (imunoise.noise.wv_stream.WVStream): the
 same WV and fit as the whole-file path, in memory set by --max-scale. The stamps must be in time order
 (the whole-file path sorts them); --robust needs the whole series and keeps the whole-file path."""
 
@@ -173,12 +173,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _streamed(args: argparse.Namespace, source_args: dict):
-    """The input's WV per axis in one pass (:func:`imunoise.wv_log.stream_wavelet_variance`) when it is
+    """The input's WV per axis in one pass (:func:`imunoise.noise.wv_log.stream_wavelet_variance`) when it is
     forced (--stream) or the input holds more than --stream-above samples; else None (whole-file path)."""
     from tqdm import tqdm
 
     from imunoise.io.imu_stream import StreamOrderError, open_imu_blocks
-    from imunoise.wv_log import stream_wavelet_variance
+    from imunoise.noise.wv_log import stream_wavelet_variance
 
     try:
         with warnings.catch_warnings(record=True) as early:
@@ -237,8 +237,8 @@ def _base_extra(args: argparse.Namespace, series, axis: str) -> dict:
 
 
 def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
-    from imunoise.imu_model import fit_axis, fit_axis_wv
-    from imunoise.wv_log import StreamedImu
+    from imunoise.noise.imu_model import fit_axis, fit_axis_wv
+    from imunoise.noise.wv_log import StreamedImu
 
     common = {
         "model": args.model,
@@ -252,8 +252,8 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
         fit, ranking = fit_axis_wv(series.wv[axis], n_samples=series.n_samples, **common)
         fit.extra["streamed"] = {"levels": len(series.wv[axis]), "max_scale_s": args.max_scale}
     elif args.max_scale is not None:
-        from imunoise.wv import wavelet_variance
-        from imunoise.wv_stream import WVStream
+        from imunoise.noise.wv import wavelet_variance
+        from imunoise.noise.wv_stream import WVStream
 
         x = series.data[axis]
         levels = WVStream(max_scale_s=args.max_scale, freq=series.freq).levels
@@ -263,7 +263,7 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
         fit, ranking = fit_axis(series.data[axis], freq=series.freq, robust=args.robust, **common)
     extra = _base_extra(args, series, axis)
     if ranking is not None:  # re-estimated as gmwm does, a richer candidate where it leaves its WV band
-        from imunoise.fitting.quality import within_band
+        from imunoise.noise.fitting.quality import within_band
 
         settled = within_band(ranking, fit)
         fit, extra["fit_check"] = settled.fit, settled.to_dict()
@@ -278,7 +278,7 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
 
 
 def _run_single(args: argparse.Namespace, series, out: Path) -> int:
-    from imunoise.plots import plot_wv_fit
+    from imunoise.noise.plots import plot_wv_fit
 
     axis = series.axes[0]
     if args.sensor is None and set(args.export or ()) - {"json"}:  # before fitting: nothing written on refusal
@@ -308,8 +308,8 @@ def _run_single(args: argparse.Namespace, series, out: Path) -> int:
 def _run_multi(args: argparse.Namespace, series, out: Path) -> int:
     from tqdm import tqdm
 
-    from imunoise.imu_model import ImuModel
-    from imunoise.plots import plot_wv_fit
+    from imunoise.noise.imu_model import ImuModel
+    from imunoise.noise.plots import plot_wv_fit
 
     fits = {}
     axes = list(series.axes)

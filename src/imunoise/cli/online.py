@@ -105,11 +105,11 @@ def run(args: argparse.Namespace) -> int:
 
     from imunoise.detect import DetectorConfig
     from imunoise.imu import AXES
-    from imunoise.imu_model import ImuModel
     from imunoise.io.jsonutil import json_default
     from imunoise.io.static_npz import load_static_pieces, save_static_pieces
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig, load_axis_models
+    from imunoise.noise.imu_model import ImuModel
     from imunoise.online import MotionNoiseConfig, MotionNoisePrior, OnlineConfig, OnlineNavigator
     from imunoise.online.learner.candidates import LIKELIHOOD_FAMILIES
     from imunoise.online.learner.config import STATISTICS

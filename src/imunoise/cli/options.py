@@ -288,8 +288,8 @@ def add_model(p: argparse.ArgumentParser, *, auto: bool = False, processes: str 
     """``--model STRUCTURE`` (required); with ``auto`` exclusive with ``--auto`` (automatic selection among
     the 79 sub-models of the complete model), one of them required. ``processes``: the names a command accepts
     when it takes only some; by default the help points to the registry (the CLI's start-up imports no numpy,
-    so it does not load :mod:`imunoise.processes` to list them; a wrong name lists them all)."""
-    which = processes or "those of imunoise.processes: AR1, WN, QN, RW, DR, ...; a wrong name lists them"
+    so it does not load :mod:`imunoise.noise.processes` to list them; a wrong name lists them all)."""
+    which = processes or "those of imunoise.noise.processes: AR1, WN, QN, RW, DR, ...; a wrong name lists them"
     text = f'model structure, e.g. "2*AR1+WN+RW" (processes: {which})'
     if not auto:
         p.add_argument("--model", required=True, help=text)

@@ -26,7 +26,7 @@ EXAMPLES = """examples:
   imunoise select imu.npy --freq 200 --column gyro_z --complete "3*AR1+WN+RW"
 
 Fits all 79 non-empty sub-models of 4*AR1+DR+WN+QN+RW on one wavelet variance and one weighting matrix,
-ranks them by GOF (paper Eq. 8) or WVIC (−2 log-likelihood of the WV + p·ln n, see imunoise.selection) and
+ranks them by GOF (paper Eq. 8) or WVIC (−2 log-likelihood of the WV + p·ln n, see imunoise.noise.selection) and
 prints the ranking (model, #params, GOF, WVIC, fit time). Writes DIR/ranking.csv (every candidate, skipped
 ones with the reason), DIR/model.json (the best model: per-sample and continuous parameters, units, rate)
 and DIR/wv_top.png (empirical WV with CI and the top fits). Parameters are per sample at --freq."""
@@ -72,8 +72,8 @@ def progress_bar(total: int, desc: str) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from imunoise.plots import plot_wv_fits
-    from imunoise.selection import candidates, select_model
+    from imunoise.noise.plots import plot_wv_fits
+    from imunoise.noise.selection import candidates, select_model
 
     if args.top < 1:
         raise ModelError(f"--top must be ≥ 1, got {args.top}")

@@ -217,7 +217,7 @@ def static_segments(sc: Scenario, learn_s: float = 10.0) -> tuple[list[np.ndarra
 
 def baseline_fits(segments: list[np.ndarray], freq: float, which: str) -> list:
     """Six fits (gyro x..accel z) of the AV (``"av"``) or EM (``"em"``) baseline on static segments."""
-    from imunoise.allan import allan_fit
+    from imunoise.noise.allan import allan_fit
 
     out = []
     for a in range(6):
@@ -227,13 +227,13 @@ def baseline_fits(segments: list[np.ndarray], freq: float, which: str) -> list:
         if which == "av":
             out.append(av)
             continue
-        from imunoise.em import em_fit
-        from imunoise.model import Model
+        from imunoise.noise.em import em_fit
+        from imunoise.noise.model import Model
 
         start = av.model
         if start.has("QN") or start.has("DR"):
             # EM has no QN state (SPEC §6); start from the rest, or from white noise of the data's variance
-            from imunoise.processes import RW, WN
+            from imunoise.noise.processes import RW, WN
 
             rest = [c for c in start.components if c.kind not in ("QN", "DR")]
             v = float(np.var(np.concatenate(data)))

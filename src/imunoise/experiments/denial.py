@@ -45,7 +45,7 @@ LABELS = {"plain": "plain LC (default model)", "av": "AV model", "gmwm_top3": "G
 def static_models(segments: list[np.ndarray], freq: float, *, complete: str | None = None) -> dict[str, Any]:
     """Per method the six fits (gyro x..accel z) from static data: AV, GMWM top-3 by GOF, best by WVIC.
     Also ``rankings`` (six ModelRanking) and ``timing_s`` (selection time per axis)."""
-    from imunoise.selection import select_model
+    from imunoise.noise.selection import select_model
 
     out: dict[str, Any] = {"av": baseline_fits(segments, freq, "av"), "gmwm": [], "gmwm_top2": [],
                            "gmwm_top3": [], "gmwm_wvic": [], "rankings": [], "timing_s": []}

@@ -131,8 +131,8 @@ Updater = StopRefit | AdaptiveUpdater  # what acts on the navigator between samp
 def static_var_models(segments: Sequence[np.ndarray]) -> list:
     """Per axis ``WN(σ²)`` with σ² the variance of the pooled bias-removed static samples (the model-free
     baseline; the filter mapping adds the plain floor)."""
-    from imunoise.model import Model
-    from imunoise.processes import WN
+    from imunoise.noise.model import Model
+    from imunoise.noise.processes import WN
 
     x = np.concatenate([np.asarray(s) - np.asarray(s).mean(axis=0) for s in segments])
     return [Model([WN(sigma2=float(max(np.var(x[:, a]), 1e-30)))]) for a in range(6)]
@@ -151,8 +151,8 @@ def hindsight_fits(sc: Scenario, name: str, cache: dict) -> list:
     elif name == "static_var_hindsight":
         cache[name] = static_var_models(segs)
     elif name == "gmwm_hindsight":
+        from imunoise.noise.selection import select_model
         from imunoise.online import COMPLETE
-        from imunoise.selection import select_model
 
         cache[name] = [select_model([s[:, a] for s in segs], freq=sc.rate, complete=COMPLETE, criterion="gof",
                                     top=1, unit="rad/s" if a < 3 else "m/s²").best for a in range(6)]

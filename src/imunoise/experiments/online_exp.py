@@ -83,8 +83,8 @@ def method_config(name: str, sc: Scenario, base: OnlineConfig | None = None,
         if not sc.truth_models:
             raise ModelError("the oracle method needs a simulated scenario (true IMU models)")
         from imunoise.imu import AXES
-        from imunoise.model import Model
-        from imunoise.processes import WN
+        from imunoise.noise.model import Model
+        from imunoise.noise.processes import WN
 
         none = Model([WN(sigma2=1e-30)])  # an axis the simulator left without errors
         truth = [sc.truth_models.get(ax, none) for ax in AXES]

@@ -50,9 +50,9 @@ def law_models(sc, base=None) -> list:
     """The six (model, freq) filter pairs of ``oracle_law``: the static true models through the oracle's mapping
     (no floor), each axis with σ_j > 0 plus its moving Gauss–Markov as an AR1 (φ = e^{−1/(τ f)}, σ²(1 − φ²))."""
     from imunoise.experiments.common import filter_models
-    from imunoise.model import Model
+    from imunoise.noise.model import Model
+    from imunoise.noise.processes import AR1, WN
     from imunoise.online import OnlineConfig
-    from imunoise.processes import AR1, WN
 
     sched = sc.extra.get("law_schedule")
     static = sc.extra.get("static_models")
@@ -73,8 +73,8 @@ def law_models(sc, base=None) -> list:
 
 def _folded_psd(sc, models: list) -> np.ndarray:
     """Per axis the part of the filter's white PSD that is folded short AR1 noise (filter white − true white)."""
-    from imunoise.model import Model
-    from imunoise.processes import WN
+    from imunoise.noise.model import Model
+    from imunoise.noise.processes import WN
 
     none = Model([WN(sigma2=1e-30)])
     static = sc.extra["static_models"]

@@ -222,7 +222,7 @@ def _stagger_labels(ax, marks: Sequence[tuple[float, str]], rows: Sequence[float
 
 def wv_figures(fits: Sequence[Any], folder: Path, stem: str = "wv") -> list[Path]:
     """One WV figure per axis with the fitted model and a dashed curve per process."""
-    from imunoise.plots import plot_wv_fit
+    from imunoise.noise.plots import plot_wv_fit
 
     out = []
     for a, f in enumerate(fits):
@@ -239,9 +239,9 @@ def av_figures(av_fits: Sequence[Any], other: Sequence[Any] | None, folder: Path
 
     One legend for the figure (the curves' meaning is the same in every panel); each panel's title names
     its two model structures, so no per-panel legend covers the data. Colours: the methods' colours of
-    :data:`imunoise.plots.METHOD_COLORS`.
+    :data:`imunoise.noise.plots.METHOD_COLORS`.
     """
-    from imunoise.plots import METHOD_COLORS
+    from imunoise.noise.plots import METHOD_COLORS
 
     fig, axs = plt.subplots(2, 3, figsize=(14, 8.4), layout="constrained")
     for a, f in enumerate(av_fits):

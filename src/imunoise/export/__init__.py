@@ -4,7 +4,7 @@ Kalibr ``imu.yaml``, OpenVINS ``kalibr_imu_chain.yaml`` and ORB-SLAM3 ``IMU.*`` 
 *continuous-time* densities per sensor — white noise N [u/√Hz] and bias random walk K [u/s/√Hz] — and
 discretise them with the update rate f = 1/Δt (σ_d = N·√f per sample, bias step K/√f).
 
-The fitted model is mapped to (N, K) by what the filter will see (:mod:`imunoise.equivalent_noise`, the one
+The fitted model is mapped to (N, K) by what the filter will see (:mod:`imunoise.noise.equivalent_noise`, the one
 mapping shared with the online filter): the WN + RW pair whose Allan variance best matches the model's, in
 log-variance least squares over averaging times from the update period Δt to a horizon (default: the longest
 scale of the data the model was fitted on; ``horizon_s`` / ``--horizon S``), each line at or below the
@@ -15,7 +15,7 @@ update → white with its zero-frequency density σ/(1−φ)·√Δt (→ σ_GM�
 scales ≫ T_c and a random walk on scales ≪ T_c: a slow one (T_c ≫ horizon) goes to K, a fast one to N, and
 one in between is neither — its Allan bump is what the pair cannot follow. K is never the Allan-variance
 minimum (bias instability). K never exceeds the data's Allan bound min_τ AD(τ)·√(3/τ) over the points with
-≥ 3 equivalent degrees of freedom (the densest curve the fit carries, :func:`imunoise.allan.data_curve`): a
+≥ 3 equivalent degrees of freedom (the densest curve the fit carries, :func:`imunoise.noise.allan.data_curve`): a
 fitted RW term that overshoots the data's long-τ AV is capped there, and the file says so beside K.
 
 Beside each written pair: the τ range it was matched on and the worst ratio between the written pair's AV

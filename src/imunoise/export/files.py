@@ -9,7 +9,6 @@ from typing import Any
 
 from imunoise._version import __version__
 from imunoise.errors import DataError, ModelError
-from imunoise.estimator import GMWMFit
 from imunoise.export.formats import (
     DEFAULT_FILENAMES,
     KALIBR_KEYS,
@@ -22,8 +21,9 @@ from imunoise.export.formats import (
     required_keys,
 )
 from imunoise.export.noise import BASE_UNIT, SensorNoise, density_units, format_float, parse_inflate
-from imunoise.imu_model import ImuModel, load_model
 from imunoise.io.atomic import atomic_write_text
+from imunoise.noise.estimator import GMWMFit
+from imunoise.noise.imu_model import ImuModel, load_model
 
 
 def _into_comment(sn: SensorNoise, which: str) -> str:

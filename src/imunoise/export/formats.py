@@ -9,7 +9,6 @@ from pathlib import Path
 
 from imunoise._version import __version__
 from imunoise.errors import ModelError
-from imunoise.estimator import GMWMFit
 from imunoise.export.noise import (
     BASE_UNIT,
     SENSORS,
@@ -22,8 +21,9 @@ from imunoise.export.noise import (
     range_text,
     sensor_noise,
 )
-from imunoise.imu_model import ImuModel, load_model
 from imunoise.io.imu_input import sensor_of
+from imunoise.noise.estimator import GMWMFit
+from imunoise.noise.imu_model import ImuModel, load_model
 
 FORMATS = ("kalibr", "openvins", "orbslam3", "json")
 DEFAULT_FILENAMES = {

@@ -10,12 +10,12 @@ from typing import Any
 
 import numpy as np
 
-from imunoise.allan import data_curve
-from imunoise.equivalent_noise import WARN_RATIO, Equivalent, default_horizon_s, equivalent_noise
 from imunoise.errors import ModelError, UnitError
-from imunoise.estimator import GMWMFit
-from imunoise.imu_model import ImuModel
 from imunoise.io.imu_input import sensor_of
+from imunoise.noise.allan import data_curve
+from imunoise.noise.equivalent_noise import WARN_RATIO, Equivalent, default_horizon_s, equivalent_noise
+from imunoise.noise.estimator import GMWMFit
+from imunoise.noise.imu_model import ImuModel
 from imunoise.units import quantity_of
 
 SENSORS = ("gyro", "accel")
@@ -100,7 +100,7 @@ def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "", *, horizon_s: f
     axis
         Name used in messages.
     horizon_s
-        Longest averaging time matched on [s]; default :func:`imunoise.equivalent_noise.default_horizon_s`.
+        Longest averaging time matched on [s]; default :func:`imunoise.noise.equivalent_noise.default_horizon_s`.
 
     Returns
     -------

@@ -4,7 +4,7 @@
 selected columns as (n, k) blocks in SI, read a piece at a time: CSV/TXT (optionally .gz) a few ten
 thousand lines at a time, ``.npy`` through a memory map, ``.npz`` member by member, ROS bags message by
 message. The column mapping, units, rate and time-stamp rules are those of the whole-file path. Their
-wavelet variance in one pass is :func:`imunoise.wv_log.stream_wavelet_variance` (modelling, a later stage).
+wavelet variance in one pass is :func:`imunoise.noise.wv_log.stream_wavelet_variance` (modelling, a later stage).
 
 Differences forced by one pass. Out-of-order stamps (the whole-file path sorts them) raise
 :class:`StreamOrderError`; duplicated stamps are dropped on the fly (the first kept, as the batch does).

@@ -2,7 +2,7 @@
 
 The last stage of the data path (IMU → detection → modelling → filter): the filter takes IMU increments,
 GNSS fixes, static/gate masks and one error model per sensor axis (anything with ``state_space(dt, freq)``).
-It imports only the model algebra (:mod:`imunoise.model`, :mod:`imunoise.processes`) and
+It imports only the model algebra (:mod:`imunoise.noise.model`, :mod:`imunoise.noise.processes`) and
 :mod:`imunoise.errors`; detection and identification are run by :mod:`imunoise.online` or the caller.
 
 Layout: :mod:`~imunoise.nav.state` names the filter's arrays; :mod:`~imunoise.nav.measurements` holds one

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from imunoise.errors import ModelError
-from imunoise.model import Model
+from imunoise.noise.model import Model
 
 __all__ = ["AdaptiveConfig", "AdaptiveNoise", "scale_bias_noise"]
 

@@ -21,8 +21,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from imunoise.errors import ModelError
-from imunoise.model import Model
-from imunoise.processes import AR1, RW, WN
+from imunoise.noise.model import Model
+from imunoise.noise.processes import AR1, RW, WN
 
 DEG = math.pi / 180.0
 DEG_PER_H = DEG / 3600.0  # °/h → rad/s
@@ -190,22 +190,22 @@ def _model_from_entry(entry: dict, sensor: str, where: str, freq_default: float)
 def load_axis_models(src, freq_default: float) -> list[tuple[Model, float]]:
     """Six (model, freq) pairs from a model JSON (path or parsed dict).
 
-    Accepted layouts: the multi-axis model file (``kind: imunoise.imu_model`` with ``axes``),
+    Accepted layouts: the multi-axis model file (``kind: imunoise.noise.imu_model`` with ``axes``),
     ``{"gyro": FIT, "accel": FIT}`` (one model per sensor), ``{"gyro": {"x": FIT, "y":
     FIT, "z": FIT}, ...}``, per-axis keys ``gyro_x``…``accel_z`` / ``gx``…``az`` (the simulator's truth
     JSON, also under its ``models`` key), or one FIT alone whose ``extra.column`` names its axis (``imunoise
     fit --column gyro_x``; the other five axes get the plain default). FIT is what ``imunoise fit`` writes
     (``model``, ``params``, ``freq_hz``, ``unit``); parameters per sample at ``freq_hz`` in SI units. A
     sensor that is missing gets the plain default (logged). The file is read and its layout parsed by
-    :func:`imunoise.imu_model.axis_fit_dicts`; this function checks SI units and fills the defaults.
+    :func:`imunoise.noise.imu_model.axis_fit_dicts`; this function checks SI units and fills the defaults.
     """
     import logging
 
     from imunoise.imu import AXES
-    from imunoise.imu_model import axis_fit_dicts
+    from imunoise.noise.imu_model import axis_fit_dicts
 
     where = "model JSON" if isinstance(src, dict) else str(src)
-    entries = axis_fit_dicts(src, where)  # every accepted layout, parsed in imunoise.imu_model
+    entries = axis_fit_dicts(src, where)  # every accepted layout, parsed in imunoise.noise.imu_model
     out: list[tuple[Model, float] | None] = [None] * 6
     for a, axis in enumerate(AXES):
         if axis in entries:

@@ -23,14 +23,14 @@ from imunoise.errors import ModelError
 from imunoise.imu import AXES
 from imunoise.nav.defaults import EkfConfig
 from imunoise.nav.state import ATT, N_NAV, POS, VEL
-from imunoise.process_base import ROLE_BIAS, ROLE_RAMP, ROLE_STATIONARY
+from imunoise.noise.process_base import ROLE_BIAS, ROLE_RAMP, ROLE_STATIONARY
 
 __all__ = [
     "AXES", "ModelLayout", "SwapResult", "carried_states", "initial_covariance", "scale_spec", "swap_map",
 ]
 
 POW_MAX = 64
-KIND_SCALE = 3  # the filter's own state kind, after the processes' roles (imunoise.process_base.ROLE_*)
+KIND_SCALE = 3  # the filter's own state kind, after the processes' roles (imunoise.noise.process_base.ROLE_*)
 
 
 def scale_spec(config: EkfConfig) -> tuple[float, float, float] | None:
@@ -91,7 +91,7 @@ class ModelLayout:
         blocks_phi, blocks_q, blocks_p0, wpsd = [], [], [], np.zeros(6)
         for a, (m, f) in enumerate(models):
             ss = m.state_space(dt, f)
-            for lab, role in zip(ss.labels, ss.roles):  # roles: imunoise.processes.ROLE_* = kinds 0–2 here
+            for lab, role in zip(ss.labels, ss.roles):  # roles: imunoise.noise.processes.ROLE_* = kinds 0–2 here
                 labels.append(f"{AXES[a]}.{lab}")
                 kind.append(role)
             axis_of += [a] * ss.n

@@ -42,7 +42,7 @@ class OnlineConfig:
     ZUPTs of an overconfident filter at stops inside outages (drive_0708 plain + ZUPT 247 → 342 m) and does
     not cure the false static detections of a noisy IMU, so it is off. ``floor``/``fold_tau_s``/
     ``dr``/``qn``: the mapping of a fit to filter noise (module docstring). ``warm_up``: compile (or load
-    from numba's on-disk cache) the modelling kernels at construction (:func:`imunoise.fitting.warm.warm_up`;
+    from numba's on-disk cache) the modelling kernels at construction (:func:`imunoise.noise.fitting.warm.warm_up`;
     inline, or in the worker thread with ``worker="thread"``) and log it as a ``warm_up`` event, so the first
     identification does not wait for the compiler (8–10 s of CPU in a fresh clone, measured on drive_0708).
     ``stop_guard``: ``"nav"`` (default) models a detected stop only where the navigation solution agrees

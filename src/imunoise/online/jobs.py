@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import ImunoiseError
-from imunoise.estimator import GMWMFit
+from imunoise.noise.estimator import GMWMFit
 from imunoise.online.config import OnlineConfig
 
 __all__ = ["model_job"]
@@ -21,7 +21,7 @@ __all__ = ["model_job"]
 # modelling job (pure function of the pooled WVs and the current fits; runs inline or in a thread)
 # --------------------------------------------------------------------------------------------------
 def model_job(kind: str, wvs: list, current: list[GMWMFit | None], config: OnlineConfig, freq: float) -> dict:
-    from imunoise.selection import refit, select_model
+    from imunoise.noise.selection import refit, select_model
 
     fits: list[GMWMFit | None] = []
     elapsed: list[float] = []

@@ -2,7 +2,7 @@
 
 :class:`StopModeller` holds what the online engine learns from the stops (paper §2.2–2.3; the rules are in
 :mod:`imunoise.online.navigator`'s docstring): the static pieces pooled so far (bias removed, one
-:class:`~imunoise.wv.WVAccumulator` per axis, no wavelet coefficient across two pieces: SPEC §7), the current
+:class:`~imunoise.noise.wv.WVAccumulator` per axis, no wavelet coefficient across two pieces: SPEC §7), the current
 fit of each axis, the modelling jobs (inline, or on one background thread that the filter never waits for)
 and the updates whose effect time has not come yet. The navigator hands it the samples of every kept stop and
 asks it at every sample which updates are due; it never touches the filter.
@@ -20,12 +20,12 @@ import numpy as np
 
 from imunoise.detect import StaticSegment
 from imunoise.errors import DataError, ImunoiseError
-from imunoise.estimator import GMWMFit
 from imunoise.nav.ekf import AXES
+from imunoise.noise.estimator import GMWMFit
+from imunoise.noise.wv import WVAccumulator
 from imunoise.online.config import OnlineConfig
 from imunoise.online.jobs import model_job
 from imunoise.online.result import ModelUpdate, log_event
-from imunoise.wv import WVAccumulator
 
 log = logging.getLogger(__name__)
 
@@ -91,10 +91,10 @@ class StopModeller:
 
     # -- warm-up ----------------------------------------------------------------------------------------
     def start_warm_up(self, t0: float) -> None:
-        """Compile or load the modelling kernels before the first stop (:func:`imunoise.fitting.warm.warm_up`):
+        """Compile or load the modelling kernels before the first stop (:func:`imunoise.noise.fitting.warm.warm_up`):
         inline here, or as the worker thread's first job (the identification queues behind it, so its
         measured compute time never includes the warm-up)."""
-        from imunoise.fitting.warm import warm_up
+        from imunoise.noise.fitting.warm import warm_up
 
         if self.config.worker == "thread":
             self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="imunoise-gmwm")

@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from imunoise.detect import StaticSegment
-from imunoise.estimator import GMWMFit
+from imunoise.noise.estimator import GMWMFit
 from imunoise.online.result import ModelUpdate
 
 __all__ = ["ZuptStep", "ModellerViews"]

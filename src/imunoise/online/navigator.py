@@ -6,17 +6,17 @@ ZUPT/ZARU while the detector says "static", (5) applies a new error model whose 
 
 Modelling (paper §2.2–2.3; held by :class:`~imunoise.online.modeller.StopModeller`, which the navigator feeds
 the kept stops and asks at every sample which model updates are due). Every completed static segment (trimmed,
-bias removed = segment mean, all six axes) is added to one :class:`~imunoise.wv.WVAccumulator` per axis (pooled
+bias removed = segment mean, all six axes) is added to one :class:`~imunoise.noise.wv.WVAccumulator` per axis (pooled
 WV, no junction crosses two stops). Once ``min_static_s`` of static data exist, the structure is identified per
-axis over every sub-model of ``complete`` (:func:`imunoise.selection.select_model`, criterion ``"wvic"``, the
+axis over every sub-model of ``complete`` (:func:`imunoise.noise.selection.select_model`, criterion ``"wvic"``, the
 library's default, or ``"gof"`` as the paper); after every later stop the fixed structure is re-estimated on all
-static data so far, warm-started from the previous fit (:func:`imunoise.estimator.refit`). A fit is rejected
+static data so far, warm-started from the previous fit (:func:`imunoise.noise.estimator.refit`). A fit is rejected
 (the current model is kept and the reason logged) when it has non-finite parameters or when its GOF on the new
 WV is worse than the current parameters' GOF on the same WV and Ω.
 
 From a GMWM fit to filter noise (``ekf_axis_model``). The static fit describes the sensor at rest; the
 EKF needs a model of the error that drives the navigation states while driving. Everything that does not
-become a Gauss–Markov state goes through :func:`imunoise.equivalent_noise.equivalent_noise`, the one
+become a Gauss–Markov state goes through :func:`imunoise.noise.equivalent_noise.equivalent_noise`, the one
 model → (white, random walk) mapping the export uses too (with ``white_below_s = fold_tau_s``). The mapping:
 
 * WN → white noise of δv/φ (density N² = σ²/f);
@@ -86,9 +86,9 @@ import numpy as np
 
 from imunoise.detect import StaticDetector, StaticSegment
 from imunoise.errors import DataError
-from imunoise.model import Model
 from imunoise.nav.defaults import default_axis_models
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, normalize_axis_models
+from imunoise.noise.model import Model
 from imunoise.online.chunks import push_chunk, replay
 from imunoise.online.config import OnlineConfig, config_summary
 from imunoise.online.lambda0 import Lambda0Learning

@@ -11,11 +11,11 @@ from typing import Any
 import numpy as np
 
 from imunoise.detect import StaticSegment
-from imunoise.estimator import GMWMFit
 from imunoise.io.jsonutil import json_default as _json_default
-from imunoise.model import Model
 from imunoise.nav.filter_loop import euler_rows
 from imunoise.nav.solution import NavSolution
+from imunoise.noise.estimator import GMWMFit
+from imunoise.noise.model import Model
 
 __all__ = ["ModelUpdate", "OnlineResult", "EpochStore", "log_event"]
 

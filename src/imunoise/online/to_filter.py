@@ -1,7 +1,7 @@
 """The one mapping from a static GMWM fit to the filter's noise model (SPEC §9, paper §2.2–2.3):
 :func:`ekf_axis_model` per axis, :func:`filter_axis_models` for the six axes (the online engine and the
 experiments' fixed-model baselines), :func:`data_horizon` and :func:`dr_equivalent_rw`. Everything that does not
-become a Gauss–Markov state goes through :func:`imunoise.equivalent_noise.equivalent_noise`, the mapping the
+become a Gauss–Markov state goes through :func:`imunoise.noise.equivalent_noise.equivalent_noise`, the mapping the
 export uses too. The rules and the measurements behind them: the docstring of :mod:`imunoise.online.navigator`
 ("From a GMWM fit to filter noise")."""
 
@@ -10,14 +10,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from imunoise.equivalent_noise import data_horizon as _data_horizon
-from imunoise.equivalent_noise import dr_equivalent_rw as _dr_equivalent_rw
-from imunoise.equivalent_noise import equivalent_noise
 from imunoise.errors import ModelError
-from imunoise.model import Model
 from imunoise.nav.defaults import default_axis_models
+from imunoise.noise.equivalent_noise import data_horizon as _data_horizon
+from imunoise.noise.equivalent_noise import dr_equivalent_rw as _dr_equivalent_rw
+from imunoise.noise.equivalent_noise import equivalent_noise
+from imunoise.noise.model import Model
+from imunoise.noise.processes import AR1, RW, WN
 from imunoise.online.config import NEGLIGIBLE, OnlineConfig
-from imunoise.processes import AR1, RW, WN
 
 __all__ = ["data_horizon", "dr_equivalent_rw", "ekf_axis_model", "filter_axis_models"]
 
@@ -28,13 +28,13 @@ __all__ = ["data_horizon", "dr_equivalent_rw", "ekf_axis_model", "filter_axis_mo
 def data_horizon(fit: Any) -> float | None:
     """The longest Haar scale (samples) of the WV a fit was made on: the ``horizon`` of :func:`ekf_axis_model`;
     None when the fit carries no WV (e.g. an Allan-variance model built without one). One definition with the
-    export (:func:`imunoise.equivalent_noise.data_horizon`)."""
+    export (:func:`imunoise.noise.equivalent_noise.data_horizon`)."""
     return _data_horizon(fit)
 
 
 def dr_equivalent_rw(omega: float, horizon: float) -> float:
     """γ² (per sample) of the random walk with the same Haar WV as a drift ω at scale τ = ``horizon`` samples
-    (:func:`imunoise.equivalent_noise.dr_equivalent_rw`, the one mapping shared with the export)."""
+    (:func:`imunoise.noise.equivalent_noise.dr_equivalent_rw`, the one mapping shared with the export)."""
     return _dr_equivalent_rw(omega, horizon)
 
 
@@ -42,7 +42,7 @@ def ekf_axis_model(model: Model, freq: float, floor: Model | None = None, *, fol
                    dr: str = "rw", horizon: float | None = None, qn: str = "white") -> Model:
     """Filter model of one axis from a static GMWM model (module docstring): AR1s with ``fold_tau_s`` ≤ T_c and
     T_c·f ≤ ``horizon`` stay Gauss–Markov states; everything else becomes the white noise + random walk of
-    :func:`imunoise.equivalent_noise.equivalent_noise` — the one mapping the export uses — with
+    :func:`imunoise.noise.equivalent_noise.equivalent_noise` — the one mapping the export uses — with
     ``white_below_s = fold_tau_s``: WN, RW exact; faster AR1s white with the density σ²/(1 − φ)² per sample;
     QN as white (2Q² per sample) or dropped (``qn="drop"``); an AR1 slower than the data (T_c·f > ``horizon``)
     matched over [1/f, horizon] (≈ a random walk with its innovation variance); DR as the random walk with
@@ -102,7 +102,7 @@ def ekf_axis_model(model: Model, freq: float, floor: Model | None = None, *, fol
     if gamma2 > NEGLIGIBLE * max(total, 1e-300):
         comps.append(RW(gamma2=gamma2))
     if ramp is not None:
-        from imunoise.processes import DR
+        from imunoise.noise.processes import DR
 
         comps.append(DR(omega=ramp))
     if not comps:
@@ -119,7 +119,7 @@ def filter_axis_models(fits: list, freq: float, config: OnlineConfig | None = No
     Parameters
     ----------
     fits : list
-        Per axis a :class:`~imunoise.estimator.GMWMFit` (or any fit with ``model``, ``freq`` and optionally
+        Per axis a :class:`~imunoise.noise.estimator.GMWMFit` (or any fit with ``model``, ``freq`` and optionally
         ``wv``: parameters per sample at ``fit.freq``, horizon :func:`data_horizon`), a bare :class:`Model`
         (per sample at ``freq``, no horizon), or None (the plain default of ``config.ekf.fallback``).
     freq : float

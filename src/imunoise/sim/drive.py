@@ -5,7 +5,7 @@ Error injection (per sensor axis j, per IMU sample k, rates in rad/s or m/s²):
     r̃_k = (1 + s_j) r_k + b_j + e_{j,k} + w_k · a_j(v_k)
 
 with r_k = Δθ_k/Δt (or Δv_k/Δt) the true mean rate over (t_{k−1}, t_k], s_j a scale-factor error, b_j the
-turn-on bias, e_{j,k} a sample path of the axis' :class:`~imunoise.model.Model` (per-sample parameters at
+turn-on bias, e_{j,k} a sample path of the axis' :class:`~imunoise.noise.model.Model` (per-sample parameters at
 the IMU rate), and w_k·a_j(v) broadband vibration (white, std a_j·min(1, v/3 m/s), exactly zero on the
 static epochs). The output increments are r̃_k Δt.
 
@@ -39,8 +39,8 @@ from imunoise.io.kfgins import (
     write_outages,
     write_reference,
 )
-from imunoise.model import Model
 from imunoise.nav.earth import OMEGA_E, radii
+from imunoise.noise.model import Model
 from imunoise.sim.drive_config import DriveConfig
 from imunoise.sim.drive_plan import plan_drive
 from imunoise.sim.drive_truth import truth_record

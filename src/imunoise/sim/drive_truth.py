@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.imu import AXES
-from imunoise.model import Model
+from imunoise.noise.model import Model
 from imunoise.sim.drive_config import DriveConfig
 from imunoise.sim.imu_errors import models_to_json
 from imunoise.sim.trajectory import DrivePlan, Kinematics

@@ -23,8 +23,8 @@ import numpy as np
 
 from imunoise.errors import ModelError
 from imunoise.imu import ACCEL_AXES, AXES, GYRO_AXES, canonical_axis
-from imunoise.model import Model
-from imunoise.processes import AR1, DR, QN, RW, WN
+from imunoise.noise.model import Model
+from imunoise.noise.processes import AR1, DR, QN, RW, WN
 
 __all__ = [
     "AXES",

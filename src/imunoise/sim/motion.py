@@ -53,8 +53,8 @@ import numpy as np
 
 from imunoise.errors import ModelError
 from imunoise.imu import AXES
-from imunoise.model import Model
-from imunoise.processes import AR1, RW, WN
+from imunoise.noise.model import Model
+from imunoise.noise.processes import AR1, RW, WN
 from imunoise.sim.law_files import (
     DEFAULT_MOTION,
     DRIVE0708,

@@ -16,8 +16,8 @@ import numpy as np
 
 from imunoise.errors import ModelError
 from imunoise.imu import AXES, ImuData
-from imunoise.model import Model
 from imunoise.nav.earth import OMEGA_E, euler_to_dcm, gravity
+from imunoise.noise.model import Model
 from imunoise.sim.imu_errors import models_to_json, resolve_imu_models, simulate_model_errors
 
 __all__ = ["StaticRecording", "simulate_static"]

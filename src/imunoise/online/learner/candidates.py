@@ -25,8 +25,8 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from imunoise.errors import ModelError
-from imunoise.model import Model
-from imunoise.processes import AR1, WN
+from imunoise.noise.model import Model
+from imunoise.noise.processes import AR1, WN
 
 __all__ = ["Process", "Family", "DEFAULT_FAMILIES", "LIKELIHOOD_FAMILIES", "compose", "with_process", "describe",
            "departure_variance", "search_candidates", "refine", "spec_from_dicts", "DPH"]
