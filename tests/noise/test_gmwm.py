@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -120,3 +121,21 @@ def test_warm_start_refit_is_consistent():
     b = gmwm(truth.unknown(), problem, start=a.model, n_random=0)
     assert b.objective <= a.objective * (1 + 1e-9)
     assert Model.parse(str(b.model)) == truth.unknown()
+
+
+def test_a_collapsed_gauss_markov_process_has_no_interval_for_its_correlation_time():
+    # 2*AR1 + WN + RW on data with one Gauss-Markov process: the spare AR1's variance collapses to its bound, so
+    # its phi and T_c carry no information (another start leaves them elsewhere at the same objective): the
+    # intervals must say "not identified", not a tight band around wherever the optimiser left phi.
+    truth = AR1(phi=0.995, sigma2=1e-6) + WN(sigma2=1e-4) + RW(gamma2=1e-9)
+    fit = gmwm(2 * AR1() + WN() + RW(), truth.simulate(2**17, seed=1), freq=100.0)
+    ci = fit.confidence_intervals()
+    collapsed = [c for c in ("AR1_1", "AR1_2") if math.isnan(ci[f"{c}.sigma2"][0])]
+    assert collapsed, "the spare AR1 should collapse on this record"
+    for c in collapsed:
+        for name in (f"{c}.phi", f"{c}.tau_c", f"{c}.sigma_gm"):
+            assert math.isnan(ci[name][0]) and math.isnan(ci[name][1])
+    kept = ({"AR1_1", "AR1_2"} - set(collapsed)).pop()
+    lo, hi = ci[f"{kept}.phi"]
+    assert lo < 0.995 < hi  # the real process keeps its interval, which covers the truth
+    assert "(not identified)" in fit.summary()

@@ -240,7 +240,13 @@ def test_warm_prior_chains_the_earlier_drives_oldest_first():
 DRIFT_DECISIONS = [("motion_noise_choose", 100125.0, 100.0, 10.0), ("motion_noise_refuse", 100170.0, 100.0, 10.0),
                    ("motion_noise_choose", 100235.0, 100.0, 10.0), ("motion_noise_refuse", 100340.0, 100.0, 10.0),
                    ("motion_noise_refuse", 100401.0, None, None)]
-DRIFT_LLH_END = (0.6996594497413903, -1.8349096982370954, 1584.4744804412762)
+DRIFT_LLH_END = (0.6996594497420485, -1.8349096982373627, 1584.4744808893379)
+# Tolerance from the measured sources of difference between machines: moving every IMU increment by one ulp
+# (5 seeds), numba compiled for another CPU (haswell, generic), OpenBLAS kernels of other CPUs (Sandybridge,
+# Prescott), older numpy/scipy/numba and Python 3.12 end within 5e-15 rad and 1e-9 m of this value (before
+# the selection's tie rule, a one-ulp change flipped the identified structure and moved it 1.6 cm north). The
+# pin is 200x that spread: the arithmetic may differ in the last bits, a change of model may not.
+DRIFT_LLH_ATOL = np.array([1e-12, 1e-12, 1e-6])
 
 
 @pytest.mark.slow
@@ -254,7 +260,7 @@ def test_the_default_statistic_is_the_drift_and_decides_as_before(drive, inline_
             p = (e.get("processes") or [{}])[0]
             got.append((e["event"], e["t_round"], p.get("sigma_dph"), p.get("tc_s")))
     assert got == DRIFT_DECISIONS
-    assert np.allclose(res.llh[-1], DRIFT_LLH_END, rtol=0, atol=1e-12 * np.array([1, 1, 1e6]))
+    assert np.allclose(res.llh[-1], DRIFT_LLH_END, rtol=0, atol=DRIFT_LLH_ATOL)
 
 
 @pytest.mark.slow
