@@ -124,12 +124,19 @@ def axis_lines(a: AxisNoise, prefix: str = "") -> list[str]:
     return lines
 
 
-def _header(model: ImuModel | GMWMFit, sensors: dict[str, SensorNoise], what: str, source: str | None) -> list[str]:
+def _header(model: ImuModel | GMWMFit, sensors: dict[str, SensorNoise], what: str, source: str | None,
+            continuous: bool = True) -> list[str]:
+    written = [
+        "# The noise values are CONTINUOUS-TIME densities; the consumer discretises them with the update rate:",
+        "#   per-sample white-noise sigma = N*sqrt(f), per-sample bias increment sigma = K/sqrt(f).",
+    ] if continuous else [
+        "# (N, K) below are CONTINUOUS-TIME densities; the values written are converted to this tool's own",
+        "#   convention (stated below and beside each value), at the IMU rate f of the data.",
+    ]
     lines = [
         f"# {what} written by imunoise {__version__} on {time.strftime('%Y-%m-%d %H:%M:%S', time.gmtime())} UTC"
         + (f" from {source}" if source else ""),
-        "# The noise values are CONTINUOUS-TIME densities; the consumer discretises them with the update rate:",
-        "#   per-sample white-noise sigma = N*sqrt(f), per-sample bias increment sigma = K/sqrt(f).",
+        *written,
         "# (N, K) = the white-noise + random-walk pair whose Allan variance best matches the fitted model's",
         "#   (log-variance least squares, each line at or below the model's AV) over tau = update period .. horizon.",
         "#   Exact: WN -> N = sigma*sqrt(dt), RW -> K = gamma/sqrt(dt), QN -> white 2Q^2 per sample, AR1 faster than",
@@ -339,7 +346,7 @@ def export_text(
     if fmt in TOOL_FORMATS:
         what = {"vins": "VINS-Mono / VINS-Fusion IMU noise block", "lio-sam": "LIO-SAM IMU noise parameters",
                 "fast-lio": "FAST-LIO IMU noise parameters"}[fmt]
-        return tool_text(fmt, sensors, _header(model, sensors, what, source) + block)
+        return tool_text(fmt, sensors, _header(model, sensors, what, source, continuous=fmt == "lio-sam") + block)
     if fmt == "kalibr":
         lines = _header(model, sensors, "Kalibr IMU noise file (imu.yaml)", source) + block
         for s, title in (("accel", "#Accelerometers"), ("gyro", "#Gyroscopes")):

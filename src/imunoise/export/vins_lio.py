@@ -92,20 +92,25 @@ def _units(sensor: str, fmt: str) -> tuple[str, str]:
 
 
 def tool_comment(sn: SensorNoise, fmt: str, which: str) -> str:
-    """The comment beside one written number: its unit, discrete or continuous, and how it follows from (N, K)."""
+    """The comment beside one written number: its unit, discrete or continuous, and how it follows from (N, K)
+    (with the axes it combines and a visible ``--inflate`` factor, as the other formats say them)."""
     n_unit, k_unit = density_units(sn.sensor)
     wn_unit, rw_unit = _units(sn.sensor, fmt)
     f = f"{sn.freq_hz:g} Hz"
-    n, k = format_float(sn.noise_density), format_float(sn.random_walk)
+    how_axes = f"{sn.combine} over {','.join(a.axis for a in sn.axes)}"
     if which == "N":
         how = {"vins": f"DISCRETE per-sample std = N*sqrt(2f) at f = {f}",
                "lio-sam": "CONTINUOUS white-noise density N",
                "fast-lio": f"DISCRETE per-sample variance = N^2*f at f = {f}"}[fmt]
-        return f"[{wn_unit}] {how}; N = {n} {n_unit}"
+        val = "" if fmt == "lio-sam" else f"; N = {format_float(sn.noise_density)} {n_unit}"
+        infl = f" x {sn.inflate_white:g} (--inflate white)" if sn.inflate_white != 1.0 else ""
+        return f"[{wn_unit}] {how}{val} ({how_axes}{infl})"
     how = {"vins": f"DISCRETE bias-rate std per sample = K*sqrt(f) at f = {f}",
            "lio-sam": "CONTINUOUS bias random-walk density K",
            "fast-lio": f"DISCRETE bias-rate variance per sample = K^2*f at f = {f}"}[fmt]
-    return f"[{rw_unit}] {how}; K = {k} {k_unit}"
+    val = "" if fmt == "lio-sam" else f"; K = {format_float(sn.random_walk)} {k_unit}"
+    infl = f" x {sn.inflate_rw:g} (--inflate rw)" if sn.inflate_rw != 1.0 else ""
+    return f"[{rw_unit}] {how}{val} ({how_axes}{infl})"
 
 
 def tool_text(fmt: str, sensors: dict[str, SensorNoise], header: list[str]) -> str:
