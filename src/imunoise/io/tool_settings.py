@@ -1,4 +1,4 @@
-"""Update the IMU keys of an existing ORB-SLAM3 / OpenVINS / Kalibr file in place (SPEC §12, issue 22).
+"""Update the IMU keys of an existing ORB-SLAM3 / OpenVINS / Kalibr / VINS / LIO-SAM / FAST-LIO file in place.
 
 Appending an export to a settings file (``>> settings.yaml``) leaves two ``IMU.NoiseGyro`` keys: OpenCV 4.x
 reads the first (the file's old value wins) and OpenCV 3.4 refuses the file ("Duplicated key"). Instead,
@@ -18,7 +18,13 @@ What each tool reads (the reads are reproduced in ``tests/export/test_export_cli
 ORB-SLAM3 v1.0 ``System.cc`` takes ``Settings`` only when ``File.version`` is the *string* "1.0", else the
 legacy ``Tracking::ParseIMUParamFile``, which needs ``IMU.Frequency`` as an integer and ``Tbc``; OpenVINS
 reads the ``imu0`` map of the chain file with ``cv::FileStorage``; Kalibr's ``ImuParameters`` reads the
-top-level keys with PyYAML.
+top-level keys with PyYAML; VINS reads its top level with ``cv::FileStorage``; LIO-SAM and FAST-LIO read ROS
+parameters (``lio_sam/...``, ``mapping/...``) that ``rosparam`` loads with PyYAML, so their keys live in the
+``lio_sam`` / ``mapping`` block (:data:`BLOCKS`; ``tests/export/test_export_vins_lio.py``).
+
+A value's anchor or tag (``&gn``, ``!!float``) is kept when the value is rewritten, so an alias elsewhere still
+resolves; a UTF-8 byte-order mark is kept and the key behind it found. A folder, a file in flow style and a
+folder the backup cannot be written in are each refused in one line (:class:`~imunoise.errors.DataError`).
 """
 
 from __future__ import annotations
