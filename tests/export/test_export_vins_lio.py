@@ -226,3 +226,12 @@ def test_into_refuses_another_tools_file(tmp_path, model, capsys, fmt, fixture, 
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and says in err and f"--into {path}" in err
     assert path.read_bytes() == before and not list(tmp_path.glob("*.bak*"))
+
+
+def test_a_topic_for_a_tool_whose_topic_is_not_written_is_refused(tmp_path, model, capsys):
+    mp = model.save(tmp_path / "m.json")
+    capsys.readouterr()
+    assert main(["export", str(mp), "--to", "vins", "--imu-topic", "/imu", "--out", str(tmp_path / "v.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--imu-topic" in err and "drop --imu-topic" in err
+    assert not (tmp_path / "v.yaml").exists()

@@ -177,6 +177,9 @@ def run(args: argparse.Namespace) -> int:
                          "has no settings file to update")
     if args.legacy and args.fmt != "orbslam3":
         raise ModelError(f"--legacy is for --to orbslam3 (legacy ORB-SLAM3 settings), not --to {args.fmt}")
+    if args.topic and args.fmt in ("vins", "lio-sam", "fast-lio"):
+        raise ModelError(f"--imu-topic is written for kalibr, openvins and json only; --to {args.fmt} writes the four "
+                         "noise keys and leaves the tool's own IMU topic key as it is: drop --imu-topic")
     model = load_for_export(args.model)
     forced = gate(model, args.sensor, args.force, str(args.model))
     for w in forced:
