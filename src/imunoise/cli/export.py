@@ -15,6 +15,9 @@ EXAMPLES = """examples:
   imunoise export fit/imu_model.json --to orbslam3 --into ORB_SLAM3/Examples/Monocular-Inertial/EuRoC.yaml
   imunoise export fit/imu_model.json --to openvins --into config/my_rig/kalibr_imu_chain.yaml
   imunoise export fit/imu_model.json --to kalibr --into kalibr/imu.yaml
+  imunoise export fit/imu_model.json --to vins --into VINS-Fusion/config/euroc/euroc_stereo_imu_config.yaml
+  imunoise export fit/imu_model.json --to lio-sam --into LIO-SAM/config/params.yaml
+  imunoise export fit/imu_model.json --to fast-lio --into FAST_LIO/config/avia.yaml
   imunoise export fit/imu_model.json --to orbslam3 --out - | less
   imunoise export fit_gz/model.json --to kalibr --sensor gyro         # the gyro block alone (one-sensor fit)
   imunoise export fit_gz/model.json --to json                         # a single-axis fit (sensor from its unit)
@@ -38,8 +41,14 @@ line under the model's AV (exit 2 when the model has nothing white-like); an uni
 takes half the largest one under it (noted). Three axes are combined by their maximum (--combine rms for
 the root mean square). Every value has its unit and discrete per-sample equivalent in a comment.
 
---into FILE updates the IMU keys of an existing ORB-SLAM3 settings file, OpenVINS kalibr_imu_chain.yaml or
-Kalibr imu.yaml in place: every other line stays byte for byte, a key found is rewritten on its line (a
+VINS, LIO-SAM and FAST-LIO take other conventions, each from its source: VINS acc_n = N*sqrt(2f) and
+acc_w = K*sqrt(f) (discrete standard deviations per sample), LIO-SAM imuAccNoise = N and imuAccBiasN = K
+(continuous, as Kalibr), FAST-LIO acc_cov = N^2*f and b_acc_cov = K^2*f (discrete variances per sample);
+the file says which beside every value.
+
+--into FILE updates the IMU keys of an existing ORB-SLAM3 settings file, OpenVINS kalibr_imu_chain.yaml,
+Kalibr imu.yaml, VINS config, LIO-SAM params.yaml (lio_sam block) or FAST-LIO config (mapping block) in place:
+every other line stays byte for byte, a key found is rewritten on its line (a
 duplicate left by an earlier `>> settings.yaml` is removed), a key absent is added after the file's IMU keys,
 the original is kept as FILE.bak (FILE.bak.1, ... when taken), and the file is replaced atomically. A file of
 another kind, or one that would still miss a key the tool requires, is refused (exit 2). ORB-SLAM3 settings
@@ -63,11 +72,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("model", help="imu_model.json (six axes) or model.json (one axis)")
     p.add_argument(
         "--to",
-        choices=["kalibr", "openvins", "orbslam3", "json"],
+        choices=["kalibr", "openvins", "orbslam3", "vins", "lio-sam", "fast-lio", "json"],
         default="kalibr",
         dest="fmt",
         help="target tool: kalibr (imu.yaml), openvins (kalibr_imu_chain.yaml, OpenVINS v2.6 and >= v2.7), "
-        "orbslam3 (IMU.* settings keys), json (everything, per axis); default kalibr",
+        "orbslam3 (IMU.* settings keys), vins (VINS-Mono/Fusion acc_n, gyr_n, acc_w, gyr_w: discrete), lio-sam "
+        "(imuAccNoise, imuGyrNoise, imuAccBiasN, imuGyrBiasN: continuous), fast-lio (acc_cov, gyr_cov, b_acc_cov, "
+        "b_gyr_cov: discrete variances), json (everything, per axis); default kalibr",
     )
     p.add_argument(
         "--sensor",
@@ -89,7 +100,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--into",
         metavar="FILE",
-        help="update the IMU keys of this existing ORB-SLAM3 settings / OpenVINS chain / Kalibr imu.yaml in place "
+        help="update the IMU keys of this existing ORB-SLAM3 settings / OpenVINS chain / Kalibr imu.yaml / VINS "
+        "config / LIO-SAM params.yaml / FAST-LIO config in place "
         "(other lines kept byte for byte, backup FILE.bak, atomic write); instead of --out",
     )
     p.add_argument(
@@ -161,9 +173,13 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError(f"--into {args.into} updates that file in place and --out {args.out} writes a new one: "
                          "give one of them")
     if args.into is not None and args.fmt == "json":
-        raise ModelError("--into works with --to orbslam3, openvins or kalibr; json has no settings file to update")
+        raise ModelError("--into works with a tool's --to (orbslam3, openvins, kalibr, vins, lio-sam, fast-lio); json "
+                         "has no settings file to update")
     if args.legacy and args.fmt != "orbslam3":
         raise ModelError(f"--legacy is for --to orbslam3 (legacy ORB-SLAM3 settings), not --to {args.fmt}")
+    if args.topic and args.fmt in ("vins", "lio-sam", "fast-lio"):
+        raise ModelError(f"--imu-topic is written for kalibr, openvins and json only; --to {args.fmt} writes the four "
+                         "noise keys and leaves the tool's own IMU topic key as it is: drop --imu-topic")
     model = load_for_export(args.model)
     forced = gate(model, args.sensor, args.force, str(args.model))
     for w in forced:

@@ -27,8 +27,13 @@ Three axes of one sensor are combined by the maximum (default) or the root mean 
 Optional inflation factors (``white=2,rw=10``) multiply the written values and are shown beside them.
 Every number is followed by its unit and the words continuous / discrete in a comment.
 
+VINS-Mono/VINS-Fusion, LIO-SAM and FAST-LIO take the same pair under their own conventions, read in their source
+(:mod:`~imunoise.export.vins_lio`): VINS discrete standard deviations per sample (N·√(2f), K·√f), LIO-SAM the
+continuous (N, K), FAST-LIO discrete variances per sample (N²·f, K²·f).
+
 The package: :mod:`~imunoise.export.noise` (the (N, K) per axis and per sensor), :mod:`~imunoise.export.formats`
-(the text of each format) and :mod:`~imunoise.export.files` (writing, reading back, updating in place).
+(the text of each format), :mod:`~imunoise.export.vins_lio` (VINS, LIO-SAM, FAST-LIO) and
+:mod:`~imunoise.export.files` (writing, reading back, updating in place).
 The last piece of the modelling stage of the data path IMU → detection → modelling → filter: it turns a fitted
 model into what a filter is configured with, and imports no filter.
 """

@@ -11,16 +11,16 @@ from imunoise._version import __version__
 from imunoise.errors import DataError, ModelError
 from imunoise.export.formats import (
     DEFAULT_FILENAMES,
-    KALIBR_KEYS,
     OPENVINS_INTRINSICS,
-    ORB_KEYS,
     export_text,
     frequency_text,
     model_sensors,
     model_topic,
+    noise_keys,
     required_keys,
 )
 from imunoise.export.noise import BASE_UNIT, SensorNoise, density_units, format_float, parse_inflate
+from imunoise.export.vins_lio import TOOL_FORMATS, tool_comment, tool_values
 from imunoise.io.atomic import atomic_write_text
 from imunoise.noise.estimator import GMWMFit
 from imunoise.noise.imu_model import ImuModel, load_model
@@ -52,9 +52,10 @@ def update_into(
     Parameters
     ----------
     model, fmt, sensor, combine, inflate, horizon_s
-        As for :func:`export_text` (``fmt`` one of kalibr, openvins, orbslam3).
+        As for :func:`export_text` (``fmt`` one of kalibr, openvins, orbslam3, vins, lio-sam, fast-lio).
     into : str or Path
-        The tool's file to update (ORB-SLAM3 settings, OpenVINS ``kalibr_imu_chain.yaml``, Kalibr ``imu.yaml``).
+        The tool's file to update (ORB-SLAM3 settings, OpenVINS ``kalibr_imu_chain.yaml``, Kalibr ``imu.yaml``,
+        a VINS config, LIO-SAM ``params.yaml``, a FAST-LIO config such as ``avia.yaml``).
     topic : str, optional
         rostopic to write (Kalibr/OpenVINS); default the model's bag topic; when neither is known the file's
         own rostopic stays.
@@ -82,8 +83,15 @@ def update_into(
     sf = inspect_settings(into, fmt)
     sensors = model_sensors(model, sensor, combine, inflate, horizon_s)
     freq = next(iter(sensors.values())).freq_hz
-    keys = ORB_KEYS if fmt == "orbslam3" else KALIBR_KEYS
+    keys = noise_keys(fmt)
     scalars: dict[str, tuple[str, str | None]] = {}
+    if fmt in TOOL_FORMATS:  # the four noise keys alone: the file's topics and everything else stay
+        for s in ("accel", "gyro"):
+            if s in sensors:
+                (nk, kk), (nv, kv) = keys[s], tool_values(sensors[s], fmt)
+                scalars[nk] = (format_float(nv), tool_comment(sensors[s], fmt, "N"))
+                scalars[kk] = (format_float(kv), tool_comment(sensors[s], fmt, "K"))
+        return update_file(sf, scalars, required=required_keys(fmt), model_keys=[*keys["gyro"], *keys["accel"]])
     for s in ("gyro", "accel"):
         if s in sensors:
             nk, kk = keys[s]

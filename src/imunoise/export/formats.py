@@ -21,15 +21,17 @@ from imunoise.export.noise import (
     range_text,
     sensor_noise,
 )
+from imunoise.export.vins_lio import TOOL_FILENAMES, TOOL_FORMATS, TOOL_KEYS, tool_text
 from imunoise.io.imu_input import sensor_of
 from imunoise.noise.estimator import GMWMFit
 from imunoise.noise.imu_model import ImuModel, load_model
 
-FORMATS = ("kalibr", "openvins", "orbslam3", "json")
+FORMATS = ("kalibr", "openvins", "orbslam3", *TOOL_FORMATS, "json")
 DEFAULT_FILENAMES = {
     "kalibr": "imu.yaml",
     "openvins": "kalibr_imu_chain.yaml",
     "orbslam3": "orbslam3_imu.yaml",
+    **TOOL_FILENAMES,
     "json": "imu_noise.json",
 }
 KALIBR_KEYS = {
@@ -37,6 +39,14 @@ KALIBR_KEYS = {
     "accel": ("accelerometer_noise_density", "accelerometer_random_walk"),
 }
 ORB_KEYS = {"gyro": ("IMU.NoiseGyro", "IMU.GyroWalk"), "accel": ("IMU.NoiseAcc", "IMU.AccWalk")}
+TOOL_NAMES = {"kalibr": "a Kalibr imu.yaml", "openvins": "an OpenVINS imu0 block", "orbslam3": "ORB-SLAM3 settings",
+              "vins": "a VINS config", "lio-sam": "LIO-SAM's lio_sam parameters", "fast-lio": "FAST-LIO's mapping "
+              "parameters"}  # fmt: skip
+
+
+def noise_keys(fmt: str) -> dict[str, tuple[str, str]]:
+    """Per sensor the (white-noise, random-walk) key names of a tool format."""
+    return {"orbslam3": ORB_KEYS, **TOOL_KEYS}.get(fmt, KALIBR_KEYS)
 
 # ----------------------------------------------------------------------------------------------
 # text formats
@@ -114,12 +124,19 @@ def axis_lines(a: AxisNoise, prefix: str = "") -> list[str]:
     return lines
 
 
-def _header(model: ImuModel | GMWMFit, sensors: dict[str, SensorNoise], what: str, source: str | None) -> list[str]:
+def _header(model: ImuModel | GMWMFit, sensors: dict[str, SensorNoise], what: str, source: str | None,
+            continuous: bool = True) -> list[str]:
+    written = [
+        "# The noise values are CONTINUOUS-TIME densities; the consumer discretises them with the update rate:",
+        "#   per-sample white-noise sigma = N*sqrt(f), per-sample bias increment sigma = K/sqrt(f).",
+    ] if continuous else [
+        "# (N, K) below are CONTINUOUS-TIME densities; the values written are converted to this tool's own",
+        "#   convention (stated below and beside each value), at the IMU rate f of the data.",
+    ]
     lines = [
         f"# {what} written by imunoise {__version__} on {time.strftime('%Y-%m-%d %H:%M:%S', time.gmtime())} UTC"
         + (f" from {source}" if source else ""),
-        "# The noise values are CONTINUOUS-TIME densities; the consumer discretises them with the update rate:",
-        "#   per-sample white-noise sigma = N*sqrt(f), per-sample bias increment sigma = K/sqrt(f).",
+        *written,
         "# (N, K) = the white-noise + random-walk pair whose Allan variance best matches the fitted model's",
         "#   (log-variance least squares, each line at or below the model's AV) over tau = update period .. horizon.",
         "#   Exact: WN -> N = sigma*sqrt(dt), RW -> K = gamma/sqrt(dt), QN -> white 2Q^2 per sample, AR1 faster than",
@@ -208,8 +225,8 @@ def required_keys(fmt: str, *, legacy: bool = False) -> tuple[str, ...]:
 
     Parameters
     ----------
-    fmt : {"kalibr", "openvins", "orbslam3"}
-        The tool.
+    fmt : {"kalibr", "openvins", "orbslam3", "vins", "lio-sam", "fast-lio"}
+        The tool (VINS, LIO-SAM and FAST-LIO fall back on a default or zero without a key: all four required).
     legacy : bool
         ORB-SLAM3 legacy settings (``Tbc`` instead of ``IMU.T_b_c1``).
 
@@ -217,7 +234,9 @@ def required_keys(fmt: str, *, legacy: bool = False) -> tuple[str, ...]:
     -------
     tuple of str
     """
-    noise = tuple(k for s in ("gyro", "accel") for k in (KALIBR_KEYS if fmt != "orbslam3" else ORB_KEYS)[s])
+    noise = tuple(k for s in ("gyro", "accel") for k in noise_keys(fmt)[s])
+    if fmt in TOOL_FORMATS:
+        return noise
     if fmt == "kalibr":
         return (*noise, "rostopic", "update_rate")
     if fmt == "openvins":
@@ -228,8 +247,8 @@ def required_keys(fmt: str, *, legacy: bool = False) -> tuple[str, ...]:
 def _one_sensor_error(sensors: Mapping[str, SensorNoise], fmt: str, what: str) -> ModelError:
     have = next(iter(sensors))
     other = "accel" if have == "gyro" else "gyro"
-    keys = (ORB_KEYS if fmt == "orbslam3" else KALIBR_KEYS)[other]
-    name = {"kalibr": "a Kalibr imu.yaml", "openvins": "an OpenVINS imu0 block", "orbslam3": "ORB-SLAM3 settings"}[fmt]
+    keys = noise_keys(fmt)[other]
+    name = TOOL_NAMES[fmt]
     return ModelError(
         f"{what} has no {other} axes, and {name} needs {', '.join(keys)} (the tool stops without them): "
         f"write the {have} block alone with --sensor {have}, merge it into the tool's existing file with "
@@ -260,10 +279,10 @@ def export_text(
     partial: bool = False,
     legacy: bool = False,
 ) -> str:
-    """The file text of ``fmt`` (kalibr, openvins, orbslam3, json) for a multi-axis model or a single
-    fit (``sensor`` when its unit and column name do not say). ``topic`` defaults to the model's recorded
-    ROS topic (:func:`model_topic`), else ``/imu0``; ``horizon_s`` the longest averaging time matched on
-    (default: the data's).
+    """The file text of ``fmt`` (kalibr, openvins, orbslam3, vins, lio-sam, fast-lio, json) for a multi-axis
+    model or a single fit (``sensor`` when its unit and column name do not say). ``topic`` defaults to the
+    model's recorded ROS topic (:func:`model_topic`), else ``/imu0``; ``horizon_s`` the longest averaging time
+    matched on (default: the data's).
 
     Parameters
     ----------
@@ -324,6 +343,10 @@ def export_text(
             },
             indent=1,
         )
+    if fmt in TOOL_FORMATS:
+        what = {"vins": "VINS-Mono / VINS-Fusion IMU noise block", "lio-sam": "LIO-SAM IMU noise parameters",
+                "fast-lio": "FAST-LIO IMU noise parameters"}[fmt]
+        return tool_text(fmt, sensors, _header(model, sensors, what, source, continuous=fmt == "lio-sam") + block)
     if fmt == "kalibr":
         lines = _header(model, sensors, "Kalibr IMU noise file (imu.yaml)", source) + block
         for s, title in (("accel", "#Accelerometers"), ("gyro", "#Gyroscopes")):

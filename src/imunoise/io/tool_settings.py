@@ -1,4 +1,4 @@
-"""Update the IMU keys of an existing ORB-SLAM3 / OpenVINS / Kalibr file in place (SPEC §12, issue 22).
+"""Update the IMU keys of an existing ORB-SLAM3 / OpenVINS / Kalibr / VINS / LIO-SAM / FAST-LIO file in place.
 
 Appending an export to a settings file (``>> settings.yaml``) leaves two ``IMU.NoiseGyro`` keys: OpenCV 4.x
 reads the first (the file's old value wins) and OpenCV 3.4 refuses the file ("Duplicated key"). Instead,
@@ -18,7 +18,13 @@ What each tool reads (the reads are reproduced in ``tests/export/test_export_cli
 ORB-SLAM3 v1.0 ``System.cc`` takes ``Settings`` only when ``File.version`` is the *string* "1.0", else the
 legacy ``Tracking::ParseIMUParamFile``, which needs ``IMU.Frequency`` as an integer and ``Tbc``; OpenVINS
 reads the ``imu0`` map of the chain file with ``cv::FileStorage``; Kalibr's ``ImuParameters`` reads the
-top-level keys with PyYAML.
+top-level keys with PyYAML; VINS reads its top level with ``cv::FileStorage``; LIO-SAM and FAST-LIO read ROS
+parameters (``lio_sam/...``, ``mapping/...``) that ``rosparam`` loads with PyYAML, so their keys live in the
+``lio_sam`` / ``mapping`` block (:data:`BLOCKS`; ``tests/export/test_export_vins_lio.py``).
+
+A value's anchor or tag (``&gn``, ``!!float``) is kept when the value is rewritten, so an alias elsewhere still
+resolves; a UTF-8 byte-order mark is kept and the key behind it found. A folder, a file in flow style and a
+folder the backup cannot be written in are each refused in one line (:class:`~imunoise.errors.DataError`).
 """
 
 from __future__ import annotations
@@ -39,9 +45,17 @@ KIND = {
     "orbslam3": "an ORB-SLAM3 settings file (%YAML:1.0 with Camera.* keys)",
     "openvins": "an OpenVINS IMU chain (kalibr_imu_chain.yaml with an imu0 block)",
     "kalibr": "a Kalibr imu.yaml (top-level accelerometer_/gyroscope_ keys, rostopic, update_rate)",
+    "vins": "a VINS-Mono / VINS-Fusion config (%YAML:1.0 with imu_topic or acc_n keys)",
+    "lio-sam": "a LIO-SAM params.yaml (ROS 1: a lio_sam block)",
+    "fast-lio": "a FAST-LIO config (a mapping block, as config/avia.yaml)",
 }
+# the map a tool reads its IMU keys from (OpenVINS imu0, LIO-SAM nh.param("lio_sam/..."), FAST-LIO "mapping/...")
+BLOCKS = {"openvins": "imu0", "lio-sam": "lio_sam", "fast-lio": "mapping"}
+EXAMPLE = {"kalibr": "imu.yaml", "openvins": "kalibr_imu_chain.yaml", "orbslam3": "EuRoC.yaml",
+           "vins": "euroc_stereo_imu_config.yaml", "lio-sam": "params.yaml", "fast-lio": "avia.yaml"}
 _KALIBR_NAMES = ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
                  "gyroscope_random_walk", "rostopic", "update_rate")
+_VINS_NAMES = ("acc_n", "gyr_n", "acc_w", "gyr_w", "g_norm")
 _KEY = re.compile(r"""^(?P<indent>[ ]*)(?P<key>"[^"\n]*"|'[^'\n]*'|[A-Za-z_][\w.\-]*)[ \t]*:(?=[ \t]|\r?\n|$)""")
 
 
@@ -66,6 +80,7 @@ class SettingsFile:
     lines: tuple[str, ...]
     eol: str
     legacy: bool | None = None
+    bom: bool = False  # a UTF-8 byte-order mark before the text: kept on writing, not part of the first key
 
 
 @dataclass(frozen=True)
@@ -127,19 +142,20 @@ def _top_value(lines: Sequence[str], e: _Entry) -> str:
     return lines[e.start][m.end():].split("#", 1)[0].strip()
 
 
-def _imu0(lines: Sequence[str], path: Path) -> tuple[_Entry, int]:
-    """The ``imu0`` entry of a chain and the indentation of its keys."""
-    top = [e for e in _entries(lines, 0, len(lines), 0) if e.key == "imu0"]
+def _block(lines: Sequence[str], path: Path, fmt: str) -> tuple[_Entry, int]:
+    """The entry of the map ``fmt``'s tool reads its IMU keys from (:data:`BLOCKS`) and its keys' indentation."""
+    name = BLOCKS[fmt]
+    top = [e for e in _entries(lines, 0, len(lines), 0) if e.key == name]
     if not top:
-        raise DataError(f"--into {path}: no imu0 block, so it is not {KIND['openvins']}; write a new one with "
+        raise DataError(f"--into {path}: no {name} block, so it is not {KIND[fmt]}; write a new one with "
                         "--out instead")
     e = top[0]
     if _top_value(lines, e):
-        raise DataError(f"--into {path}: imu0 is written in flow style ({_top_value(lines, e)[:20]}...); --into "
-                        "edits block style only (as OpenVINS' own files): rewrite it as one 'key: value' per line")
+        raise DataError(f"--into {path}: {name} is written in flow style ({_top_value(lines, e)[:20]}...); --into "
+                        "edits block style only (as the tool's own files): rewrite it as one 'key: value' per line")
     child = next((_indent(ln) for ln in lines[e.start + 1:e.end] if not _is_blank(ln)), 0)
     if child == 0:
-        raise DataError(f"--into {path}: the imu0 block is empty; write a new chain with --out instead")
+        raise DataError(f"--into {path}: the {name} block is empty; write a new file with --out instead")
     return e, child
 
 
@@ -150,7 +166,7 @@ def inspect_settings(path: str | Path, fmt: str) -> SettingsFile:
     ----------
     path : str or Path
         The settings file to update.
-    fmt : {"orbslam3", "openvins", "kalibr"}
+    fmt : {"orbslam3", "openvins", "kalibr", "vins", "lio-sam", "fast-lio"}
         The tool.
 
     Returns
@@ -164,19 +180,30 @@ def inspect_settings(path: str | Path, fmt: str) -> SettingsFile:
     """
     path = Path(path)
     if fmt not in KIND:
-        raise ModelError(f"--into works with --to orbslam3, openvins or kalibr, not {fmt!r}")
+        raise ModelError(f"--into works with --to {', '.join(KIND)}, not {fmt!r}")
+    if path.is_dir():
+        raise DataError(f"--into {path} is a folder; give the tool's file in it (e.g. --into {path / EXAMPLE[fmt]})")
     if not path.is_file():
         raise DataError(f"--into {path}: no such file; to write a new file use --out {path}")
     try:
         text = path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as exc:
         raise DataError(f"--into {path}: not a UTF-8 text file ({exc.reason}), so not {KIND[fmt]}") from exc
+    except OSError as exc:
+        raise DataError(f"--into {path}: cannot be read ({exc.strerror}); check its permissions") from exc
+    bom = text.startswith("\ufeff")  # kept on writing; the first key is read after it
+    text = text[1:] if bom else text
     if "\t" in "".join(ln[: _indent(ln) + 1] for ln in text.splitlines()):
         raise DataError(f"--into {path}: indented with tabs, which YAML and OpenCV refuse; fix the file first")
     lines = tuple(text.splitlines(keepends=True))
     eol = "\r\n" if "\r\n" in text else "\n"
     keys = {e.key for e in _entries(lines, 0, len(lines), 0)}
     first = next((ln.strip() for ln in lines if ln.strip()), "")
+    body = next((ln.strip() for ln in lines if not _is_blank(ln) and not ln.startswith("%")), "")
+    if body.startswith(("{", "[")):
+        raise DataError(f"--into {path}: written in flow style ({body[:20]}...); --into edits block style only "
+                        "(as the tool's own files): rewrite it as one 'key: value' per line, or write a new file "
+                        "with --out")
     legacy = None
     if fmt == "orbslam3":
         if not first.startswith("%YAML:1.0") or not any(k.startswith("Camera") for k in keys):
@@ -185,8 +212,12 @@ def inspect_settings(path: str | Path, fmt: str) -> SettingsFile:
         version = [e for e in _entries(lines, 0, len(lines), 0) if e.key == "File.version"]
         # System.cc takes the v1.0 reader only for the *string* "1.0"; an unquoted 1.0 is a real -> legacy
         legacy = not (version and _top_value(lines, version[0]) in ('"1.0"', "'1.0'"))
-    elif fmt == "openvins":
-        _imu0(lines, path)
+    elif fmt in BLOCKS:
+        _block(lines, path, fmt)
+    elif fmt == "vins":
+        if not first.startswith("%YAML:1.0") or not keys & {"imu_topic", *_VINS_NAMES}:
+            raise DataError(f"--into {path}: not {KIND[fmt]}" + ("" if first.startswith("%YAML:1.0") else
+                            ": it does not start with %YAML:1.0") + "; give the config VINS runs with")
     else:
         if first.startswith("%YAML:"):
             raise DataError(f"--into {path}: starts with {first[:9]}, which Kalibr's PyYAML reader refuses, so it is "
@@ -195,7 +226,7 @@ def inspect_settings(path: str | Path, fmt: str) -> SettingsFile:
             raise DataError(f"--into {path}: has an imu0 block (an IMU chain), not {KIND[fmt]}; use --to openvins")
         if not keys & set(_KALIBR_NAMES):
             raise DataError(f"--into {path}: none of {', '.join(_KALIBR_NAMES)} is in it, so it is not {KIND[fmt]}")
-    return SettingsFile(path, fmt, lines, eol, legacy)
+    return SettingsFile(path, fmt, lines, eol, legacy, bom)
 
 
 def _scalar_line(old: str, value: str, comment: str | None, eol: str) -> str:
@@ -204,7 +235,10 @@ def _scalar_line(old: str, value: str, comment: str | None, eol: str) -> str:
     assert m is not None
     rest = old[m.end():].rstrip("\r\n")
     gap = rest[: len(rest) - len(rest.lstrip(" \t"))] or " "
-    return old[: m.end()] + gap + value + (f"  # {comment}" if comment else "") + eol
+    # an anchor (&name) or a tag (!!float) before the old value stays: an alias (*name) elsewhere still resolves
+    props = re.match(r"(?:[&!][^\s#]*[ \t]+)*", rest.lstrip(" \t"))
+    keep = props.group(0) if props else ""
+    return old[: m.end()] + gap + keep + value + (f"  # {comment}" if comment else "") + eol
 
 
 def _new_line(indent: int, key: str, value: str, comment: str | None, eol: str) -> str:
@@ -251,8 +285,8 @@ def update_text(
     lines = list(sf.lines)
     if lines and not lines[-1].endswith(("\n", "\r")):
         lines[-1] += sf.eol
-    if sf.fmt == "openvins":
-        block, indent = _imu0(lines, sf.path)
+    if sf.fmt in BLOCKS:
+        block, indent = _block(lines, sf.path, sf.fmt)
         lo, hi = block.start + 1, block.end
     else:
         lo, hi, indent = 0, len(lines), 0
@@ -273,11 +307,12 @@ def update_text(
             lines[e.start] = _scalar_line(lines[e.start], value, comment, sf.eol)
             drop.update(range(e.start + 1, e.end))
             updated.append(key)
-    if sf.fmt == "openvins":  # at the end of the imu0 block
+    if sf.fmt in BLOCKS:  # at the end of the imu0 / lio_sam / mapping block
         insert_at: int | None = hi
-    else:  # after the last IMU key: ORB-SLAM3's IMU.* lines, Kalibr's noise keys
+    else:  # after the last IMU key: ORB-SLAM3's IMU.* lines, Kalibr's or VINS' noise keys
+        names = _VINS_NAMES if sf.fmt == "vins" else _KALIBR_NAMES
         ours = [e.end for e in entries if e.start not in drop
-                and (e.key.startswith(anchor) if anchor else e.key in _KALIBR_NAMES)]
+                and (e.key.startswith(anchor) if anchor else e.key in names)]
         insert_at = max(ours, default=None)
     new: list[str] = []
     for key, (value, comment) in scalars.items():
@@ -320,8 +355,8 @@ def update_text(
 def inspect_settings_text(sf: SettingsFile, text: str) -> dict[str, int]:
     """How many times each key appears where the tool reads it (top level; OpenVINS: inside imu0)."""
     lines = text.splitlines(keepends=True)
-    if sf.fmt == "openvins":
-        block, indent = _imu0(lines, sf.path)
+    if sf.fmt in BLOCKS:
+        block, indent = _block(lines, sf.path, sf.fmt)
         entries = _entries(lines, block.start + 1, block.end, indent)
     else:
         entries = _entries(lines, 0, len(lines), 0)
@@ -367,15 +402,20 @@ def update_file(
         With the backup path.
     """
     text, res = update_text(sf, scalars, blocks=blocks, required=required, anchor=anchor, model_keys=model_keys)
-    original = "".join(sf.lines).encode("utf-8")
+    bom = "\ufeff" if sf.bom else ""
+    original = (bom + "".join(sf.lines)).encode("utf-8")
     target = sf.path.resolve()  # a symlinked settings file stays a link; the file it points to is updated
     if target.read_bytes() != original:
         raise DataError(f"--into {sf.path}: the file changed while it was being updated; run again")
     mode = stat.S_IMODE(target.stat().st_mode)
     bak = backup_path(target)
-    atomic_write_bytes(bak, original)
-    with atomic_path(target) as tmp:
-        tmp.write_bytes(text.encode("utf-8"))
-        os.chmod(tmp, mode)  # the tool's file keeps its permissions
+    try:
+        atomic_write_bytes(bak, original)
+        with atomic_path(target) as tmp:
+            tmp.write_bytes((bom + text).encode("utf-8"))
+            os.chmod(tmp, mode)  # the tool's file keeps its permissions
+    except OSError as exc:  # the backup and the new file are written beside the file: its folder must be writable
+        raise DataError(f"--into {sf.path}: cannot write in its folder {target.parent} ({exc.strerror}); make the "
+                        "folder writable, or copy the file to a writable folder and update that copy") from exc
     return IntoResult(res.path, bak, res.updated, res.appended, res.duplicates_removed, res.blocks_added,
                       res.legacy, tuple(notes))
