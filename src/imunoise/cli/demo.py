@@ -49,7 +49,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", default="out/demo", help="output folder (default out/demo)")
     p.add_argument("--static", action="store_true", help="a static recording instead of a drive (the GMWM demo)")
-    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12; for the online demo, "
+    p.add_argument("--data", help="dataset folder with a dataset.json manifest (docs/guide/theory.rst, 'Interfaces'; "
+                                  "for the online demo, "
                    "default: the repository's data/drive_0708)")
     p.add_argument("--workers", type=positive_int, default=2,
                    help="online demo: local worker processes (parallel; default 2)")

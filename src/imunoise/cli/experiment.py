@@ -1,4 +1,5 @@
-"""`imunoise experiment denial|online`: the paper's two experiments (SPEC §11) with a report."""
+"""`imunoise experiment denial|online`: the paper's two experiments (docs/guide/theory.rst, 'Experiments') with a
+report."""
 
 from __future__ import annotations
 
@@ -25,8 +26,8 @@ EXAMPLES = """examples:
       --gnss-regime noise:1.5,3,1 \
       --noise-seeds 5 --pairs gmwm/av,gmwm/em --out out/evidence      # paired ratios with CIs (evidence)
 
-Writes DIR/report.html (one self-contained page), DIR/report.md, DIR/results.json (SPEC §11 keys:
-methods → horizontal_rms_m, vertical_rms_m, ecef_rms_m, outage_end_horizontal_m, mean_outage_end_horizontal_m;
+Writes DIR/report.html (one self-contained page), DIR/report.md, DIR/results.json (docs/guide/theory.rst, 'Experiments'
+keys: methods → horizontal_rms_m, vertical_rms_m, ecef_rms_m, outage_end_horizontal_m, mean_outage_end_horizontal_m;
 timing; seeds and per_seed for Monte Carlo), CSV tables (headline.csv, outages.csv, differences.csv or
 sections.csv) and PNG figures. Lengths in m, times in s.
 
@@ -46,8 +47,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("which", choices=("denial", "online"), help="which experiment")
     src = p.add_mutually_exclusive_group()
-    src.add_argument("--sim", action="store_true", help="Monte Carlo on simulated drives (SPEC §10)")
-    src.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12; with a reference; "
+    src.add_argument("--sim", action="store_true", help="Monte Carlo on simulated drives "
+                                                        "(docs/guide/theory.rst, 'Simulator')")
+    src.add_argument("--data", help="dataset folder with a dataset.json manifest (docs/guide/theory.rst, 'Interfaces'; "
+                                    "with a reference; "
                      "default: data/drive_0708)")
     p.add_argument("--seeds", type=positive_int, default=20, help="simulator: number of seeds (default 20)")
     p.add_argument("--seed0", type=int, default=0, help="simulator: first seed (default 0)")
@@ -108,7 +111,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def select_methods(which: str, sim: bool, methods: str | None, evidence: bool = False) -> tuple[str, ...]:
-    """The methods of one run (SPEC §11): ``methods`` ("a,b,c") checked against the choices of the mode, or
+    """The methods of one run (docs/guide/theory.rst, 'Experiments'): ``methods`` ("a,b,c") checked against the choices
+    of the mode, or
     the mode's default list. The online Monte Carlo also offers ``oracle`` (the simulator's true IMU model
     in the filter), which real data cannot have; the default list of every mode passes this check.
     ``evidence``: the dense-window evidence (:data:`imunoise.experiments.dense.EVIDENCE_METHODS` by default,

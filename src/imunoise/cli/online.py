@@ -1,4 +1,5 @@
-"""`imunoise online`: the online GMWM INS/GNSS navigator over recorded files (SPEC §9, §12)."""
+"""`imunoise online`: the online GMWM INS/GNSS navigator over recorded files
+(docs/guide/theory.rst, 'Online engine' and 'Interfaces')."""
 
 from __future__ import annotations
 
@@ -39,7 +40,8 @@ EXAMPLES = """examples:
   imunoise online --imu drive.bag --gnss rtk.pos --lever-arm 0 -0.05 0 --out out/bag_online   # ROS bag + RTKLIB
   imunoise online --imu next.bag --gnss next.pos --earlier-static out/bag_online/static.npz --out out/next
 
-Writes DIR/trajectory.nav (KF-GINS result format, IMU point), DIR/metrics.json (SPEC §8 keys, errors of
+Writes DIR/trajectory.nav (KF-GINS result format, IMU point), DIR/metrics.json
+(docs/guide/theory.rst, 'Navigation filter' keys, errors of
 the GNSS antenna at the reference epochs, m and m/s; plus the modelling timing), DIR/events.jsonl (stops,
 identification per axis with structure/GOF/time, refits, model swaps, gate open/close, rejected fits) and
 DIR/model.json (the last GMWM fit of every axis, per-sample SI parameters and continuous equivalents) and
@@ -55,7 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "online",
         help="online GMWM: detect stops, model the IMU while driving, hot-swap the model into the EKF",
-        description="Run the online GMWM navigator (SPEC §9) on IMU + GNSS files.",
+        description="Run the online GMWM navigator (docs/guide/theory.rst, 'Online engine') on IMU + GNSS files.",
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

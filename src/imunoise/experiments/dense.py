@@ -1,4 +1,4 @@
-"""Dense outage protocol with paired statistics (issue "Evidence with power" §1; SPEC §11).
+"""Dense outage protocol with paired statistics (issue "Evidence with power" §1; docs/guide/theory.rst, 'Experiments').
 
 Windows. Outage windows of length L (default 60 s) open every S s (default 20 s) wherever GNSS was
 available for the preceding ``lead`` s (default 60 s; no gap between aiding fixes longer than

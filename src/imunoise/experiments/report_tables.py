@@ -1,5 +1,5 @@
-"""The experiments' result files and table rows (SPEC §11): ``results.json`` without the in-memory objects,
-CSV tables, the headline and outage rows, and the seed-role sentence."""
+"""The experiments' result files and table rows (docs/guide/theory.rst, 'Experiments'): ``results.json`` without the
+in-memory objects, CSV tables, the headline and outage rows, and the seed-role sentence."""
 
 from __future__ import annotations
 

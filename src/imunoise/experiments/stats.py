@@ -1,5 +1,5 @@
-"""Paired statistics for overlapping outage windows (SPEC §11; issue "Evidence that holds outside our own
-simulator", §4 "Intervals that keep their promise").
+"""Paired statistics for overlapping outage windows (docs/guide/theory.rst, 'Experiments'; issue "Evidence that holds
+outside our own simulator", §4 "Intervals that keep their promise").
 
 Dense outage windows (length L opened every S < L seconds) overlap, so neighbouring windows share most of
 their IMU data; and all windows of one drive share its filter state, its model and its bias path. The

@@ -1,4 +1,5 @@
-"""Update the IMU keys of an existing ORB-SLAM3 / OpenVINS / Kalibr file in place (SPEC §12, issue 22).
+"""Update the IMU keys of an existing ORB-SLAM3 / OpenVINS / Kalibr file in place (docs/guide/theory.rst, 'Interfaces',
+issue 22).
 
 Appending an export to a settings file (``>> settings.yaml``) leaves two ``IMU.NoiseGyro`` keys: OpenCV 4.x
 reads the first (the file's old value wins) and OpenCV 3.4 refuses the file ("Duplicated key"). Instead,
