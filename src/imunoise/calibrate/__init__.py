@@ -24,8 +24,7 @@ Stops, per log (as the online engine does, with the same public pieces):
   (:func:`imunoise.online.stop_verdict`): samples faster than ``OnlineConfig.stop_max_speed`` and their
   ``stop_edge_s`` neighbourhood are dropped.
 * bias removed per segment (segment mean, docs/guide/theory.rst, 'Static detection'); no wavelet coefficient spans two
-segments
-  (:class:`imunoise.wv.WVAccumulator`).
+  segments (:class:`imunoise.wv.WVAccumulator`).
 
 The horizon. Pooled stops support scales up to the longest Haar scale τ_J with at least
 :data:`imunoise.wv.MIN_COEFFICIENTS` coefficients; in averaging time T_h = τ_J/(2f)

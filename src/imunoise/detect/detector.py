@@ -24,8 +24,7 @@ form gives bit-identical results. Pipeline per epoch i:
    makes the start late and the end late, and a false static sample hurts the GMWM more than a
    missed one); kept when the trimmed segment lasts at least ``min_duration_s``.
 5. Angular-rate gate: open when ‖ω‖ (norm of the three gyro rates) > 30 °/s (docs/guide/theory.rst, 'Static detection'):
-the
-   static-derived noise model is not trusted for that epoch.
+   the static-derived noise model is not trusted for that epoch.
 
 A time step longer than ``max_gap_samples`` nominal sample periods, or a non-finite accel sample
 (streaming only; :func:`detect_static` refuses such data), restarts the window: the detector needs N new
