@@ -115,7 +115,7 @@ DEFAULT_FAMILIES: tuple[Family, ...] = (
 # The one-step innovation likelihood sees seconds ahead; a T_c shorter than an outage makes the filter forget,
 # within the outage, the bias it had estimated, and white-noise inflation fits the fixes without better bias
 # estimates: on development seeds both fitted the fixes better and drifted more in 60-s outages
-# (docs/acceptance/issue24_likelihood.md)
+# (docs/evidence/in_motion_likelihood.md)
 LIKELIHOOD_FAMILIES: tuple[Family, ...] = (Family("gm", "gyro", 100.0 * DPH, 3.0, (100.0,)), DEFAULT_FAMILIES[1],
                                            *DEFAULT_FAMILIES[4:])
 

@@ -8,7 +8,7 @@ innovation NLL ½(νᵀS⁻¹ν + log det S + 3 log 2π), S = HPHᵀ + R before 
 candidate k against the current model (negative: the fixes are more likely under k). It scores the covariance,
 not only the mean: too little process noise makes the innovations large for S, too much inflates log det S.
 
-Rule (the design diagnostic docs/acceptance/issue24_likelihood.md).
+Rule (the design diagnostic docs/evidence/in_motion_likelihood.md).
 
 1. Choose, on the ``choose_rounds`` rounds after the warm ones: the in-motion candidate with the lowest ΔNLL < 0
    among those whose position NIS is inside its band (:func:`~imunoise.online.learner.decision.nis_ok`); the
