@@ -53,6 +53,10 @@ The inputs are checked as in `imunoise nav`; the outputs appear in DIR together 
 log = logging.getLogger("imunoise.online")
 
 
+EXPERIMENTAL_LIKELIHOOD = ("--motion-noise-statistic likelihood is experimental research code: not frozen nor "
+                           "reported on fresh seeds (docs/evidence/in_motion_likelihood.md); do not use it for results")
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "online",
@@ -89,7 +93,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "in the same vehicle: that run's metrics.json (implies --learn-motion-noise)")
     p.add_argument("--motion-noise-statistic", default="drift", metavar="STAT",
                    help="the learner's evidence: drift (rehearsed-outage drift, paired t tests; the reported default) "
-                        "or likelihood (likelihood-ratio tests on the GNSS innovations; development only)")
+                        "or likelihood (EXPERIMENTAL research code, not reported: likelihood-ratio tests on the GNSS "
+                        "innovations; warns and records the warning in metrics.json)")
     p.add_argument("--earlier-static", nargs="+", metavar="STATIC_NPZ",
                    help="pool the stops of earlier drives of the same IMU with this drive's: the static.npz those "
                         "runs wrote (the last of a chain holds all before it); the model of the earlier stops runs "
@@ -143,6 +148,8 @@ def run(args: argparse.Namespace) -> int:
     init = coarse_align(imu, gnss, t0, static_duration=args.static_duration, yaw=yaw, lever_arm=lever,
                         check_still=True)
     notes += gyro_unit_notes(imu, gnss, init, args.static_duration, inp.imu_path)
+    if motion is not None and motion.statistic == "likelihood":
+        notes.append(EXPERIMENTAL_LIKELIHOOD)
     for n in notes[n_read:]:
         log.warning("%s", n)
     rate = imu.rate_hz

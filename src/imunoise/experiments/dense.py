@@ -33,7 +33,7 @@ data); ``oracle`` on the simulator; ``adaptive`` — the plain filter with its b
 online by covariance matching of the GNSS innovations (:mod:`imunoise.nav.adaptive`; not in the default list);
 ``gmwm_dyn`` — the online engine with in-motion gyro noise learned while driving by shadow filters that rehearse
 GNSS outages on the data seen (:mod:`imunoise.online.motion_noise`; not in the default list); ``gmwm_lik`` —
-the same learner deciding by likelihood-ratio tests on the GNSS innovations (development only);
+the same learner deciding by likelihood-ratio tests on the GNSS innovations (EXPERIMENTAL research code);
 ``gmwm_dyn_warm`` (simulator only) — ``gmwm_dyn`` starting with what it learned on an earlier drive of the
 same vehicle: the drive of seed + :data:`PRIOR_SEED_OFFSET` (same IMU models and motion law, another
 trajectory, other IMU and GNSS noise), GNSS-aided throughout, in the same GNSS regime (:func:`learn_prior`);

@@ -17,8 +17,8 @@ Parts (one concept per module):
 * :mod:`~imunoise.online.learner.decision`: choose / confirm at α/m on disjoint later rounds / revert; the NIS
   guard on position and velocity;
 * :mod:`~imunoise.online.learner.likelihood`: the selectable likelihood statistic (``statistic="likelihood"``,
-  development only): likelihood-ratio tests on the shadows' one-step GNSS innovations, a GNSS σ-scale rival, the
-  rehearsal drift as a harm guard;
+  EXPERIMENTAL research code): likelihood-ratio tests on the shadows' one-step GNSS innovations, a GNSS σ-scale
+  rival, the rehearsal drift as a harm guard;
 * :mod:`~imunoise.online.learner.core`: the learner's state (searches, phases, decisions, cost);
 * :mod:`~imunoise.online.learner.host`: the navigator's side (live swaps, departure steps, the event log);
 * :mod:`~imunoise.online.learner.config`: settings and the evidence carried to the next drive.

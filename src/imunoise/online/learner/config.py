@@ -85,7 +85,7 @@ class MotionNoiseConfig:
     vehicle learned (:class:`MotionNoisePrior`) or None.
 
     ``statistic``: the evidence of a decision. ``"drift"`` (the default, the reported learner): the log RMS
-    drift of the rehearsed outages, paired t tests. ``"likelihood"`` (development only until reported): the
+    drift of the rehearsed outages, paired t tests. ``"likelihood"`` (EXPERIMENTAL research code, not reported): the
     shadows' accumulated one-step GNSS innovation NLL, likelihood-ratio tests against χ²(``lr_df``) at
     1 − ``alpha``/m (:mod:`imunoise.online.learner.likelihood`), every round with fixes counted; ``r_scales``: the
     GNSS σ factors of the R-only nuisance candidates an in-motion change must also beat; ``harm_margin``: the

@@ -1,5 +1,5 @@
-"""The likelihood statistic of the learner (``MotionNoiseConfig(statistic="likelihood")``; development only until
-reported): decide and revert by likelihood-ratio tests on the shadows' one-step GNSS innovations.
+"""EXPERIMENTAL research code: the likelihood statistic of the learner (``MotionNoiseConfig(statistic="likelihood")``,
+not frozen nor reported): decide and revert by likelihood-ratio tests on the shadows' one-step GNSS innovations.
 
 Statistic. Every shadow filter processes every aided fix of a round; the batch loop returns each fix's one-step
 innovation NLL ½(νᵀS⁻¹ν + log det S + 3 log 2π), S = HPHᵀ + R before the update
