@@ -17,7 +17,7 @@ from imunoise.experiments.dense import PRIOR_SEED_OFFSET, earlier_prior, learn_p
 from imunoise.experiments.gnss_regimes import parse_gnss
 from imunoise.nav.defaults import default_axis_models
 from imunoise.online import OnlineNavigator
-from imunoise.online.learner import Process
+from imunoise.online.learner import LearnedProcess
 from imunoise.online.learner.candidates import DPH
 from imunoise.online.motion_noise import MotionNoiseConfig, MotionNoisePrior, add_motion_gm, horizontal_distance
 from imunoise.processes import AR1
@@ -184,7 +184,7 @@ def test_a_carried_model_runs_from_the_first_sample(drive):
     # what one drive learned is the next drive's start: the filter runs the carried processes from its first
     # sample (a Gauss–Markov state more on every gyro axis)
     sc, gnss = drive
-    prior = MotionNoisePrior((Process("gm", "gyro", 100 * DPH, 10.0),), rounds=7)
+    prior = MotionNoisePrior((LearnedProcess("gm", "gyro", 100 * DPH, 10.0),), rounds=7)
     cfg, models, _ = method_setup("gmwm_dyn", sc)
     cfg = cfg.with_(latency=1.0, motion_noise=MotionNoiseConfig(prior=prior))
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)

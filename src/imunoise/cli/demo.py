@@ -11,7 +11,7 @@ from imunoise.cli.options import positive_float, positive_int
 
 EXAMPLES = """examples:
   imunoise demo                       # online GMWM on the shipped real drive: out/demo/report.html
-  imunoise demo --data ../shared/data/rtklibexplorer_drive0708 --out /tmp/d
+  imunoise demo --data sim/ --out out/demo_sim  # any dataset folder, e.g. one of imunoise simulate --out sim/
   imunoise demo --static --out /tmp/d # GMWM on a simulated 1 h static MEMS recording (known truth)
 
 The default demo is the online experiment (paper §3.2) on data/drive_0708 (a real 9 min car drive with a

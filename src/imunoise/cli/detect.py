@@ -23,7 +23,7 @@ from imunoise.errors import DataError, ModelError
 from imunoise.io.atomic import atomic_savefig, atomic_write_text
 
 EXAMPLES = """examples:
-  imunoise detect --data ../shared/data/rtklibexplorer_drive0708 --learn-from 10 --out out/detect
+  imunoise detect --data data/drive_0708 --learn-from 10 --out out/detect
   imunoise detect --imu imu.txt.gz --ref ref.nav.gz --lambda0 0.1 --min-duration 3 --out out/detect
 
 λ0 (m/s²): --lambda0 sets it; --learn-from S learns it from the first S seconds of the record, which

@@ -21,7 +21,7 @@ EXAMPLES = """examples:
   imunoise experiment online --data data/drive_0708 --out out/exp_online
   imunoise experiment online --sim --seeds 20 --out out/mc_online          # Monte Carlo, both cores
   imunoise experiment denial --sim --seeds 20 --out out/mc_denial
-  imunoise experiment denial --data ../shared/data/rtklibexplorer_drive0708 --out out/denial_real
+  imunoise experiment denial --data data/drive_0708 --out out/denial_real
   imunoise experiment online --data data/drive_0708 --outages dense:60:20 --gnss-regime rtk \
       --gnss-regime noise:1.5,3,1 \
       --noise-seeds 5 --pairs gmwm/av,gmwm/em --out out/evidence      # paired ratios with CIs (evidence)

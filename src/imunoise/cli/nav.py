@@ -32,8 +32,8 @@ if TYPE_CHECKING:
     import numpy as np
 
 EXAMPLES = """examples:
-  imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --out out/nav_full
-  imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --outage-runs --out out/nav_out
+  imunoise nav --data data/drive_0708 --out out/nav_full
+  imunoise nav --data data/drive_0708 --outage-runs --out out/nav_out
   imunoise nav --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --imu-model model.json \
       --out out/
   imunoise nav --data sim/ --outages sim/outages.txt --default --out out/sim

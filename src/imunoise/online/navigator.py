@@ -55,12 +55,12 @@ first swap the floor's slow Gauss–Markov state, common to the plain default an
 20 simulated drives that reset at every stop costs +30 % mean outage drift against plain (6 drives:
 128 m reset, 105 m preserve, 109 m plain); on the real drive 225 m reset vs 215 m preserve.
 
-Criterion. GOF always prefers the biggest nested model; WVIC (GOF + 2·#identifiable parameters) penalises
-size. Measured (20 simulated drives, real drive): GOF 88 m vs WVIC 96 m vs plain 92 m mean outage drift on the
-simulator (before the collapse rule below, excluding one GOF divergence), 209 m vs 216 m vs 338 m on the
-real drive. With GOF, components that collapsed to the parameter bound (σ² ~ 1e-57, kept by the nesting
-guarantee of the selection) are dropped from the filter model (``NEGLIGIBLE``): kept, they made P
-ill-conditioned and the filter diverged on one simulated drive (4 km drift). Default: ``"gof"``.
+Criterion. GOF always prefers the biggest nested model; WVIC (the WV's −2 log-likelihood + p·ln n, see
+docs/guide/theory.rst, 'Model selection') penalises size. Measured (20 simulated drives, real drive): GOF 88 m vs
+WVIC 96 m vs plain 92 m mean outage drift on the simulator (before the collapse rule below, excluding one GOF
+divergence), 209 m vs 216 m vs 338 m on the real drive. With GOF, components that collapsed to the parameter bound
+(σ² ~ 1e-57, kept by the nesting guarantee of the selection) are dropped from the filter model (``NEGLIGIBLE``):
+kept, they made P ill-conditioned and the filter diverged on one simulated drive (4 km drift). Default: ``"wvic"``.
 
 Worker. ``worker="inline"`` (replay, deterministic): a model is computed at the stop's completion and takes
 effect at that time plus ``latency`` (a fixed delay; ``None`` = the measured compute time, as the paper's

@@ -24,12 +24,23 @@ Parts (one concept per module):
 * :mod:`~imunoise.online.learner.config`: settings and the evidence carried to the next drive.
 """
 
-from imunoise.online.learner.candidates import DEFAULT_FAMILIES, Family, Process, compose, describe
+from imunoise.online.learner.candidates import DEFAULT_FAMILIES, Family, LearnedProcess, compose, describe
 from imunoise.online.learner.config import MotionNoiseConfig, MotionNoisePrior
 from imunoise.online.learner.core import MotionNoiseLearner
 from imunoise.online.learner.decision import Verdict, choose, confirm, nis_ok, revert
 from imunoise.online.learner.rehearsal import horizontal_distance, ned_offset
 
-__all__ = ["DEFAULT_FAMILIES", "Family", "Process", "compose", "describe", "MotionNoiseConfig", "MotionNoisePrior",
-           "MotionNoiseLearner", "Verdict", "choose", "confirm", "nis_ok", "revert", "horizontal_distance",
-           "ned_offset"]
+__all__ = ["DEFAULT_FAMILIES", "Family", "LearnedProcess", "compose", "describe", "MotionNoiseConfig",
+           "MotionNoisePrior", "MotionNoiseLearner", "Verdict", "choose", "confirm", "nis_ok", "revert",
+           "horizontal_distance", "ned_offset"]
+
+
+def __getattr__(name: str):
+    # the learner's process was called Process, the same name as the noise process of imunoise.processes
+    if name == "Process":
+        import warnings
+
+        warnings.warn("imunoise.online.learner.Process is renamed LearnedProcess (imunoise.processes.Process is the "
+                      "noise process); the old name goes in the next release", DeprecationWarning, stacklevel=2)
+        return LearnedProcess
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
