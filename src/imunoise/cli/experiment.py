@@ -164,8 +164,8 @@ def run(args: argparse.Namespace) -> int:
     args.base = _base_config(args)
     from imunoise.experiments.dense import parse_outages
 
-    kind, outages = parse_outages(args.outages)
-    evidence = kind == "dense" or bool(args.gnss_regime) or bool(args.pairs) or args.nhc
+    form, outages = parse_outages(args.outages)
+    evidence = form == "dense" or bool(args.gnss_regime) or bool(args.pairs) or args.nhc
     if args.scheduler and not (evidence and args.sim):
         raise ModelError("--scheduler runs the dense-window evidence on the simulator (--sim --outages dense:L:S); "
                          "drop it, or use --workers")
@@ -180,9 +180,9 @@ def run(args: argparse.Namespace) -> int:
         from imunoise.experiments.common import replay_methods
 
         methods = replay_methods(methods, bool(args.methods))
-    if kind == "file" and args.sim:
+    if form == "file" and args.sim:
         raise ModelError("--outages FILE is for real data; the simulator takes a number or dense:L:S")
-    if kind == "count" and not args.sim:
+    if form == "count" and not args.sim:
         raise ModelError("--outages N is for the simulator; on real data give dense:L:S or an outage file")
     if args.sim:
         if args.seeds < 1:
@@ -218,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
             html = write_denial_real(res, sc, out)
         else:
             windows = None
-            if kind == "file":
+            if form == "file":
                 from imunoise.io.kfgins import read_outages
 
                 windows = read_outages(outages)
