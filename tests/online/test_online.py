@@ -329,7 +329,7 @@ def test_collapsed_components_are_dropped():
     assert str(out) == "AR1 + WN" and out.params["AR1_1.phi"] == 0.99
 
 
-def test_cli_online_on_the_shipped_drive(tmp_path):
+def test_cli_online_on_the_shipped_drive(tmp_path, capsys):
     """`imunoise online --data` resolves its inputs like `imunoise nav` and writes the
     docs/guide/theory.rst, 'Navigation filter' metrics."""
     import json
@@ -342,6 +342,13 @@ def test_cli_online_on_the_shipped_drive(tmp_path):
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["horizontal_rms_m"] < 0.05  # residual against the RTK that aids the filter
     assert (tmp_path / "events.jsonl").read_text().count("\n") >= 3
+    # the "wrote" line names every file the run wrote (model.json included); the speed is given by both clocks
+    cap = capsys.readouterr()
+    wrote = next(line for line in cap.err.splitlines() if line.startswith("wrote "))
+    files = sorted(p.name for p in tmp_path.iterdir() if p.is_file())
+    assert "model.json" in files and sorted(Path(w).name for w in wrote[6:].split(", ")) == files
+    assert "wall clock" in cap.out and "by CPU time" in cap.out
+    assert metrics["cpu_s"] > 0 and metrics["cpu_realtime_factor"] == metrics["duration_s"] / metrics["cpu_s"]
     assert main(["online", "--imu", str(data / "imu_body_inc.txt.gz"), "--out", str(tmp_path / "x")]) == 2
     # a prior that is not there: a one-line error before anything is written
     assert main(["online", "--data", str(data), "--motion-noise-prior", str(tmp_path / "none.json"),

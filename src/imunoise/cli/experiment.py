@@ -166,6 +166,16 @@ def run(args: argparse.Namespace) -> int:
 
     form, outages = parse_outages(args.outages)
     evidence = form == "dense" or bool(args.gnss_regime) or bool(args.pairs) or args.nhc
+    if args.seed_role == "report":  # refused before anything is made: a report label must be true
+        from imunoise.experiments.gnss_regimes import parse_gnss
+        from imunoise.experiments.report_tables import seed_role_problem
+
+        noisy = evidence and any(parse_gnss(g).random for g in (args.gnss_regime or ["rtk"]))
+        why = seed_role_problem(
+            sim=args.sim, seeds=range(args.seed0, args.seed0 + max(args.seeds, 0)) if args.sim else (),
+            noise_seeds=range(args.noise_seed0, args.noise_seed0 + max(args.noise_seeds, 0)) if noisy else ())
+        if why:
+            raise ModelError(f"--seed-role report: {why}")
     if args.scheduler and not (evidence and args.sim):
         raise ModelError("--scheduler runs the dense-window evidence on the simulator (--sim --outages dense:L:S); "
                          "drop it, or use --workers")
@@ -333,6 +343,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
     res["elapsed_s"] = time.perf_counter() - t0
     res["latency_s"] = args.latency  # None: each model took effect after its measured compute time
     res["seed_role"] = args.seed_role
+    res["noise_seeds"] = noise_seeds if any(r.random for r in regimes) else []
     html = write_evidence(res, out, title=title)
     rows = paired_rows(res)
     heads = ["GNSS", "method", "baseline", "metric", "ratio", "95 % CI", "n_win", "n_ind", "n_drv", "verdict"]
