@@ -80,6 +80,8 @@ def test_every_theory_reference_points_to_an_existing_section():
     secs, labs = sections(), labels()
     bad, n_written, n_ref = [], 0, 0
     for path in repo_files():
+        if path.resolve() == Path(__file__).resolve():  # its own examples of the pattern, wrong ones included
+            continue
         try:
             text = path.read_text(encoding="utf-8")
         except UnicodeDecodeError:

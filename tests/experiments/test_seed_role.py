@@ -48,10 +48,14 @@ def test_report_is_refused_where_the_seeds_are_not_fresh(tmp_path, capsys):
     rc = main(["experiment", "online", "--seed-role", "report", "--out", str(out)])
     err = capsys.readouterr().err
     assert rc == 2 and "recorded drive has no seeds" in err and not out.exists()
-    # noise seeds count on a noise regime: fresh drive seeds with development noise seeds are still refused
-    rc = main(["experiment", "online", "--sim", "--seed0", "2000000", "--outages", "dense:60:20", "--gnss-regime",
-               "noise:1.5,3,1", "--noise-seed0", "3", "--seed-role", "report", "--out", str(tmp_path / "noise")])
+    # on the recorded drive only the GNSS noise seeds can be fresh: development ones are refused
+    rc = main(["experiment", "online", "--outages", "dense:60:20", "--gnss-regime", "noise:1.5,3,1",
+               "--noise-seed0", "3", "--seed-role", "report", "--out", str(tmp_path / "noise")])
     assert rc == 2 and "3–7 are development seeds" in capsys.readouterr().err
+    # on the simulator a fresh drive seed makes fresh GNSS noise whatever the noise seed (seeded by both)
+    from imunoise.experiments.report_tables import seed_role_problem
+
+    assert seed_role_problem(sim=True, seeds=[4_001_000], noise_seeds=[1, 2]) is None
 
 
 def test_the_label_follows_the_seeds_and_the_data():
@@ -72,6 +76,8 @@ def test_the_label_follows_the_seeds_and_the_data():
         assert "fresh seeds" not in text
     text = seed_role_text({"data": "data/drive_0708", "seed_role": "report", "noise_seeds": [1_000_000, 1_000_001]})
     assert "development data" in text and "GNSS noise seeds: report — report seeds 1000000–1000001" in text
+    demo = seed_role_text({"data": "/x/data/drive_0708", "noise_seeds": [1, 2, 3]})  # the demo: role dev
+    assert "development data" in demo and "GNSS noise seeds: dev — development seeds 1–3" in demo
     assert seed_role_problem(sim=True, seeds=range(1_000_000, 1_000_030)) is None
     assert seed_role_problem(sim=False, noise_seeds=[1_000_000]) is None
     assert "development seeds" in seed_role_problem(sim=True, seeds=[999_999])

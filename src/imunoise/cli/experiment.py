@@ -343,7 +343,6 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
     res["elapsed_s"] = time.perf_counter() - t0
     res["latency_s"] = args.latency  # None: each model took effect after its measured compute time
     res["seed_role"] = args.seed_role
-    res["noise_seeds"] = noise_seeds if any(r.random for r in regimes) else []
     html = write_evidence(res, out, title=title)
     rows = paired_rows(res)
     heads = ["GNSS", "method", "baseline", "metric", "ratio", "95 % CI", "n_win", "n_ind", "n_drv", "verdict"]

@@ -155,6 +155,7 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
     drives = [{"name": sc.name, "windows": dense, "runs": raw}]
     res = assemble(drives, methods, regimes, spec, pairs, n_paper=len(paper), n_boot=n_boot, boot_seed=boot_seed)
     res["data"] = str(data_dir)
+    res["noise_seeds"] = [int(s) for s in noise_seeds] if any(r.random for r in regimes) else []  # the seed label
     res["paper_windows"] = [list(w) for w in paper]
     return res
 
@@ -219,5 +220,6 @@ def run_sim(seeds: Sequence[int], *, spec: DenseSpec = _DEFAULT_SPEC, regimes: S
     res = assemble(drives, methods, regimes, spec, pairs, n_paper=0, n_boot=n_boot, boot_seed=boot_seed)
     res["data"] = "sim"
     res["seeds"] = [d["seed"] for d in drives]
+    res["noise_seeds"] = [int(s) for s in noise_seeds] if any(r.random for r in regimes) else []
     res["scenario"] = dict(scen_kw)
     return res

@@ -146,10 +146,11 @@ def seed_role_problem(*, sim: bool, seeds=(), noise_seeds=()) -> str | None:
     """Why ``--seed-role report`` would be false for this run, or None when every seed it draws is fresh.
 
     A recorded drive is development data (the methods were developed on it) and has no seed of its own; only the
-    GNSS noise seeds of a noise regime can be fresh there. Seeds below :data:`REPORT_SEED_MIN` are development
-    seeds.
+    GNSS noise seeds of a noise regime can be fresh there. On the simulator the drive seeds decide: the GNSS noise
+    of a drive is seeded by the drive seed and the noise seed together (:mod:`imunoise.experiments.dense`), so a
+    fresh drive gets fresh noise. Seeds below :data:`REPORT_SEED_MIN` are development seeds.
     """
-    drawn = [*seeds, *noise_seeds]
+    drawn = list(seeds) if sim else list(noise_seeds)
     if not sim and not noise_seeds:
         return ("a recorded drive has no seeds and the methods were developed on it, so nothing in this run is "
                 "fresh; use --seed-role dev (the default)")
@@ -185,6 +186,6 @@ def seed_role_text(results: dict) -> str:
         text = (f"Data: the recorded drive {data} — development data (the methods were developed on it; no seed "
                 "makes it fresh).")
         return text + (f" GNSS noise seeds: {_role_label(role, noise)}." if noise else "")
-    seeds = [int(s) for s in results.get("seeds") or []]
-    return f"Seeds: {_role_label(role, seeds + noise)}."
+    seeds = [int(s) for s in results.get("seeds") or []]  # on the simulator they seed the GNSS noise too
+    return f"Seeds: {_role_label(role, seeds)}."
 
