@@ -4,7 +4,8 @@ acceptance 4).
 `imunoise --help` is timed beside `python -c "import numpy"` and `python -c pass` in the same run (median of
 5 fresh processes each; target ≤ 0.3 s on a quiet machine). `imunoise nav` on the bundled drive
 (data/drive_0708, 548 s) is timed as a whole process, with and without the PNG figures, beside the
-filter-only time the run reports itself (``elapsed_s`` of its metrics.json, SPEC §8), and the difference is
+filter-only time the run reports itself (``elapsed_s`` of its metrics.json, docs/guide/theory.rst, 'Navigation filter'),
+and the difference is
 broken down: imports (``python -X importtime``) and the CPU of each phase of a run (:data:`PHASES`).
 
 The C++ reference: when the environment variable ``IMUNOISE_KFGINS`` names a KF-GINS executable

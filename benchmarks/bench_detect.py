@@ -1,4 +1,5 @@
-"""Static detection (SPEC §7): speed of the batch and streaming forms, and accuracy on drive_0708."""
+"""Static detection (docs/guide/theory.rst, 'Static detection'): speed of the batch and streaming forms, and accuracy on
+drive_0708."""
 
 from __future__ import annotations
 
@@ -133,7 +134,7 @@ def _simulated(n_drives: int = 20) -> list[str]:
 
 
 def main() -> str:
-    out = ["## Static detection (`imunoise.detect`, SPEC §7)", ""]
+    out = ["## Static detection (`imunoise.detect`, docs/guide/theory.rst, 'Static detection')", ""]
     out += _speed()
     out.append("")
     if DRIVE.exists():

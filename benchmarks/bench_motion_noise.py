@@ -117,7 +117,8 @@ def main() -> str:
               f"real time; live, a round of {every:.0f} s of data takes a fraction of those {every:.0f} s).", "",
               "What the learner gains (end drift, share of the oracle's gain, NEES; 20 simulated drives per error law) "
               "is **not measured by this run** and not stated here: see "
-              "[docs/acceptance/issue24.md](docs/acceptance/issue24.md) (the commands, the runs and their tables).",
+              "[docs/evidence/in_motion_learner.md](docs/evidence/in_motion_learner.md) (the commands, the runs and "
+              "their tables).",
               ""]
     return "\n".join(lines)
 

@@ -1,4 +1,5 @@
-"""Online engine (SPEC §9, §13; issue 5 acceptance 3): modelling times inside the online run and the
+"""Online engine (docs/guide/theory.rst, 'Online engine' and 'Quality bars'; issue 5 acceptance 3): modelling times
+inside the online run and the
 whole 548 s real drive (detection + modelling + EKF) against real time and against the plain EKF."""
 
 from __future__ import annotations

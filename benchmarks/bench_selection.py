@@ -1,7 +1,7 @@
 """Model selection (issue 3): speed of all 79 candidates, refit, nesting, and structure recovery.
 
 Acceptance 1 (recovery, 20 seeds per case and size), 2 (timing) and 4 (nesting on the simts series) of
-issue 3. ``scripts/acceptance_issue3.py`` reuses these functions and adds the real-data, AV and EM parts.
+issue 3. ``scripts/modelling_checks.py`` reuses these functions and adds the real-data, AV and EM parts.
 """
 
 from __future__ import annotations

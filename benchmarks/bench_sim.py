@@ -1,5 +1,5 @@
-"""Simulator (SPEC §10): speed of drives and static recordings, and issue 4 acceptance 1 (noise-free
-INS with the project's mechanization stays within 0.5 m horizontal after a 10 min urban drive)."""
+"""Simulator (docs/guide/theory.rst, 'Simulator'): speed of drives and static recordings, and issue 4 acceptance 1
+(noise-free INS with the project's mechanization stays within 0.5 m horizontal after a 10 min urban drive)."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def main() -> str:
     t_static, _ = _timed(lambda: simulate_static("mems", 7200.0, 100.0, seed=0), repeat=1)
 
     rows = [
-        "## Simulator (`imunoise.sim`, SPEC §10)",
+        "## Simulator (`imunoise.sim`, docs/guide/theory.rst, 'Simulator')",
         "",
         "Speed on one core; the ratio is recording length over wall time (both from this run).",
         "",

@@ -1,4 +1,5 @@
-"""Wavelet variance speed: imunoise.noise.wv vs allantools' overlapping ADEV on an octave tau grid (SPEC §13).
+"""Wavelet variance speed: imunoise.noise.wv vs allantools' overlapping ADEV on an octave tau grid
+(docs/guide/theory.rst, 'Quality bars').
 
 Both compute the same numbers (overlapping AVAR at m = 2**(j-1) equals 2*nu^2_j), on the same 1e6
 samples, CPU time (``time.process_time``: one thread each), median of 5 after a warm-up call. The floor of

@@ -27,7 +27,7 @@ copyright = "imunoise contributors, BSD-3-Clause"
 release = version = imunoise.__version__
 
 extensions = ["sphinx.ext.autodoc", "sphinx.ext.napoleon", "sphinx.ext.mathjax"]
-exclude_patterns = ["_build", "acceptance", "img"]  # Markdown records and figures, not pages
+exclude_patterns = ["_build", "evidence", "img"]  # Markdown records and figures, not pages
 html_theme = "alabaster"
 html_static_path: list[str] = []
 

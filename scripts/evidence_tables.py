@@ -4,7 +4,7 @@ Reads ``results.json`` of one or more runs and prints, per run and GNSS regime, 
 ratios of every method against ``plain`` and ``static_var`` (drift, RMS inside the window, aided RMS) with
 their 95 % CIs, **bold** where the CI excludes 1, then the extra pairs asked with ``--pairs``, and, when the run
 has ``oracle`` and ``plain``, every method's share of the oracle's log-gain over plain in end drift (issue 13,
-acceptance 1) with its paired bootstrap CI. Used for the tables in docs/acceptance/.
+acceptance 1) with its paired bootstrap CI. Used for the tables in docs/evidence/.
 
 ``--across OTHER.json --pairs A/B[,C/D]`` pairs method A of the (one) run given with method B of run OTHER,
 window by window: both runs must hold the same drives and windows (same seeds, scenario and ``--outages``), e.g.

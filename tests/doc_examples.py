@@ -198,11 +198,14 @@ def guide_blocks() -> list[Block]:
 
 
 def _workdir(root: Path) -> Path:
-    """A scratch 'repository root': data/ and scripts/ linked, ../shared/data when present, wrappers on PATH."""
+    """A scratch 'repository root': data/, scripts/ and tests/fixtures/ linked, ../shared/data when present,
+    wrappers on PATH."""
     repo = root / "repo"
     repo.mkdir()
     (repo / "data").symlink_to(REPO / "data", target_is_directory=True)
     (repo / "scripts").symlink_to(REPO / "scripts", target_is_directory=True)  # some examples run scripts
+    (repo / "tests").mkdir()  # the stand-ins of other tools' files that examples copy visibly (export --into)
+    (repo / "tests" / "fixtures").symlink_to(REPO / "tests" / "fixtures", target_is_directory=True)
     if SHARED_DATA.exists():
         (root / "shared").mkdir()
         (root / "shared" / "data").symlink_to(SHARED_DATA, target_is_directory=True)

@@ -1,4 +1,4 @@
-"""Error policy (SPEC errors; RULES): imunoise raises the specific subclass of ImunoiseError, never the bare
+"""Error policy (CONTRIBUTING, errors): imunoise raises the specific subclass of ImunoiseError, never the bare
 base class or a bare ValueError, so callers can tell bad data from a bad model/option and the CLI can turn
 every one of them into one line and exit 2."""
 

@@ -6,7 +6,7 @@ estimators: :func:`gmwm` (GMWM), :func:`refit`, :func:`em_fit` (EM baseline), al
 ``estimator(model, data, freq=...)``, and :func:`select_model`; :func:`warm_up` compiles (or loads from
 numba's cache) the fitting kernels ahead of the first fit (the online engine calls it at construction); the
 command ``imunoise warm-up`` (what ``make`` runs) compiles the kernels of every command. All quantities are
-SI; GMWM parameters are per sample (SPEC §1).
+SI; GMWM parameters are per sample (docs/guide/theory.rst, 'Conventions').
 
 No exported name equals a submodule's name (the estimator lives in :mod:`imunoise.noise.estimator`): an
 exported function and a submodule of the same name share one attribute of this package, and importing

@@ -1,4 +1,5 @@
-"""Fleets of static logs on Dask (SPEC §12): one model per file and axis, one table, one model JSON per file.
+"""Fleets of static logs on Dask (docs/guide/theory.rst, 'Interfaces'): one model per file and axis, one table, one
+model JSON per file.
 
 Each file is one task (read -> fit every axis -> write ``<name>.model.json``); tasks run on a
 ``dask.distributed`` cluster — a :class:`~dask.distributed.LocalCluster` of worker *processes* by default
@@ -7,7 +8,8 @@ that fails becomes a row with ``status = "error"`` and the one-line reason; the 
 
 The table has one row per file and axis: the model, the continuous-time white-noise density N
 (``noise_density``) and bias random walk K (``random_walk_eq``) exactly as :mod:`imunoise.export` writes
-them (the one model → (N, K) mapping of :mod:`imunoise.noise.equivalent_noise`, SPEC §12), the fitted RW term
+them (the one model → (N, K) mapping of :mod:`imunoise.noise.equivalent_noise`, docs/guide/theory.rst, 'Interfaces'),
+the fitted RW term
 alone (``random_walk``), their units, the longest averaging time matched on and the worst AV ratio of the
 pair against the model there, the GOF, the fit time and the handled data problems and export notes
 (``notes``: sorted or duplicated stamps, gaps, unidentified white noise). With a remote

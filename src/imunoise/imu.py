@@ -1,4 +1,5 @@
-"""The IMU vocabulary shared by every module (SPEC §1): axis names and the IMU sample container.
+"""The IMU vocabulary shared by every module (docs/guide/theory.rst, 'Conventions'): axis names and the IMU sample
+container.
 
 ``AXES`` is the one list of sensor axes, in the order used everywhere (filter states, model files, the
 simulator's truth, readers): gyro x, y, z (rad/s), accelerometer x, y, z (m/s²), body FRD.
@@ -49,7 +50,8 @@ def as_time_column(t: np.ndarray) -> np.ndarray:
 
 
 def _step(t: np.ndarray) -> np.ndarray:
-    """t[k] − t[k−1], the first entry being the median step (SPEC §1 increments convention)."""
+    """t[k] − t[k−1], the first entry being the median step (docs/guide/theory.rst, 'Conventions' increments
+    convention)."""
     n = t.size
     if n < 2:
         return np.full(n, np.nan)
@@ -61,7 +63,7 @@ def _step(t: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class ImuData:
-    """IMU samples in body FRD (SPEC §1).
+    """IMU samples in body FRD (docs/guide/theory.rst, 'Conventions').
 
     ``kind == "increments"`` (what every reader returns): ``dtheta`` [rad] and ``dv`` [m/s] are the
     increments over (t_{k-1}, t_k]. ``kind == "rates"``: the same fields hold rates [rad/s, m/s²];

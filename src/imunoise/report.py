@@ -90,13 +90,13 @@ class Report:
     # -- writers -------------------------------------------------------------------------------------
     def markdown(self, base: Path | None = None) -> str:
         out = [f"# {self.title}", ""]
-        for kind, payload in self.blocks:
-            if kind == "heading":
+        for element, payload in self.blocks:
+            if element == "heading":
                 level, text = payload
                 out += ["#" * level + " " + text, ""]
-            elif kind == "paragraph":
+            elif element == "paragraph":
                 out += [payload, ""]
-            elif kind == "table":
+            elif element == "table":
                 headers, rows, caption = payload
                 if caption:
                     out += [f"*{caption}*", ""]
@@ -104,11 +104,11 @@ class Report:
                 out.append("|" + "---|" * len(headers))
                 out += ["| " + " | ".join(r) + " |" for r in rows]
                 out.append("")
-            elif kind == "pre":
+            elif element == "pre":
                 out += ["```", payload.rstrip(), "```", ""]
-            elif kind == "log":
+            elif element == "log":
                 out += ["```", *payload, "```", ""]
-            elif kind == "figure":
+            elif element == "figure":
                 path, caption = payload
                 rel = path.name if base is None else _relative(path, base)
                 out += [f"![{caption}]({rel})", ""]
@@ -135,24 +135,24 @@ class Report:
             f"<h1>{html.escape(self.title)}</h1>",
             f"<p class='meta'>generated {time.strftime('%Y-%m-%d %H:%M:%S')} by imunoise</p>",
         ]
-        for kind, payload in self.blocks:
-            if kind == "heading":
+        for element, payload in self.blocks:
+            if element == "heading":
                 level, text = payload
                 parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
-            elif kind == "paragraph":
+            elif element == "paragraph":
                 parts.append(f"<p>{nobreak_numbers(html.escape(payload))}</p>")
-            elif kind == "table":
+            elif element == "table":
                 headers, rows, caption = payload
                 cap = f"<caption>{nobreak_numbers(html.escape(caption))}</caption>" if caption else ""
                 head = "".join(f"<th>{nobreak_numbers(html.escape(h))}</th>" for h in headers)
                 body = "".join("<tr>" + "".join(_cell(c) for c in r) + "</tr>" for r in rows)
                 parts.append(f"<table>{cap}<tr>{head}</tr>{body}</table>")
-            elif kind == "pre":
+            elif element == "pre":
                 parts.append(f"<pre>{html.escape(payload)}</pre>")
-            elif kind == "log":
+            elif element == "log":
                 lines = "".join(f"<div>{nobreak_numbers(html.escape(line))}</div>" for line in payload)
                 parts.append(f"<div class='log'>{lines}</div>")
-            elif kind == "figure":
+            elif element == "figure":
                 path, caption = payload
                 if path.exists():
                     data = base64.b64encode(path.read_bytes()).decode("ascii")

@@ -1,4 +1,5 @@
-"""Physical units at the boundary (SPEC §1): readers convert to SI, writers say what they wrote.
+"""Physical units at the boundary (docs/guide/theory.rst, 'Conventions'): readers convert to SI, writers say what they
+wrote.
 
 Inside imunoise everything is SI: rad/s for angular rate, m/s² for specific force, rad and m/s for
 increments, s for time. Conversions are plain multiplicative factors to the SI unit of the quantity.

@@ -23,7 +23,8 @@ N_A, K_A = 3e-2, 8e-4  # m/s²/√Hz, m/s³/√Hz
 
 
 def _imu(n: int, seed: int = 0) -> np.ndarray:
-    """(n, 6) WN+RW per axis with the continuous values above (SPEC §2: σ² = N²f, γ² = K²/f)."""
+    """(n, 6) WN+RW per axis with the continuous values above (docs/guide/theory.rst, 'Latent processes': σ² = N²f, γ² =
+    K²/f)."""
     cols = []
     for i in range(6):
         N, K = (N_G, K_G) if i < 3 else (N_A, K_A)

@@ -1,4 +1,5 @@
-"""`imunoise nav` end to end on a short simulated dataset folder (SPEC §8, §12)."""
+"""`imunoise nav` end to end on a short simulated dataset folder
+(docs/guide/theory.rst, 'Navigation filter' and 'Interfaces')."""
 
 from __future__ import annotations
 

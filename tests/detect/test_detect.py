@@ -1,4 +1,5 @@
-"""Static detection (SPEC §7, paper §2.3): statistic, adaptive threshold, segments, gate, streaming."""
+"""Static detection (docs/guide/theory.rst, 'Static detection', paper §2.3): statistic, adaptive threshold, segments,
+gate, streaming."""
 
 from __future__ import annotations
 
@@ -415,8 +416,8 @@ def test_real_drive_learned_lambda0(shared_data):
 
 @pytest.mark.slow
 def test_simulated_drives_precision_and_recall():
-    """SPEC §10 simulator, IMU errors 3*AR1+WN+RW (mems preset), truth = speed < 0.05 m/s and no rotation.
-    Issue acceptance on 20 drives is measured by benchmarks/bench_detect.py; here 5 drives."""
+    """docs/guide/theory.rst, 'Simulator' simulator, IMU errors 3*AR1+WN+RW (mems preset), truth = speed < 0.05 m/s and
+    no rotation. Issue acceptance on 20 drives is measured by benchmarks/bench_detect.py; here 5 drives."""
     from imunoise import sim
     tp = n_pred = n_true = 0
     for seed in range(5):

@@ -1,4 +1,5 @@
-"""One static detector for every path (SPEC §7): the batch :func:`detect_static`, the streaming
+"""One static detector for every path (docs/guide/theory.rst, 'Static detection'): the batch :func:`detect_static`, the
+streaming
 :class:`StaticDetector` fed sample by sample or in chunks of any size, and the online engine's ``run`` and
 ``push_*`` APIs give bit-identical per-epoch results, static masks and segments."""
 

@@ -1,4 +1,4 @@
-"""scripts/evidence_tables.py: the markdown tables of docs/acceptance/ from a results.json."""
+"""scripts/evidence_tables.py: the markdown tables of docs/evidence/ from a results.json."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Experiments (SPEC §11): CIs, Monte Carlo plumbing, result keys, reports, CLI, the shipped real drive."""
+"""Experiments (docs/guide/theory.rst, 'Experiments'): CIs, Monte Carlo plumbing, result keys, reports, CLI, the shipped
+real drive."""
 
 from __future__ import annotations
 

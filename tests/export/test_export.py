@@ -1,4 +1,5 @@
-"""Exports to Kalibr / OpenVINS / ORB-SLAM3 / JSON: exact formulas (SPEC §2), units, round trips."""
+"""Exports to Kalibr / OpenVINS / ORB-SLAM3 / JSON: exact formulas (docs/guide/theory.rst, 'Latent processes'), units,
+round trips."""
 
 from __future__ import annotations
 
@@ -68,7 +69,8 @@ def imu_model(base_fit) -> ImuModel:
 
 
 def test_axis_noise_closed_forms_where_exact(base_fit):
-    """WN, QN, RW and an AR1 faster than one update keep their exact closed forms (SPEC §2, §12)."""
+    """WN, QN, RW and an AR1 faster than one update keep their exact closed forms
+    (docs/guide/theory.rst, 'Latent processes' and 'Interfaces')."""
     phi, s2, wn, g2, q2 = 0.1, 2e-6, 3e-5, 4e-12, 1e-6  # T_c = 2.2 ms < Δt = 5 ms
     fit = _with(
         base_fit,

@@ -1,4 +1,4 @@
-"""dataset.json manifests (SPEC §12)."""
+"""dataset.json manifests (docs/guide/theory.rst, 'Interfaces')."""
 
 from __future__ import annotations
 

@@ -34,7 +34,8 @@ def test_write_read_roundtrip_is_exact(tmp_path, name):
     np.testing.assert_array_equal(bag.stamp_ns, np.round(t * 1e9).astype(np.int64))
     assert bag.report.rate_hz == pytest.approx(200.0, rel=1e-6) and bag.report.n_duplicates == 0
     frd = bag.to_imudata("FRD")
-    np.testing.assert_array_equal(frd.dtheta, g * [1, -1, -1])  # REP 103 FLU -> FRD (SPEC §1)
+    # REP 103 FLU -> FRD (docs/guide/theory.rst, 'Conventions')
+    np.testing.assert_array_equal(frd.dtheta, g * [1, -1, -1])
 
 
 def _library_bag(path, ros1: bool, records):

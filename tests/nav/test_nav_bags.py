@@ -1,4 +1,5 @@
-"""ROS bags and RTKLIB .pos files straight into `imunoise nav` and the online navigator (SPEC §12): the same
+"""ROS bags and RTKLIB .pos files straight into `imunoise nav` and the online navigator
+(docs/guide/theory.rst, 'Interfaces'): the same
 trajectory as the KF-GINS text files, the body-frame check, NO_FIX counting, the .pos columns and qualities."""
 
 from __future__ import annotations

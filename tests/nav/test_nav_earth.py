@@ -1,4 +1,4 @@
-"""WGS84 Earth model against known values and exact identities (SPEC §8)."""
+"""WGS84 Earth model against known values and exact identities (docs/guide/theory.rst, 'Navigation filter')."""
 
 from __future__ import annotations
 

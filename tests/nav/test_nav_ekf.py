@@ -1,4 +1,5 @@
-"""Loosely coupled EKF: bias recovery, consistency (NEES), gating, model hot-swap, bad input (SPEC §8)."""
+"""Loosely coupled EKF: bias recovery, consistency (NEES), gating, model hot-swap, bad input
+(docs/guide/theory.rst, 'Navigation filter')."""
 
 from __future__ import annotations
 

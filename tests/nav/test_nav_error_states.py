@@ -1,4 +1,5 @@
-"""Error-state layout and model swap as pure functions; one antenna-position function for both results (SPEC §8)."""
+"""Error-state layout and model swap as pure functions; one antenna-position function for both results
+(docs/guide/theory.rst, 'Navigation filter')."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Strapdown mechanization: exact analytic cases and the simulator's noise-free drive (SPEC §8)."""
+"""Strapdown mechanization: exact analytic cases and the simulator's noise-free drive
+(docs/guide/theory.rst, 'Navigation filter')."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Navigation metrics against a reference with known errors (SPEC §8 metrics.json keys)."""
+"""Navigation metrics against a reference with known errors (docs/guide/theory.rst, 'Navigation filter' metrics.json
+keys)."""
 
 from __future__ import annotations
 

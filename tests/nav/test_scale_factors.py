@@ -1,4 +1,5 @@
-"""Gyro and accelerometer scale-factor states (KF-GINS' 21-state filter) as an EKF option (SPEC §8)."""
+"""Gyro and accelerometer scale-factor states (KF-GINS' 21-state filter) as an EKF option
+(docs/guide/theory.rst, 'Navigation filter')."""
 
 from __future__ import annotations
 
@@ -166,7 +167,7 @@ def test_step_api_equals_batch_with_scale_factors(scaled_drive):
     assert np.any(st["scale_factors"] != 0.0)
     np.testing.assert_allclose(st["scale_factors"], res.scale_factors[-1], rtol=0, atol=1e-12)
     np.testing.assert_allclose(st["llh"][:2], res.llh[-1, :2], atol=1e-12)
-    # a model swap keeps the scale estimates (SPEC §8 hot-swap)
+    # a model swap keeps the scale estimates (docs/guide/theory.rst, 'Navigation filter' hot-swap)
     before = ekf.scale_factors()
     ekf.swap_model(None, preserve=False)
     np.testing.assert_array_equal(ekf.scale_factors(), before)

@@ -1,4 +1,5 @@
-"""EM baseline (SPEC §6): exact likelihood, exact smoother moments, monotone EM, recovery, errors, CLI."""
+"""EM baseline (docs/guide/theory.rst, 'Baselines'): exact likelihood, exact smoother moments, monotone EM, recovery,
+errors, CLI."""
 
 from __future__ import annotations
 

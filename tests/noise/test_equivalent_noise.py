@@ -1,4 +1,5 @@
-"""The one model → (N, K) mapping (SPEC §2, §12): closed forms, log-AV least squares, online agreement, real data."""
+"""The one model → (N, K) mapping (docs/guide/theory.rst, 'Latent processes' and 'Interfaces'): closed forms, log-AV
+least squares, online agreement, real data."""
 
 from __future__ import annotations
 

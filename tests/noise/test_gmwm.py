@@ -1,4 +1,4 @@
-"""GMWM estimator (paper Eq. 6, SPEC §4): simts comparison, recovery, JSON, errors."""
+"""GMWM estimator (paper Eq. 6, docs/guide/theory.rst, 'GMWM estimator'): simts comparison, recovery, JSON, errors."""
 
 from __future__ import annotations
 

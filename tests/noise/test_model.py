@@ -1,4 +1,5 @@
-"""Model algebra, canonical names, parsing, JSON and the filter state-space (SPEC §2, §8)."""
+"""Model algebra, canonical names, parsing, JSON and the filter state-space
+(docs/guide/theory.rst, 'Latent processes' and 'Navigation filter')."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Closed-form Haar WVs (SPEC §2) against Monte Carlo and against exact identities."""
+"""Closed-form Haar WVs (docs/guide/theory.rst, 'Latent processes') against Monte Carlo and against exact identities."""
 
 from __future__ import annotations
 

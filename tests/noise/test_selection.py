@@ -1,4 +1,5 @@
-"""Autonomous model selection (SPEC §5, issue 3): candidates, nesting, recovery, WVIC, refit, CLI."""
+"""Autonomous model selection (docs/guide/theory.rst, 'Model selection', issue 3): candidates, nesting, recovery, WVIC,
+refit, CLI."""
 
 from __future__ import annotations
 

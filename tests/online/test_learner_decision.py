@@ -11,7 +11,7 @@ import pytest
 from imunoise.errors import ModelError
 from imunoise.nav.defaults import default_axis_models
 from imunoise.noise.processes import AR1, WN
-from imunoise.online.learner import MotionNoiseConfig, MotionNoiseLearner, MotionNoisePrior, Process
+from imunoise.online.learner import LearnedProcess, MotionNoiseConfig, MotionNoiseLearner, MotionNoisePrior
 from imunoise.online.learner import decision as dec
 from imunoise.online.learner.candidates import (
     DEFAULT_FAMILIES,
@@ -78,11 +78,11 @@ def test_candidates_cover_every_family_and_nothing_added_after_a_switch():
     fams = {p.family for s in c0 for p in s}
     assert fams == {(k, s) for k in ("gm", "white", "step") for s in ("gyro", "accel")}
     assert all(len(s) == 1 for s in c0) and () not in c0 and len(c0) == 21
-    cur = (Process("gm", "gyro", 100 * DPH, 10.0),)
+    cur = (LearnedProcess("gm", "gyro", 100 * DPH, 10.0),)
     c1 = search_candidates(cur, DEFAULT_FAMILIES)
     assert c1[0] == () and cur not in c1
     # refined: centred on the best, the ratio its square root, T_c fixed once chosen
-    f = refine(DEFAULT_FAMILIES, {("gm", "gyro"): Process("gm", "gyro", 300 * DPH, 100.0)})
+    f = refine(DEFAULT_FAMILIES, {("gm", "gyro"): LearnedProcess("gm", "gyro", 300 * DPH, 100.0)})
     assert f[0].centre == pytest.approx(300 * DPH) and f[0].ratio == pytest.approx(math.sqrt(3))
     assert f[0].tc_s == (100.0,)
     assert f[1].centre == DEFAULT_FAMILIES[1].centre
@@ -90,7 +90,8 @@ def test_candidates_cover_every_family_and_nothing_added_after_a_switch():
 
 def test_compose_adds_gauss_markov_white_and_the_departure_variance():
     base = default_axis_models(100.0)
-    spec = (Process("gm", "accel", 0.01, 100.0), Process("white", "gyro", 2.0), Process("step", "gyro", 1e-4))
+    spec = (LearnedProcess("gm", "accel", 0.01, 100.0), LearnedProcess("white", "gyro", 2.0),
+            LearnedProcess("step", "gyro", 1e-4))
     out = compose(base, spec, 100.0)
     for a in range(3):
         assert out[a][0].white_variance() == pytest.approx(4.0 * base[a][0].white_variance())
@@ -106,14 +107,14 @@ def test_compose_adds_gauss_markov_white_and_the_departure_variance():
 
 
 def test_prior_round_trips_and_bad_settings_are_refused():
-    pr = MotionNoisePrior((Process("gm", "gyro", 1e-4, 10.0),), DEFAULT_FAMILIES, 12)
+    pr = MotionNoisePrior((LearnedProcess("gm", "gyro", 1e-4, 10.0),), DEFAULT_FAMILIES, 12)
     assert MotionNoisePrior.from_dict({"motion_noise": {"evidence": pr.to_dict()}}) == pr
     with pytest.raises(ModelError, match="not a motion-noise prior"):
         MotionNoisePrior.from_dict({"horizontal_rms_m": 1.0})
     with pytest.raises(ModelError, match="overlap"):
         MotionNoiseConfig(outage_s=30.0, every_s=10.0)
     with pytest.raises(ModelError, match="kind"):
-        Process("ramp", "gyro", 1.0)
+        LearnedProcess("ramp", "gyro", 1.0)
 
 
 # -- the state machine on synthetic rounds ----------------------------------------------------------
@@ -138,7 +139,7 @@ def _round(L, scores, nis_mean=3.0, n_fix=30):
 
 def test_state_machine_switches_on_confirmed_evidence_then_reverts_and_logs_every_decision():
     L = _learner()
-    good, other = (Process("gm", "gyro", 1e-4, 10.0),), (Process("white", "accel", 2.0),)
+    good, other = (LearnedProcess("gm", "gyro", 1e-4, 10.0),), (LearnedProcess("white", "accel", 2.0),)
     _arm(L, [(), good, other], ["current", "candidate", "candidate"])
     _round(L, [1.0, 0.0, 0.0])  # warm-up: not scored
     for r in range(4):
@@ -162,10 +163,23 @@ def test_state_machine_switches_on_confirmed_evidence_then_reverts_and_logs_ever
 
 def test_state_machine_refuses_a_candidate_outside_its_nis_band():
     L = _learner()
-    big = (Process("gm", "gyro", 3e-3, 10.0),)
+    big = (LearnedProcess("gm", "gyro", 3e-3, 10.0),)
     _arm(L, [(), big], ["current", "candidate"])
     _round(L, [1.0, 1.0])
     for _ in range(4):  # drifts less, but its shadow is underconfident (NIS 1.0 against GNSS)
         _round(L, [1.0, 0.5], nis_mean=[3.0, 1.0])
     assert L.history[-1]["decision"] == "refuse" and L.history[-1]["stage"] == "choose"
     assert not L.history[-1]["candidates"]["1"]["nis_inside"] and L.spec == ()
+
+
+def test_the_old_name_of_the_learned_process_still_works_with_a_deprecation_warning():
+    import imunoise.online.learner as learner
+    from imunoise.online.learner import candidates
+
+    for mod in (learner, candidates):
+        with pytest.warns(DeprecationWarning, match="LearnedProcess"):
+            old = mod.Process
+        assert old is LearnedProcess
+    import imunoise.noise.processes
+
+    assert imunoise.noise.processes.Process is not LearnedProcess  # the noise process keeps its name

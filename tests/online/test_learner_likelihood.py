@@ -11,7 +11,7 @@ import pytest
 from scipy.stats import chi2
 
 from imunoise.errors import ModelError
-from imunoise.online.learner import MotionNoiseConfig, MotionNoiseLearner, Process
+from imunoise.online.learner import LearnedProcess, MotionNoiseConfig, MotionNoiseLearner
 from imunoise.online.learner.likelihood import drift_harm, lr_test, lr_threshold
 
 
@@ -72,8 +72,8 @@ def _round(L, nll, scores=None, rehearsed=True, nis_mean=3.0, n_fix=20):
                "nll": np.asarray(nll, dtype=float), "cpu_s": 0.01, "t": 100.0 + len(L.round_s)}, None)
 
 
-GOOD = (Process("gm", "gyro", 1e-4, 10.0),)
-OTHER = (Process("white", "accel", 2.0),)
+GOOD = (LearnedProcess("gm", "gyro", 1e-4, 10.0),)
+OTHER = (LearnedProcess("white", "accel", 2.0),)
 
 
 def test_state_machine_confirms_by_lr_counts_unrehearsed_rounds_and_reverts():

@@ -1,4 +1,5 @@
-"""Online engine (SPEC §9): streaming = batch, modelling events, latency, rejection, fit → filter mapping."""
+"""Online engine (docs/guide/theory.rst, 'Online engine'): streaming = batch, modelling events, latency, rejection, fit
+→ filter mapping."""
 
 from __future__ import annotations
 
@@ -147,7 +148,7 @@ def test_plain_mode_has_no_modelling(scenario):
 
 
 def test_gate_opens_in_fast_turns(scenario, batch):
-    """Gate open exactly where |ω| > 30 °/s (SPEC §7), with open/close events."""
+    """Gate open exactly where |ω| > 30 °/s (docs/guide/theory.rst, 'Static detection'), with open/close events."""
     sc = scenario
     gyro, _ = sc.imu.rates()
     expect = np.linalg.norm(gyro, axis=1) > np.deg2rad(30.0)
@@ -238,7 +239,8 @@ def test_implausible_fit_is_rejected(scenario, batch):
 
 
 def test_non_finite_samples_never_crash_the_filter(scenario):
-    """SPEC §13: NaN IMU samples and NaN GNSS σ are logged and handled; the filter keeps running."""
+    """docs/guide/theory.rst, 'Quality bars': NaN IMU samples and NaN GNSS σ are logged and handled; the filter keeps
+    running."""
     sc = scenario
     nav = OnlineNavigator(_config(sc).with_(modelling=False), sc.init, imu_rate_hz=sc.rate)
     t, dth, dv = sc.imu.t, sc.imu.dtheta.copy(), sc.imu.dv.copy()
@@ -288,7 +290,8 @@ def test_swap_preserving_keeps_learned_states(scenario):
 
 
 def test_drift_maps_to_the_random_walk_with_the_same_wv_at_the_horizon():
-    """DR → RW (dr="rw"): ν²_DR(τ_J) = ν²_RW(τ_J) exactly at the data's longest scale τ_J (SPEC §2 closed forms)."""
+    """DR → RW (dr="rw"): ν²_DR(τ_J) = ν²_RW(τ_J) exactly at the data's longest scale τ_J
+    (docs/guide/theory.rst, 'Latent processes' closed forms)."""
     from imunoise.noise.processes import DR
     from imunoise.online import dr_equivalent_rw
 
@@ -326,8 +329,9 @@ def test_collapsed_components_are_dropped():
     assert str(out) == "AR1 + WN" and out.params["AR1_1.phi"] == 0.99
 
 
-def test_cli_online_on_the_shipped_drive(tmp_path):
-    """`imunoise online --data` resolves its inputs like `imunoise nav` and writes the SPEC §8 metrics."""
+def test_cli_online_on_the_shipped_drive(tmp_path, capsys):
+    """`imunoise online --data` resolves its inputs like `imunoise nav` and writes the
+    docs/guide/theory.rst, 'Navigation filter' metrics."""
     import json
     from pathlib import Path
 
@@ -338,6 +342,13 @@ def test_cli_online_on_the_shipped_drive(tmp_path):
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["horizontal_rms_m"] < 0.05  # residual against the RTK that aids the filter
     assert (tmp_path / "events.jsonl").read_text().count("\n") >= 3
+    # the "wrote" line names every file the run wrote (model.json included); the speed is given by both clocks
+    cap = capsys.readouterr()
+    wrote = next(line for line in cap.err.splitlines() if line.startswith("wrote "))
+    files = sorted(p.name for p in tmp_path.iterdir() if p.is_file())
+    assert "model.json" in files and sorted(Path(w).name for w in wrote[6:].split(", ")) == files
+    assert "wall clock" in cap.out and "by CPU time" in cap.out
+    assert metrics["cpu_s"] > 0 and metrics["cpu_realtime_factor"] == metrics["duration_s"] / metrics["cpu_s"]
     assert main(["online", "--imu", str(data / "imu_body_inc.txt.gz"), "--out", str(tmp_path / "x")]) == 2
     # a prior that is not there: a one-line error before anything is written
     assert main(["online", "--data", str(data), "--motion-noise-prior", str(tmp_path / "none.json"),

@@ -121,12 +121,12 @@ def test_static_runs_continue_the_previous_chunk():
 def test_run_in_chunks_with_the_motion_noise_learner(scenario):
     """gmwm_dyn: the shadows start at a fix sample and rehearse when due, a carried departure step is added at
     every start from a stop; identical to the push path."""
-    from imunoise.online.learner import MotionNoisePrior, Process
+    from imunoise.online.learner import LearnedProcess, MotionNoisePrior
     from imunoise.online.motion_noise import MotionNoiseConfig
 
     sc = scenario
     gnss = sc.gnss.without(sc.windows)
-    prior = MotionNoisePrior((Process("step", "gyro", 5e-4), Process("gm", "accel", 0.01, 100.0)))
+    prior = MotionNoisePrior((LearnedProcess("step", "gyro", 5e-4), LearnedProcess("gm", "accel", 0.01, 100.0)))
     cfg = _config(sc, motion_noise=MotionNoiseConfig(every_s=10.0, outage_s=10.0, warm_rounds=0, choose_rounds=2,
                                                      confirm_rounds=2, alpha=0.9, margin=0.0, prior=prior))
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate)

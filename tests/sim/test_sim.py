@@ -1,5 +1,5 @@
 """Simulator: truth consistency, exact increments (noise-free INS), error injection statistics, GNSS,
-files and CLI (SPEC §10, issue 4 acceptance 1)."""
+files and CLI (docs/guide/theory.rst, 'Simulator', issue 4 acceptance 1)."""
 
 from __future__ import annotations
 

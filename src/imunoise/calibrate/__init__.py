@@ -1,4 +1,5 @@
-"""Calibrate an IMU from the moving logs people already have: the offline twin of the online engine (SPEC §7, §9).
+"""Calibrate an IMU from the moving logs people already have: the offline twin of the online engine
+(docs/guide/theory.rst, 'Static detection' and 'Online engine').
 
 :func:`calibrate` takes one or more logs of the same IMU (:func:`read_log`: a ROS bag, a table with a column
 mapping and units, a KF-GINS increment file or a dataset folder), finds the stops in each
@@ -22,8 +23,8 @@ Stops, per log (as the online engine does, with the same public pieces):
 * with a speed (a reference trajectory or GNSS), each segment goes through the online engine's stop check
   (:func:`imunoise.online.stop_verdict`): samples faster than ``OnlineConfig.stop_max_speed`` and their
   ``stop_edge_s`` neighbourhood are dropped.
-* bias removed per segment (segment mean, SPEC §7); no wavelet coefficient spans two segments
-  (:class:`imunoise.noise.wv.WVAccumulator`).
+* bias removed per segment (segment mean, docs/guide/theory.rst, 'Static detection'); no wavelet coefficient spans two
+  segments (:class:`imunoise.noise.wv.WVAccumulator`).
 
 The horizon. Pooled stops support scales up to the longest Haar scale τ_J with at least
 :data:`imunoise.noise.wv.MIN_COEFFICIENTS` coefficients; in averaging time T_h = τ_J/(2f)

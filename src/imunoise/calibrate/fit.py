@@ -1,4 +1,5 @@
-"""The per-axis pooled fit of the stops and :func:`calibrate` itself (SPEC §7, §9; :mod:`imunoise.calibrate`)."""
+"""The per-axis pooled fit of the stops and :func:`calibrate` itself
+(docs/guide/theory.rst, 'Static detection' and 'Online engine'; :mod:`imunoise.calibrate`)."""
 
 from __future__ import annotations
 
@@ -214,7 +215,8 @@ def calibrate(
     _refuse_repeats(found)
     fits: dict[str, Any] = {}
     for k, axis in enumerate(wrap(list(AXES), "axes")):
-        segs = [x - x.mean() for ls in found for x in ls.stop_samples(k)]  # bias removed per stop (SPEC §7)
+        # bias removed per stop (docs/guide/theory.rst, 'Static detection')
+        segs = [x - x.mean() for ls in found for x in ls.stop_samples(k)]
         unit = GYRO_UNIT if k < 3 else ACCEL_UNIT
         fits[axis] = pooled_fit(segs, freq=f, unit=unit, complete=complete, criterion=criterion, weights=weights,
                                 seed=seed)

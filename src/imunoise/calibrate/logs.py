@@ -1,4 +1,5 @@
-"""Reading the logs to calibrate from and their speed sources (SPEC §7, §9; :mod:`imunoise.calibrate`)."""
+"""Reading the logs to calibrate from and their speed sources
+(docs/guide/theory.rst, 'Static detection' and 'Online engine'; :mod:`imunoise.calibrate`)."""
 
 from __future__ import annotations
 

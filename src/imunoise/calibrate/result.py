@@ -1,5 +1,5 @@
 """What the horizon determines per axis: :class:`AxisCalibration`, :class:`CalibrationResult` and the K bound
-(SPEC §7, §9; :mod:`imunoise.calibrate`)."""
+(docs/guide/theory.rst, 'Static detection' and 'Online engine'; :mod:`imunoise.calibrate`)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The stops of one log: λ_0 learned on its quietest stretch, the detector, the rate gate and the speed check
-(paper Eq. 9; SPEC §7; :mod:`imunoise.calibrate`)."""
+(paper Eq. 9; docs/guide/theory.rst, 'Static detection'; :mod:`imunoise.calibrate`)."""
 
 from __future__ import annotations
 

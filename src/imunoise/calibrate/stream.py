@@ -1,4 +1,5 @@
-"""The stops of a log too large to hold, streamed block by block in two passes (SPEC §7, §9;
+"""The stops of a log too large to hold, streamed block by block in two passes
+(docs/guide/theory.rst, 'Static detection' and 'Online engine';
 :func:`stream_stops`)."""
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""`imunoise allan`: Allan-variance baseline with an automated IEEE 952/1293 reading (SPEC §6)."""
+"""`imunoise allan`: Allan-variance baseline with an automated IEEE 952/1293 reading
+(docs/guide/theory.rst, 'Baselines')."""
 
 from __future__ import annotations
 

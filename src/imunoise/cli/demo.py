@@ -11,7 +11,7 @@ from imunoise.cli.options import positive_float, positive_int
 
 EXAMPLES = """examples:
   imunoise demo                       # online GMWM on the shipped real drive: out/demo/report.html
-  imunoise demo --data ../shared/data/rtklibexplorer_drive0708 --out /tmp/d
+  imunoise demo --data sim/ --out out/demo_sim  # any dataset folder, e.g. one of imunoise simulate --out sim/
   imunoise demo --static --out /tmp/d # GMWM on a simulated 1 h static MEMS recording (known truth)
 
 The default demo is the online experiment (paper §3.2) on data/drive_0708 (a real 9 min car drive with a
@@ -49,7 +49,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", default="out/demo", help="output folder (default out/demo)")
     p.add_argument("--static", action="store_true", help="a static recording instead of a drive (the GMWM demo)")
-    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12; for the online demo, "
+    p.add_argument("--data", help="dataset folder with a dataset.json manifest (docs/guide/theory.rst, 'Interfaces'; "
+                                  "for the online demo, "
                    "default: the repository's data/drive_0708)")
     p.add_argument("--workers", type=positive_int, default=2,
                    help="online demo: local worker processes (parallel; default 2)")

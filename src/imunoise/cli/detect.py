@@ -1,4 +1,5 @@
-"""`imunoise detect`: static detection on an IMU record (SPEC §7, paper §2.3 and Fig. 8)."""
+"""`imunoise detect`: static detection on an IMU record (docs/guide/theory.rst, 'Static detection', paper §2.3 and Fig.
+8)."""
 
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ from imunoise.errors import DataError, ModelError
 from imunoise.io.atomic import atomic_savefig, atomic_write_text
 
 EXAMPLES = """examples:
-  imunoise detect --data ../shared/data/rtklibexplorer_drive0708 --learn-from 10 --out out/detect
+  imunoise detect --data data/drive_0708 --learn-from 10 --out out/detect
   imunoise detect --imu imu.txt.gz --ref ref.nav.gz --lambda0 0.1 --min-duration 3 --out out/detect
 
 λ0 (m/s²): --lambda0 sets it; --learn-from S learns it from the first S seconds of the record, which
@@ -36,7 +37,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "detect",
         help="detect static segments (moving std + adaptive threshold) and plot them like paper Fig. 8",
-        description="Static detection: Eq. 9 moving std of accel x/y, adaptive threshold (SPEC §7), "
+        description="Static detection: Eq. 9 moving std of accel x/y, adaptive threshold "
+                    "(docs/guide/theory.rst, 'Static detection'), "
         "segments with minimum duration and end trimming, angular-rate gate.",
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -45,7 +47,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--ref", help="reference trajectory (KF-GINS result format: week t lat lon h vN vE vD roll pitch "
                    "yaw) for the scores")
     p.add_argument("--data",
-                   help="dataset folder with a dataset.json manifest (SPEC §12; --imu/--ref override it)")
+                   help="dataset folder with a dataset.json manifest (docs/guide/theory.rst, 'Interfaces'; --imu/--ref "
+                        "override it)")
     p.add_argument("--out", required=True, help="output folder (segments.csv, detection.png, summary.json)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--lambda0", type=positive_float, default=None,

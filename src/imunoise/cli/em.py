@@ -1,4 +1,5 @@
-"""`imunoise em`: constrained-EM baseline (Stebler et al. 2011) for a state-space error model (SPEC §6)."""
+"""`imunoise em`: constrained-EM baseline (Stebler et al. 2011) for a state-space error model
+(docs/guide/theory.rst, 'Baselines')."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""`imunoise experiment denial|online`: the paper's two experiments (SPEC §11) with a report."""
+"""`imunoise experiment denial|online`: the paper's two experiments (docs/guide/theory.rst, 'Experiments') with a
+report."""
 
 from __future__ import annotations
 
@@ -20,13 +21,13 @@ EXAMPLES = """examples:
   imunoise experiment online --data data/drive_0708 --out out/exp_online
   imunoise experiment online --sim --seeds 20 --out out/mc_online          # Monte Carlo, both cores
   imunoise experiment denial --sim --seeds 20 --out out/mc_denial
-  imunoise experiment denial --data ../shared/data/rtklibexplorer_drive0708 --out out/denial_real
+  imunoise experiment denial --data data/drive_0708 --out out/denial_real
   imunoise experiment online --data data/drive_0708 --outages dense:60:20 --gnss-regime rtk \
       --gnss-regime noise:1.5,3,1 \
       --noise-seeds 5 --pairs gmwm/av,gmwm/em --out out/evidence      # paired ratios with CIs (evidence)
 
-Writes DIR/report.html (one self-contained page), DIR/report.md, DIR/results.json (SPEC §11 keys:
-methods → horizontal_rms_m, vertical_rms_m, ecef_rms_m, outage_end_horizontal_m, mean_outage_end_horizontal_m;
+Writes DIR/report.html (one self-contained page), DIR/report.md, DIR/results.json (docs/guide/theory.rst, 'Experiments'
+keys: methods → horizontal_rms_m, vertical_rms_m, ecef_rms_m, outage_end_horizontal_m, mean_outage_end_horizontal_m;
 timing; seeds and per_seed for Monte Carlo), CSV tables (headline.csv, outages.csv, differences.csv or
 sections.csv) and PNG figures. Lengths in m, times in s.
 
@@ -46,8 +47,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("which", choices=("denial", "online"), help="which experiment")
     src = p.add_mutually_exclusive_group()
-    src.add_argument("--sim", action="store_true", help="Monte Carlo on simulated drives (SPEC §10)")
-    src.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12; with a reference; "
+    src.add_argument("--sim", action="store_true", help="Monte Carlo on simulated drives "
+                                                        "(docs/guide/theory.rst, 'Simulator')")
+    src.add_argument("--data", help="dataset folder with a dataset.json manifest (docs/guide/theory.rst, 'Interfaces'; "
+                                    "with a reference; "
                      "default: data/drive_0708)")
     p.add_argument("--seeds", type=positive_int, default=20, help="simulator: number of seeds (default 20)")
     p.add_argument("--seed0", type=int, default=0, help="simulator: first seed (default 0)")
@@ -108,7 +111,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def select_methods(which: str, sim: bool, methods: str | None, evidence: bool = False) -> tuple[str, ...]:
-    """The methods of one run (SPEC §11): ``methods`` ("a,b,c") checked against the choices of the mode, or
+    """The methods of one run (docs/guide/theory.rst, 'Experiments'): ``methods`` ("a,b,c") checked against the choices
+    of the mode, or
     the mode's default list. The online Monte Carlo also offers ``oracle`` (the simulator's true IMU model
     in the filter), which real data cannot have; the default list of every mode passes this check.
     ``evidence``: the dense-window evidence (:data:`imunoise.experiments.dense.EVIDENCE_METHODS` by default,
@@ -160,8 +164,18 @@ def run(args: argparse.Namespace) -> int:
     args.base = _base_config(args)
     from imunoise.experiments.dense import parse_outages
 
-    kind, outages = parse_outages(args.outages)
-    evidence = kind == "dense" or bool(args.gnss_regime) or bool(args.pairs) or args.nhc
+    form, outages = parse_outages(args.outages)
+    evidence = form == "dense" or bool(args.gnss_regime) or bool(args.pairs) or args.nhc
+    if args.seed_role == "report":  # refused before anything is made: a report label must be true
+        from imunoise.experiments.gnss_regimes import parse_gnss
+        from imunoise.experiments.report_tables import seed_role_problem
+
+        noisy = evidence and any(parse_gnss(g).random for g in (args.gnss_regime or ["rtk"]))
+        why = seed_role_problem(
+            sim=args.sim, seeds=range(args.seed0, args.seed0 + max(args.seeds, 0)) if args.sim else (),
+            noise_seeds=range(args.noise_seed0, args.noise_seed0 + max(args.noise_seeds, 0)) if noisy else ())
+        if why:
+            raise ModelError(f"--seed-role report: {why}")
     if args.scheduler and not (evidence and args.sim):
         raise ModelError("--scheduler runs the dense-window evidence on the simulator (--sim --outages dense:L:S); "
                          "drop it, or use --workers")
@@ -176,9 +190,9 @@ def run(args: argparse.Namespace) -> int:
         from imunoise.experiments.common import replay_methods
 
         methods = replay_methods(methods, bool(args.methods))
-    if kind == "file" and args.sim:
+    if form == "file" and args.sim:
         raise ModelError("--outages FILE is for real data; the simulator takes a number or dense:L:S")
-    if kind == "count" and not args.sim:
+    if form == "count" and not args.sim:
         raise ModelError("--outages N is for the simulator; on real data give dense:L:S or an outage file")
     if args.sim:
         if args.seeds < 1:
@@ -214,7 +228,7 @@ def run(args: argparse.Namespace) -> int:
             html = write_denial_real(res, sc, out)
         else:
             windows = None
-            if kind == "file":
+            if form == "file":
                 from imunoise.io.kfgins import read_outages
 
                 windows = read_outages(outages)

@@ -1,4 +1,5 @@
-"""`imunoise export`: a model JSON to Kalibr / OpenVINS / ORB-SLAM3 noise parameters (SPEC §12)."""
+"""`imunoise export`: a model JSON to Kalibr / OpenVINS / ORB-SLAM3 noise parameters
+(docs/guide/theory.rst, 'Interfaces')."""
 
 from __future__ import annotations
 

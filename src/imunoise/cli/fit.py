@@ -1,5 +1,5 @@
 """`imunoise fit`: GMWM model of static IMU data — one axis of a CSV/TXT/NPY file, several columns, or
-all six axes of a ROS bag (SPEC §4, §12)."""
+all six axes of a ROS bag (docs/guide/theory.rst, 'GMWM estimator' and 'Interfaces')."""
 
 from __future__ import annotations
 
@@ -350,7 +350,8 @@ def _export_report(model, args: argparse.Namespace, sensor: str | None) -> None:
 
 
 def _continuous_table(model, horizon_s: float | None = None) -> str:
-    """Per-axis continuous-time values as exported (SPEC §2, §12), with the discrete per-sample equivalents."""
+    """Per-axis continuous-time values as exported (docs/guide/theory.rst, 'Latent processes' and 'Interfaces'), with
+    the discrete per-sample equivalents."""
     import math
 
     from imunoise.export import axis_noise

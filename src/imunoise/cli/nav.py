@@ -1,4 +1,5 @@
-"""`imunoise nav`: loosely coupled INS/GNSS EKF over recorded files, with metrics and plots (SPEC §8, §12)."""
+"""`imunoise nav`: loosely coupled INS/GNSS EKF over recorded files, with metrics and plots
+(docs/guide/theory.rst, 'Navigation filter' and 'Interfaces')."""
 
 from __future__ import annotations
 
@@ -31,8 +32,8 @@ if TYPE_CHECKING:
     import numpy as np
 
 EXAMPLES = """examples:
-  imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --out out/nav_full
-  imunoise nav --data ../shared/data/rtklibexplorer_drive0708 --start 243263 --outage-runs --out out/nav_out
+  imunoise nav --data data/drive_0708 --out out/nav_full
+  imunoise nav --data data/drive_0708 --outage-runs --out out/nav_out
   imunoise nav --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --imu-model model.json \
       --out out/
   imunoise nav --data sim/ --outages sim/outages.txt --default --out out/sim
@@ -46,8 +47,8 @@ of week) and RTKLIB .pos (GPST/UTC/JST → GPST, deg or d m s, sdn/sde/sdu σ, Q
 (default flu for a bag, frd for text) is checked against gravity in the first 2 s.
 
 Writes DIR/trajectory.nav (KF-GINS result format: week, SOW, lat, lon [deg], h [m], vN, vE, vD [m/s],
-roll, pitch, yaw [deg]; the IMU point), DIR/metrics.json (SPEC §8 keys: errors at the reference epochs of
-the GNSS antenna, in m and m/s), DIR/trajectory.png, DIR/errors.png and DIR/biases.png. With
+roll, pitch, yaw [deg]; the IMU point), DIR/metrics.json (docs/guide/theory.rst, 'Navigation filter' keys: errors at the
+reference epochs of the GNSS antenna, in m and m/s), DIR/trajectory.png, DIR/errors.png and DIR/biases.png. With
 --outage-runs every window of --outages is run separately from the same start (DIR/outage_<k>/...) and
 metrics.json lists the drift at the end of each window; without it all windows are removed in one run.
 Initialisation: position from GNSS, roll/pitch from static levelling over --static-duration s of the
@@ -67,7 +68,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "nav",
         help="loosely coupled INS/GNSS EKF with augmented IMU error states",
-        description="Run the loosely coupled error-state EKF (SPEC §8) on IMU + GNSS files.",
+        description="Run the loosely coupled error-state EKF (docs/guide/theory.rst, 'Navigation filter') on IMU + "
+                    "GNSS files.",
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -82,7 +84,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--zupt",
         action="store_true",
-        help="zero-velocity updates at detected stops (the SPEC §7 static detector, λ0 learned from the static "
+        help="zero-velocity updates at detected stops (the docs/guide/theory.rst, 'Static detection' static detector, "
+             "λ0 learned from the static "
         "window)",
     )
     p.add_argument("--nhc", action="store_true",
@@ -217,8 +220,8 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
 
 
 def zupt_mask(imu, static_duration: float) -> np.ndarray:
-    """Stops found by the SPEC §7 static detector, λ0 learned from the first ``static_duration`` s (a stop):
-    a boolean mask over the IMU epochs for the ZUPT updates."""
+    """Stops found by the docs/guide/theory.rst, 'Static detection' static detector, λ0 learned from the first
+    ``static_duration`` s (a stop): a boolean mask over the IMU epochs for the ZUPT updates."""
     from imunoise.detect import DetectorConfig, detect_static, learn_lambda0
 
     gyro, accel = imu.rates()

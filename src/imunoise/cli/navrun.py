@@ -1,4 +1,5 @@
-"""What ``imunoise nav`` and ``imunoise online`` share (SPEC §8, §12): the start of a run (inputs resolved, read
+"""What ``imunoise nav`` and ``imunoise online`` share (docs/guide/theory.rst, 'Navigation filter' and 'Interfaces'):
+the start of a run (inputs resolved, read
 and checked before the work) and its outputs (KF-GINS trajectory file, metrics of a run, outage summary).
 
 Not a command: it has no ``register`` function, so the sub-command discovery of :mod:`imunoise.cli` skips it.
@@ -111,8 +112,8 @@ def write_trajectory(path: Path, res: Any, ref: Any) -> None:
 def run_metrics(
     res: Any, ref: Any, lever: Any, outages: Sequence[tuple[float, float]], duration_s: float
 ) -> tuple[dict, Any]:
-    """The metrics of one run (SPEC §8): with a reference, the errors of the GNSS antenna and the drift over
-    ``outages`` (the windows removed in this run); without one, only the run time.
+    """The metrics of one run (docs/guide/theory.rst, 'Navigation filter'): with a reference, the errors of the GNSS
+    antenna and the drift over ``outages`` (the windows removed in this run); without one, only the run time.
 
     Returns
     -------

@@ -125,7 +125,8 @@ def read_nav_files(
     min_quality: int = 6,
 ) -> tuple[Any, Any, Any, list[str]]:
     """Read the IMU, GNSS and (optional) reference files of a navigation run (KF-GINS formats, ROS bags,
-    RTKLIB .pos; :mod:`imunoise.io.navinput`, SPEC §12); each warning of the readers (sorted, duplicated, gaps,
+    RTKLIB .pos; :mod:`imunoise.io.navinput`, docs/guide/theory.rst, 'Interfaces'); each warning of the readers (sorted,
+    duplicated, gaps,
     fixes without a fix, skipped RTKLIB qualities, time-base conversions) is logged once as one line and
     returned.
 
@@ -208,7 +209,7 @@ def check_outage_windows(
     Parameters
     ----------
     windows : sequence of (start, duration) [s]
-        Outage windows (SPEC §8), in the data's time base.
+        Outage windows (docs/guide/theory.rst, 'Navigation filter'), in the data's time base.
     t0, t1 : float
         Start and end of the navigated span [s].
     source : str or None

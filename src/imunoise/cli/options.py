@@ -333,9 +333,10 @@ def add_out(p: argparse.ArgumentParser, default_suffix: str | None = None) -> No
 
 
 def add_nav_input_options(p: argparse.ArgumentParser) -> None:
-    """The input options every navigation command shares (SPEC §12); resolve them with
+    """The input options every navigation command shares (docs/guide/theory.rst, 'Interfaces'); resolve them with
     :func:`resolve_nav_inputs`."""
-    p.add_argument("--data", help="dataset folder with a dataset.json manifest (SPEC §12; the options override it)")
+    p.add_argument("--data", help="dataset folder with a dataset.json manifest (docs/guide/theory.rst, 'Interfaces'; "
+                                  "the options override it)")
     p.add_argument(
         "--imu", help="IMU: KF-GINS increments or rate CSV (SI), or a ROS bag (.bag, .db3, .mcap, ROS 2 folder)"
     )

@@ -1,4 +1,5 @@
-"""`imunoise select`: autonomous model selection over every sub-model of the complete model (SPEC §5)."""
+"""`imunoise select`: autonomous model selection over every sub-model of the complete model
+(docs/guide/theory.rst, 'Model selection')."""
 
 from __future__ import annotations
 

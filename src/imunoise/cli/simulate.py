@@ -35,7 +35,7 @@ is at or after --start-sow).
 written files: imu.txt (KF-GINS increments with errors), imu_true.txt, gnss.txt, ref.nav (the GNSS antenna
 point, like the shared real drive's reference: position and velocity of the antenna, body attitude),
 outages.txt, truth.json (models, moving-regime models under the motion law, turn-on biases, stops, turns,
-speed profile), dataset.json (SPEC §12).
+speed profile), dataset.json (docs/guide/theory.rst, 'Interfaces').
 --static writes imu.txt, imu_rate.csv (sow,gx,gy,gz,ax,ay,az) and truth.json."""
 
 
@@ -43,7 +43,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "simulate",
         help="simulate an urban drive (IMU, GNSS, reference, truth) or a static recording",
-        description="Simulate an urban drive with known truth (SPEC §10) and write KF-GINS files.",
+        description="Simulate an urban drive with known truth (docs/guide/theory.rst, 'Simulator') and write KF-GINS "
+                    "files.",
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -1,4 +1,5 @@
-"""Static (zero-motion) detection (SPEC §7, paper §2.3): Eq. 9 moving std, adaptive threshold, segments, gate.
+"""Static (zero-motion) detection (docs/guide/theory.rst, 'Static detection', paper §2.3): Eq. 9 moving std, adaptive
+threshold, segments, gate.
 
 ``kernels``: the numba kernel (one pass over a chunk, state carried between calls). ``detector``: the
 streaming :class:`StaticDetector` (the only detector implementation) and :func:`detect_static` (that detector

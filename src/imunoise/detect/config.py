@@ -1,4 +1,4 @@
-"""Parameters of the static detector (SPEC §7, paper Eq. 9 and 10)."""
+"""Parameters of the static detector (docs/guide/theory.rst, 'Static detection', paper Eq. 9 and 10)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ __all__ = ["DetectorConfig"]
 
 @dataclass(frozen=True)
 class DetectorConfig:
-    """Parameters of the static detector (SPEC §7).
+    """Parameters of the static detector (docs/guide/theory.rst, 'Static detection').
 
     ``window`` N [samples] of Eq. (9); ``lambda0`` λ_0 [m/s²] of Eq. (10) (paper: 0.02, which suits a
     quiet IMU; learn it per sensor with :func:`learn_lambda0`); ``min_duration_s`` minimum length of a
@@ -39,7 +39,8 @@ class DetectorConfig:
                 f"DetectorConfig.window must be a whole number of samples ≥ 2 (paper: 100), got {w!r}"
             )
         for name, rule in (("lambda0", "> 0 m/s² (paper: 0.02; or learn it with learn_lambda0)"),
-                           ("gate_rate", "> 0 rad/s (SPEC §7: 30 °/s = 0.5236 rad/s)"),
+                           ("gate_rate", "> 0 rad/s (docs/guide/theory.rst, 'Static detection': 30 °/s = 0.5236 "
+                                         "rad/s)"),
                            ("max_gap_samples", "> 0 sample periods (default 5)"),
                            ("min_duration_s", "≥ 0 s (default 2)"), ("margin_s", "≥ 0 s (default 0.5)")):
             try:

@@ -1,4 +1,5 @@
-"""Static (zero-motion) detection with an adaptive threshold and the angular-rate gate (SPEC §7, paper §2.3).
+"""Static (zero-motion) detection with an adaptive threshold and the angular-rate gate
+(docs/guide/theory.rst, 'Static detection', paper §2.3).
 
 One implementation: the streaming :class:`StaticDetector` (state carried across calls) drives the numba
 kernel of :mod:`imunoise.detect.kernels` and cuts the segments; :func:`detect_static` is that detector fed the
@@ -10,7 +11,7 @@ form gives bit-identical results. Pipeline per epoch i:
    per sample (sliding Welford update, re-computed exactly by two passes each time the ring buffer
    wraps, which bounds round-off drift). Until N samples are in the window, T_i = NaN and the epoch is
    not static.
-2. Adaptive threshold, SPEC §7 (our stable reading of paper Eq. 10):
+2. Adaptive threshold, docs/guide/theory.rst, 'Static detection' (our stable reading of paper Eq. 10):
    λ_i = (k·λ_{i−1} + 2λ_0 − Δ_i) / (k + 1) when epoch i−1 was static, else λ_i = λ_0;
    clamped to [λ_0/2, 2λ_0]. "T_{i−1} < λ_{i−1}" is read for the two axes as "epoch i−1 was static"
    (both axes below), k is the number of consecutive static epochs ending at i−1, and the jump
@@ -22,8 +23,8 @@ form gives bit-identical results. Pipeline per epoch i:
 4. Segments: runs of static_raw epochs, trimmed by ``margin_s`` at both ends (the trailing window
    makes the start late and the end late, and a false static sample hurts the GMWM more than a
    missed one); kept when the trimmed segment lasts at least ``min_duration_s``.
-5. Angular-rate gate: open when ‖ω‖ (norm of the three gyro rates) > 30 °/s (SPEC §7): the
-   static-derived noise model is not trusted for that epoch.
+5. Angular-rate gate: open when ‖ω‖ (norm of the three gyro rates) > 30 °/s (docs/guide/theory.rst, 'Static detection'):
+   the static-derived noise model is not trusted for that epoch.
 
 A time step longer than ``max_gap_samples`` nominal sample periods, or a non-finite accel sample
 (streaming only; :func:`detect_static` refuses such data), restarts the window: the detector needs N new
@@ -98,7 +99,8 @@ def detect_static(
     config: DetectorConfig = DetectorConfig(),  # noqa: B008 (frozen, immutable)
     rate_hz: float | None = None,
 ) -> Detection:
-    """Static detection over a whole record (SPEC §7; paper Eq. 9, our reading of Eq. 10).
+    """Static detection over a whole record (docs/guide/theory.rst, 'Static detection'; paper Eq. 9, our reading of Eq.
+    10).
 
     The streaming :class:`StaticDetector` fed the record in chunks of :data:`CHUNK` samples and closed with
     :meth:`StaticDetector.finish`: the same per-epoch results and segments as feeding it sample by sample.
@@ -110,7 +112,7 @@ def detect_static(
     accel, gyro
         (n, 3) specific force [m/s²] and angular rate [rad/s] in body axes (x, y horizontal), finite.
     config
-        Detector settings (SPEC §7).
+        Detector settings (docs/guide/theory.rst, 'Static detection').
     rate_hz
         Nominal rate [Hz] (default 1/median Δt); only sets the gap that restarts the window.
 
@@ -187,7 +189,8 @@ def _as_list(ts: np.ndarray | list[float]) -> list[float]:
 
 
 class StaticDetector:
-    """Streaming static detector (SPEC §7): one sample at a time or chunks; the only detector implementation
+    """Streaming static detector (docs/guide/theory.rst, 'Static detection'): one sample at a time or chunks; the only
+    detector implementation
     (:func:`detect_static` feeds it the record in chunks, the online engine per sample or per chunk).
 
     ``push`` returns the segments completed at this sample (trimmed, long enough; usually empty): a

@@ -1,4 +1,5 @@
-"""numba kernel of the static detector (SPEC §7, paper Eq. 9–10): one pass over a chunk of samples, the state
+"""numba kernel of the static detector (docs/guide/theory.rst, 'Static detection', paper Eq. 9–10): one pass over a
+chunk of samples, the state
 carried in arrays between calls. The only implementation of the per-epoch test; :class:`imunoise.detect.StaticDetector`
 drives it, and :func:`imunoise.detect.detect_static` is that detector fed the record in chunks."""
 

@@ -1,5 +1,5 @@
 """Scoring a static mask against the truth: epoch-wise precision/recall/F1 and the truth from a reference
-speed (SPEC §7)."""
+speed (docs/guide/theory.rst, 'Static detection')."""
 
 from __future__ import annotations
 

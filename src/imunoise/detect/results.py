@@ -1,5 +1,5 @@
 """What the static detector returns: segments, the per-epoch detection and a chunk's part of it, and
-the samples inside the segments (SPEC §7)."""
+the samples inside the segments (docs/guide/theory.rst, 'Static detection')."""
 
 from __future__ import annotations
 
@@ -74,7 +74,7 @@ class ChunkDetection:
 
 def segment_data(detection: Detection, data: np.ndarray, remove_bias: bool = True) -> list[np.ndarray]:
     """Samples of ``data`` (n, k) inside each static segment, each minus its segment mean when
-    ``remove_bias`` (SPEC §7: the bias of a stop is removed before the GMWM)."""
+    ``remove_bias`` (docs/guide/theory.rst, 'Static detection': the bias of a stop is removed before the GMWM)."""
     data = np.asarray(data, dtype=float)
     if data.shape[0] != detection.t.size:
         raise DataError(

@@ -1,6 +1,7 @@
 """The detector's statistics as small pure pieces: the Eq. 9 moving standard deviation, the adaptive
 threshold of Eq. 10 (reference implementation), the angular-rate gate, λ_0 learned from a known stop, and the
-kernel state that drives :func:`imunoise.detect.kernels.detector_kernel` (SPEC §7, paper §2.3)."""
+kernel state that drives :func:`imunoise.detect.kernels.detector_kernel` (docs/guide/theory.rst, 'Static detection',
+paper §2.3)."""
 
 from __future__ import annotations
 
@@ -71,7 +72,8 @@ def moving_std(x: np.ndarray, window: int = 100) -> np.ndarray:
 
 
 def adaptive_threshold(statistic: np.ndarray, lambda0: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
-    """Threshold λ_i and static decision of SPEC §7 (reading of paper Eq. 10) for a given statistic.
+    """Threshold λ_i and static decision of docs/guide/theory.rst, 'Static detection' (reading of paper Eq. 10) for a
+    given statistic.
 
     ``statistic`` (n, 2) (or (n,) for one axis, treated as both). Returns (λ (n,), static (n,) bool).
     A NaN statistic is "not static" and resets λ to λ_0. Pure Python reference implementation, used
@@ -102,7 +104,8 @@ def adaptive_threshold(statistic: np.ndarray, lambda0: float = 0.02) -> tuple[np
 
 
 def angular_rate_gate(gyro: np.ndarray, gate_rate: float = float(np.deg2rad(30.0))) -> np.ndarray:
-    """Gate open where ‖ω‖ = ‖gyro‖ > ``gate_rate`` [rad/s] (SPEC §7, paper §2.3; NaN → open)."""
+    """Gate open where ‖ω‖ = ‖gyro‖ > ``gate_rate`` [rad/s] (docs/guide/theory.rst, 'Static detection', paper §2.3; NaN
+    → open)."""
     w = np.linalg.norm(np.atleast_2d(np.asarray(gyro, dtype=float)), axis=1)
     return ~(w <= gate_rate)
 
@@ -113,7 +116,8 @@ def learn_lambda0(
     quantile: float = 0.5,
     factor: float = 2.0,
 ) -> float:
-    """Learn λ_0 [m/s²] for one sensor from accel samples recorded at a known stop (SPEC §7).
+    """Learn λ_0 [m/s²] for one sensor from accel samples recorded at a known stop
+    (docs/guide/theory.rst, 'Static detection').
 
     Rule: λ_0 = ``factor`` × the ``quantile`` of the Eq. (9) statistic T (moving std over ``window``
     samples, accel x and y pooled) on the static samples; by default twice the median. At rest T

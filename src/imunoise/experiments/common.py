@@ -1,7 +1,9 @@
-"""Shared pieces of the paper's experiments (SPEC §11): scenarios, baselines, filter runs, metrics, CIs.
+"""Shared pieces of the paper's experiments (docs/guide/theory.rst, 'Experiments'): scenarios, baselines, filter runs,
+metrics, CIs.
 
 A :class:`Scenario` is one drive with a reference: the real drive (a dataset folder with a manifest,
-SPEC §12) or a simulated one (SPEC §10). Every method is run through :class:`imunoise.online.OnlineNavigator`
+docs/guide/theory.rst, 'Interfaces') or a simulated one (docs/guide/theory.rst, 'Simulator'). Every method is run
+through :class:`imunoise.online.OnlineNavigator`
 (fixed-model baselines with ``modelling=False``), so methods differ only in their error models.
 All static-derived models (AV, EM, GMWM) pass through the same fit → filter mapping
 (:func:`imunoise.online.filter_axis_models`, floor = the plain default), so the comparison is about the
@@ -106,8 +108,8 @@ class Scenario:
 
 
 def load_real(data_dir: str | Path, *, start: float | None = None, static_duration: float = 30.0) -> Scenario:
-    """The real drive in a dataset folder (SPEC §12). Start time: ``start``, else the manifest's
-    ``start_sow``, else the first GNSS epoch; alignment from the first ``static_duration`` s (a stop)."""
+    """The real drive in a dataset folder (docs/guide/theory.rst, 'Interfaces'). Start time: ``start``, else the
+    manifest's ``start_sow``, else the first GNSS epoch; alignment from the first ``static_duration`` s (a stop)."""
     from imunoise.io.dataset import read_dataset
     from imunoise.io.kfgins import read_gnss, read_imu, read_outages, read_reference
     from imunoise.nav.align import coarse_align
@@ -138,7 +140,8 @@ def load_real(data_dir: str | Path, *, start: float | None = None, static_durati
 def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4, n_outages: int = 4,
                       imu_models: Any = SIM_IMU, outage_s: float = 60.0, outage_lead_s: float = 60.0,
                       match_bias_prior: bool = True, motion_noise: Any = SIM_MOTION, **drive_kw: Any) -> Scenario:
-    """A simulated urban drive (SPEC §10) with ``n_outages`` windows of ``outage_s`` (all in one run), the first
+    """A simulated urban drive (docs/guide/theory.rst, 'Simulator') with ``n_outages`` windows of ``outage_s`` (all in
+    one run), the first
     no earlier than ``outage_lead_s`` of GNSS-aided driving after the static start. ``match_bias_prior``: the
     filter's initial bias σ is set to the simulated turn-on bias σ (else the :class:`EkfConfig` defaults).
     ``motion_noise``: the motion law of the IMU errors (:mod:`imunoise.sim.motion`; default the preset
@@ -232,7 +235,8 @@ def baseline_fits(segments: list[np.ndarray], freq: float, which: str) -> list:
 
         start = av.model
         if start.has("QN") or start.has("DR"):
-            # EM has no QN state (SPEC §6); start from the rest, or from white noise of the data's variance
+            # EM has no QN state (docs/guide/theory.rst, 'Baselines'); start from the rest, or from white noise of the
+            # data's variance
             from imunoise.noise.processes import RW, WN
 
             rest = [c for c in start.components if c.kind not in ("QN", "DR")]
@@ -302,7 +306,8 @@ def evaluate_outages(sc: Scenario, config: OnlineConfig, windows, *, initial_mod
 
 
 def combine(full: dict, outage_parts: list[dict]) -> dict:
-    """Merge a full-run result and the outage runs (in window order) into the SPEC §11 method entry."""
+    """Merge a full-run result and the outage runs (in window order) into the docs/guide/theory.rst, 'Experiments'
+    method entry."""
     out = dict(full)
     ends = [x for p in outage_parts for x in p["ends"]]
     out["outage_end_horizontal_m"] = ends

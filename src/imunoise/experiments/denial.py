@@ -1,4 +1,5 @@
-"""GNSS-denial experiment (paper §3.1, Table 1; SPEC §11): static recording → models → 60 s outages.
+"""GNSS-denial experiment (paper §3.1, Table 1; docs/guide/theory.rst, 'Experiments'): static recording → models → 60 s
+outages.
 
 The IMU is modelled from static data: on the simulator a separate 2 h static recording of the same IMU
 model (the paper's set-up; with a replayed real recording, ``imu_noise``, its last part that no drive

@@ -1,4 +1,4 @@
-"""Dense outage protocol with paired statistics (issue "Evidence with power" §1; SPEC §11).
+"""Dense outage protocol with paired statistics (issue "Evidence with power" §1; docs/guide/theory.rst, 'Experiments').
 
 Windows. Outage windows of length L (default 60 s) open every S s (default 20 s) wherever GNSS was
 available for the preceding ``lead`` s (default 60 s; no gap between aiding fixes longer than
@@ -33,7 +33,7 @@ data); ``oracle`` on the simulator; ``adaptive`` — the plain filter with its b
 online by covariance matching of the GNSS innovations (:mod:`imunoise.nav.adaptive`; not in the default list);
 ``gmwm_dyn`` — the online engine with in-motion gyro noise learned while driving by shadow filters that rehearse
 GNSS outages on the data seen (:mod:`imunoise.online.motion_noise`; not in the default list); ``gmwm_lik`` —
-the same learner deciding by likelihood-ratio tests on the GNSS innovations (development only);
+the same learner deciding by likelihood-ratio tests on the GNSS innovations (EXPERIMENTAL research code);
 ``gmwm_dyn_warm`` (simulator only) — ``gmwm_dyn`` starting with what it learned on an earlier drive of the
 same vehicle: the drive of seed + :data:`PRIOR_SEED_OFFSET` (same IMU models and motion law, another
 trajectory, other IMU and GNSS noise), GNSS-aided throughout, in the same GNSS regime (:func:`learn_prior`);
@@ -155,6 +155,7 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
     drives = [{"name": sc.name, "windows": dense, "runs": raw}]
     res = assemble(drives, methods, regimes, spec, pairs, n_paper=len(paper), n_boot=n_boot, boot_seed=boot_seed)
     res["data"] = str(data_dir)
+    res["noise_seeds"] = [int(s) for s in noise_seeds] if any(r.random for r in regimes) else []  # the seed label
     res["paper_windows"] = [list(w) for w in paper]
     return res
 
@@ -219,5 +220,6 @@ def run_sim(seeds: Sequence[int], *, spec: DenseSpec = _DEFAULT_SPEC, regimes: S
     res = assemble(drives, methods, regimes, spec, pairs, n_paper=0, n_boot=n_boot, boot_seed=boot_seed)
     res["data"] = "sim"
     res["seeds"] = [d["seed"] for d in drives]
+    res["noise_seeds"] = [int(s) for s in noise_seeds] if any(r.random for r in regimes) else []
     res["scenario"] = dict(scen_kw)
     return res

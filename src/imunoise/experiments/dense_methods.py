@@ -32,7 +32,7 @@ LABELS = {
     "gmwm_hindsight": "GMWM, GOF (all static data)",
     "adaptive": "plain + innovation-based adaptive bias noise (covariance matching)",
     "gmwm_dyn": "GMWM + in-motion gyro noise learned by rehearsed outages",
-    "gmwm_lik": "gmwm_dyn deciding by the GNSS innovation likelihood (development)",
+    "gmwm_lik": "gmwm_dyn deciding by the GNSS innovation likelihood (EXPERIMENTAL research code)",
     "gmwm_dyn_warm": "gmwm_dyn carrying what it learned on an earlier drive of the same vehicle",
     "gmwm_dyn_warm3": "gmwm_dyn carrying what it learned on three earlier drives of the same vehicle",
     "gmwm_warm": "GMWM pooling the stops of an earlier drive of the same vehicle",

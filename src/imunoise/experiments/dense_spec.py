@@ -1,4 +1,5 @@
-"""Dense outage windows (SPEC §11): the ``--outages`` grammar (``dense:L:S[:LEAD]``, a window count or an
+"""Dense outage windows (docs/guide/theory.rst, 'Experiments'): the ``--outages`` grammar (``dense:L:S[:LEAD]``, a
+window count or an
 outage file) and where the windows of length L open, every S s after LEAD s of aided driving with no GNSS gap
 over :data:`MAX_GAP_S` (:mod:`imunoise.experiments.dense` runs the evidence on them)."""
 
@@ -34,7 +35,7 @@ class DenseSpec:
 
 def parse_outages(text: str | int | None) -> tuple[str, Any]:
     """``--outages``: ``"dense:L:S[:LEAD]"`` → ("dense", DenseSpec); an integer → ("count", n) (simulator:
-    windows per drive); anything else → ("file", Path) (an outage file, SPEC §8)."""
+    windows per drive); anything else → ("file", Path) (an outage file, docs/guide/theory.rst, 'Navigation filter')."""
     if text is None:
         return "none", None
     if isinstance(text, int):

@@ -1,5 +1,5 @@
-"""The evidence section of the experiments' reports (SPEC §11): paired drift ratios on dense outage windows
-with their CIs, as tables, figures and ``report.html``."""
+"""The evidence section of the experiments' reports (docs/guide/theory.rst, 'Experiments'): paired drift ratios on dense
+outage windows with their CIs, as tables, figures and ``report.html``."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""GNSS-available online experiment (paper §3.2, Tables 5–6; SPEC §11), on the real drive or the simulator.
+"""GNSS-available online experiment (paper §3.2, Tables 5–6; docs/guide/theory.rst, 'Experiments'), on the real drive or
+the simulator.
 
 Methods (``METHODS``): ``plain`` (default model), ``av`` and ``em`` (fixed models from all static data of
 the record, in hindsight, as the paper's Table 5 baselines), ``gmwm`` (online, the paper's GOF criterion), ``gmwm_wvic``
@@ -132,7 +133,8 @@ def _real_job(job: tuple[str, int]) -> tuple[str, int, dict]:
 def run_real(data_dir: str, *, methods: Sequence[str] = METHODS, workers: int = 2, start: float | None = None,
              progress: Callable[[str], None] | None = None,
              base: OnlineConfig | None = None, windows: list | None = None) -> tuple[dict, Scenario]:
-    """The online experiment on a real dataset folder: ``results`` (SPEC §11 keys; per-method objects
+    """The online experiment on a real dataset folder: ``results`` (docs/guide/theory.rst, 'Experiments' keys;
+    per-method objects
     under ``_objects``) and the scenario. Runs (method × {full, window k}) are spread over ``workers``
     processes; ``progress(name)`` is called after every run. ``base``: the online settings the methods
     start from (default :class:`OnlineConfig`); ``windows``: outage windows (start, length) instead of the

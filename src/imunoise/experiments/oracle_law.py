@@ -16,7 +16,8 @@ models, mapped to the filter as the ``oracle`` maps its models (no floor):
 
 The filter is the batch kernel run piece by piece (:func:`imunoise.nav.noise_schedule.run_pieces`), not the
 online engine: the oracle needs no stops and no modelling. It keeps what the online engine does to every method's
-filter, ``oracle`` included: the 30 °/s angular-rate gate (SPEC §7; conservative noise in sharp turns), so that under
+filter, ``oracle`` included: the 30 °/s angular-rate gate (docs/guide/theory.rst, 'Static detection'; conservative noise
+in sharp turns), so that under
 the law ``none`` ``oracle_law`` and ``oracle`` are one filter (window drifts equal to 1e-5) and any difference
 between them elsewhere is the law's. (Without it, on 10 drives of the law ``none``, ``oracle_law``/``oracle`` was
 0.991 [0.968, 1.014], per window 0.69–1.05: a difference of paths, not of knowledge.) The dense-window protocol
@@ -123,7 +124,8 @@ class LawFilter:
 
 
 def _rate_gate(sc, base, i0: int, n: int) -> np.ndarray:
-    """The online engine's angular-rate gate on the filter's samples i0 … i0 + n − 1 (SPEC §7: open where
+    """The online engine's angular-rate gate on the filter's samples i0 … i0 + n − 1
+    (docs/guide/theory.rst, 'Static detection': open where
     ‖ω̃‖ > the detector's ``gate_rate``, 30 °/s; the filter then propagates with its conservative noise), so that
     ``oracle_law`` and ``oracle`` are the same filter when the law adds nothing; off with ``OnlineConfig.gate``
     False."""

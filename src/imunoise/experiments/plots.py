@@ -1,5 +1,5 @@
-"""Figures of the experiments (SPEC §11): detection (paper Fig. 8), trajectories and errors (Figs. 10–11),
-event timeline, WV fits per axis (Figs. 5/9), AV plots, Monte Carlo distributions. Matplotlib, Agg."""
+"""Figures of the experiments (docs/guide/theory.rst, 'Experiments'): detection (paper Fig. 8), trajectories and errors
+(Figs. 10–11), event timeline, WV fits per axis (Figs. 5/9), AV plots, Monte Carlo distributions. Matplotlib, Agg."""
 
 from __future__ import annotations
 
@@ -45,7 +45,8 @@ def detection_figure(t: np.ndarray, det: Any, path: Path, *, ref=None, static_tr
     ax.set_ylabel("moving std [m/s²]")
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
     ax.grid(alpha=0.3, which="both")
-    ax.set_title("static detection (paper Eq. 9 with the adaptive threshold of SPEC §7)")
+    ax.set_title("static detection (paper Eq. 9 with the adaptive threshold of "
+                 "docs/guide/theory.rst, 'Static detection')")
     ax = axs[1]
     if ref is not None:
         sp = np.linalg.norm(ref.vel_ned, axis=1)

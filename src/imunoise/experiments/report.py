@@ -1,5 +1,5 @@
-"""Writers of the experiments' outputs (SPEC §11): ``results.json``, CSV + Markdown tables, figures and one
-self-contained ``report.html`` (with ``report.md``).
+"""Writers of the experiments' outputs (docs/guide/theory.rst, 'Experiments'): ``results.json``, CSV + Markdown tables,
+figures and one self-contained ``report.html`` (with ``report.md``).
 
 The result files and table rows: :mod:`imunoise.experiments.report_tables`; the evidence section and report:
 :mod:`imunoise.experiments.evidence_report` (both re-exported here)."""
@@ -92,12 +92,14 @@ def write_online_real(results: dict, sc: Any, out: Path, *, title: str | None = 
     out.mkdir(parents=True, exist_ok=True)
     obj = results.get("_objects", {})
     rep = Report(title or f"imunoise: online GMWM on {sc.name}")
-    rep.paragraph(seed_role_text(results))
+    # the demo's dense windows draw GNSS noise seeds on the same drive: the label names them too
+    rep.paragraph(seed_role_text({**results, "noise_seeds": (evidence or {}).get("noise_seeds") or []}))
     if evidence is not None:
         evidence_section(rep, evidence, out)
         (out / "evidence.json").write_text(json.dumps(clean_json(evidence), indent=1, default=json_default))
     rep.paragraph(
-        "Paper §3.2 (Tables 5–6) on our data. Each method runs the same loosely coupled EKF (SPEC §8) over the "
+        "Paper §3.2 (Tables 5–6) on our data. Each method runs the same loosely coupled EKF "
+        "(docs/guide/theory.rst, 'Navigation filter') over the "
         "drive; the online GMWM detects stops (Eq. 9/10), identifies the error structure of every axis after "
         "the first ≥ 20 s of static data (GOF, paper Eq. 8, over all 79 sub-models of 4×AR1+DR+WN+QN+RW; the "
         "WVIC variant is gmwm_wvic), re-estimates it after every later stop and hot-swaps it into the filter at the "
@@ -223,7 +225,8 @@ def write_sim(results: dict, out: Path, *, title: str) -> Path:
     scen = results.get("scenario") or {}
     motion = scen.get("motion_noise", "drive0708")
     rep.paragraph(
-        f"Monte Carlo over {n} simulated urban drives (SPEC §10; IMU truth 3*AR1+WN+RW per axis, the simulator's "
+        f"Monte Carlo over {n} simulated urban drives (docs/guide/theory.rst, 'Simulator'; IMU truth 3*AR1+WN+RW per "
+        f"axis, the simulator's "
         f"{scen.get('imu_models', 'paper')} preset, plus turn-on biases; motion law of the errors: {motion} "
         "(imunoise.sim.motion); stops of 5–90 s; 60 s outages, all "
         "windows removed in one run). Values are means over seeds; the differences are paired per seed with "

@@ -1,5 +1,5 @@
-"""Paired statistics for overlapping outage windows (SPEC §11; issue "Evidence that holds outside our own
-simulator", §4 "Intervals that keep their promise").
+"""Paired statistics for overlapping outage windows (docs/guide/theory.rst, 'Experiments'; issue "Evidence that holds
+outside our own simulator", §4 "Intervals that keep their promise").
 
 Dense outage windows (length L opened every S < L seconds) overlap, so neighbouring windows share most of
 their IMU data; and all windows of one drive share its filter state, its model and its bias path. The
@@ -198,10 +198,10 @@ def cluster_interval(groups: Sequence[np.ndarray], block: int | None = None, *, 
     """
     if not (0 < level < 1) or n_boot < 10:
         raise ModelError(f"bootstrap needs 0 < level < 1 and n_boot ≥ 10, got {level}, {n_boot}")
-    cl, kind = _clusters(groups, units)
+    cl, unit_of = _clusters(groups, units)
     n_drives = sum(len(c) for c in cl)
     out = {"mean": None, "ci": [None, None], "se": None, "df": None, "n_windows": 0, "n_drives": n_drives,
-           "n_clusters": len(cl), "cluster": kind, "interval": None, "block": None, "critical": None, "scope": None}
+           "n_clusters": len(cl), "cluster": unit_of, "interval": None, "block": None, "critical": None, "scope": None}
     if not cl:
         return out
     s = np.array([sum(float(g.sum()) for g in c) for c in cl])

@@ -1,4 +1,5 @@
-"""Export a GMWM model to the noise parameters of VIO/INS stacks (SPEC §2, §12).
+"""Export a GMWM model to the noise parameters of VIO/INS stacks
+(docs/guide/theory.rst, 'Latent processes' and 'Interfaces').
 
 Kalibr ``imu.yaml``, OpenVINS ``kalibr_imu_chain.yaml`` and ORB-SLAM3 ``IMU.*`` all take two
 *continuous-time* densities per sensor — white noise N [u/√Hz] and bias random walk K [u/s/√Hz] — and

@@ -1,4 +1,5 @@
-"""Export files written, read back and updated in place (SPEC §2, §12; :mod:`imunoise.export`)."""
+"""Export files written, read back and updated in place (docs/guide/theory.rst, 'Latent processes' and 'Interfaces';
+:mod:`imunoise.export`)."""
 
 from __future__ import annotations
 

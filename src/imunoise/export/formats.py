@@ -1,4 +1,5 @@
-"""The text of each export format: Kalibr, OpenVINS, ORB-SLAM3 and JSON (SPEC §2, §12; :mod:`imunoise.export`)."""
+"""The text of each export format: Kalibr, OpenVINS, ORB-SLAM3 and JSON
+(docs/guide/theory.rst, 'Latent processes' and 'Interfaces'; :mod:`imunoise.export`)."""
 
 from __future__ import annotations
 

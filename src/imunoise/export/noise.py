@@ -1,5 +1,6 @@
 """Per-axis and per-sensor (N, K) of a fitted model: the pair matched over Δt .. horizon, capped at the data's
-Allan bound, combined over three axes (SPEC §2, §12; :mod:`imunoise.export`)."""
+Allan bound, combined over three axes (docs/guide/theory.rst, 'Latent processes' and 'Interfaces';
+:mod:`imunoise.export`)."""
 
 from __future__ import annotations
 
@@ -91,7 +92,7 @@ def _as_fit(fit: GMWMFit | Mapping[str, Any]) -> GMWMFit:
 
 
 def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "", *, horizon_s: float | None = None) -> AxisNoise:
-    """Exportable continuous-time (N, K) of one fitted axis (module docstring; SPEC §12).
+    """Exportable continuous-time (N, K) of one fitted axis (module docstring; docs/guide/theory.rst, 'Interfaces').
 
     Parameters
     ----------

@@ -1,4 +1,5 @@
-"""Input and output of records (SPEC §1, §12), the first stage of the data path IMU → detection →
+"""Input and output of records (docs/guide/theory.rst, 'Conventions' and 'Interfaces'), the first stage of the data path
+IMU → detection →
 modelling → filter: the KF-GINS text formats (:mod:`~imunoise.io.kfgins`), tables (:mod:`~imunoise.io.tabular`),
 ROS bags (:mod:`~imunoise.io.rosbag`), RTKLIB solutions (:mod:`~imunoise.io.rtklib`), GPS time
 (:mod:`~imunoise.io.gpstime`), the one IMU entry point :func:`~imunoise.io.imu_input.read_imu_source`, the

@@ -1,4 +1,4 @@
-"""Fast decoding of ``sensor_msgs/Imu`` messages from a bag's raw bytes (SPEC §12).
+"""Fast decoding of ``sensor_msgs/Imu`` messages from a bag's raw bytes (docs/guide/theory.rst, 'Interfaces').
 
 Reading millions of IMU messages through the generic deserialiser costs ~20 µs each; all messages of
 one length share one layout, so they are decoded at once with NumPy from the raw bytes at the field

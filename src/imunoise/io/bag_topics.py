@@ -1,5 +1,6 @@
 """Bag files and their topics: what counts as a bag, opening one with ``rosbags`` (ROS 1 ``.bag``, ROS 2
-``.db3``/``.mcap`` or a bag folder) and choosing the IMU or NavSatFix topic to read (SPEC §12)."""
+``.db3``/``.mcap`` or a bag folder) and choosing the IMU or NavSatFix topic to read
+(docs/guide/theory.rst, 'Interfaces')."""
 
 from __future__ import annotations
 

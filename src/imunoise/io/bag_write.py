@@ -1,5 +1,5 @@
 """Writing ``sensor_msgs/Imu`` (and optionally ``sensor_msgs/NavSatFix``) messages to a ROS 1 or ROS 2 bag
-(simulations, tests, converting CSV logs to bags; SPEC §12)."""
+(simulations, tests, converting CSV logs to bags; docs/guide/theory.rst, 'Interfaces')."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Several columns of a table mapped to output names, each with its unit, converted to SI, with an optional
-time column in s/ms/µs/ns (SPEC §1 and §12)."""
+time column in s/ms/µs/ns (docs/guide/theory.rst, 'Conventions' and 'Interfaces')."""
 
 from __future__ import annotations
 
@@ -161,7 +161,8 @@ def read_columns(
     freq: float | None = None,
     gap_factor: float = GAP_FACTOR,
 ) -> Columns:
-    """Several columns of a CSV/TXT/NPY file in SI, with an optional time column (SPEC §1, §12).
+    """Several columns of a CSV/TXT/NPY file in SI, with an optional time column
+    (docs/guide/theory.rst, 'Conventions' and 'Interfaces').
 
     ``columns``: a mapping output name -> file column (name or 0-based index), a list of file columns
     (output names = column names), or None for every column except the time column. ``units``: see

@@ -1,4 +1,4 @@
-"""Dataset folders described by a ``dataset.json`` manifest (SPEC §12).
+"""Dataset folders described by a ``dataset.json`` manifest (docs/guide/theory.rst, 'Interfaces').
 
 ``{"name", "imu", "imu_kind": "increments"|"rates", "gnss", "ref" (optional), "outages" (optional),
 "lever_arm_m": [x, y, z], "imu_time_offset_s", "license"}``; paths are relative to the folder holding the
@@ -58,7 +58,8 @@ def read_dataset(path: str | Path, required: tuple[str, ...] = ("imu", "gnss")) 
     p = Path(path)
     manifest = p / MANIFEST if p.is_dir() else p
     if not manifest.exists():
-        raise DataError(f"no {MANIFEST} in {p}; a dataset folder needs a manifest (SPEC §12)")
+        raise DataError(f"no {MANIFEST} in {p}; a dataset folder needs a manifest "
+                        f"(docs/guide/theory.rst, 'Interfaces')")
     d = read_json(manifest, "dataset manifest")  # binary / malformed -> DataError naming the file
     if not isinstance(d, dict):
         raise DataError(f"{manifest}: the manifest must be a JSON object")

@@ -1,6 +1,6 @@
 """GPS time for the navigation inputs: every navigation run works in GPS seconds of week (GPST), the time base
-of the KF-GINS files (SPEC §12). ROS stamps are Unix time (UTC, REP 103 / ``ros::Time``) and RTKLIB solutions
-may be written in UTC or JST; these helpers bring them to GPST.
+of the KF-GINS files (docs/guide/theory.rst, 'Interfaces'). ROS stamps are Unix time (UTC, REP 103 / ``ros::Time``) and
+RTKLIB solutions may be written in UTC or JST; these helpers bring them to GPST.
 
 GPST − UTC is the number of leap seconds inserted since the GPS epoch (1980-01-06 00:00 UTC), from the IERS
 bulletins; it has been 18 s since 2017-01-01. A recording crossing a leap second is converted with the value

@@ -1,4 +1,5 @@
-"""One entry point from any supported IMU source to SI rate arrays (SPEC §1, §12).
+"""One entry point from any supported IMU source to SI rate arrays
+(docs/guide/theory.rst, 'Conventions' and 'Interfaces').
 
 :func:`read_imu_source` reads a ROS bag (``.bag``, ``.db3``, ``.mcap``, ROS 2 folder) or a table
 (CSV/TXT/NPY/NPZ) and returns :class:`ImuSeries`: one SI array per axis (rad/s or m/s²), the sample

@@ -1,4 +1,4 @@
-"""IMU files read block by block (SPEC §12).
+"""IMU files read block by block (docs/guide/theory.rst, 'Interfaces').
 
 :func:`open_imu_blocks` takes the arguments of :func:`imunoise.io.imu_input.read_imu_source` and gives the
 selected columns as (n, k) blocks in SI, read a piece at a time: CSV/TXT (optionally .gz) a few ten

@@ -1,4 +1,4 @@
-"""Readers and writers for the KF-GINS text formats (SPEC §1, §12).
+"""Readers and writers for the KF-GINS text formats (docs/guide/theory.rst, 'Conventions' and 'Interfaces').
 
 Formats (whitespace separated, ``#`` comments, gzip when the name ends in ``.gz``):
 
@@ -7,7 +7,7 @@ Formats (whitespace separated, ``#`` comments, gzip when the name ends in ``.gz`
   converts it to increments as rate·Δt_k with Δt_k = t_k − t_{k-1} (the first Δt is the median).
 - GNSS: ``t lat lon h σN σE σD`` — seconds, degrees, degrees, m, m (4 columns → default σ, warned).
 - Reference / result: ``week t lat lon h vN vE vD roll pitch yaw`` — degrees on disk, NaN attitude allowed.
-- Outage windows: ``start duration`` per line (SPEC §8).
+- Outage windows: ``start duration`` per line (docs/guide/theory.rst, 'Navigation filter').
 
 Inside, everything is SI (radians, m, m/s, s). Time checks on every reader: time going backwards or a
 NaN/Inf value raises :class:`~imunoise.errors.DataError` naming the file line; duplicated stamps are
@@ -187,7 +187,7 @@ def read_imu(path: str | Path, *, time_offset: float = 0.0, gap_factor: float = 
     Accepts the KF-GINS increment format (7 columns, no header: ``t dθxyz [rad] dvxyz [m/s]``; extra
     columns such as an odometer are ignored with a warning) or a
     rate CSV with a header naming ``sow`` (or ``t``/``time``) and ``gx,gy,gz`` [rad/s], ``ax,ay,az``
-    [m/s²] in any order; rates become increments rate·Δt_k (first Δt = median), SPEC §1.
+    [m/s²] in any order; rates become increments rate·Δt_k (first Δt = median), docs/guide/theory.rst, 'Conventions'.
     ``time_offset`` [s] is added to every stamp (e.g. a logging delay).
 
     Parameters
@@ -339,7 +339,8 @@ def read_reference(path: str | Path, *, gap_factor: float = GAP_FACTOR) -> Refer
 
 
 def read_outages(path: str | Path) -> list[tuple[float, float]]:
-    """Outage windows ``start duration`` [s] per line, ``#`` comments allowed (SPEC §8)."""
+    """Outage windows ``start duration`` [s] per line, ``#`` comments allowed
+    (docs/guide/theory.rst, 'Navigation filter')."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(2, "No such file", str(path))

@@ -1,5 +1,6 @@
 """The configuration file of KF-GINS (i2Nav-WHU, C++), written from SI values, to run the C++ reference on
-the same data and the same initial state as ``imunoise nav`` (SPEC §12; benchmarks/bench_cli.py).
+the same data and the same initial state as ``imunoise nav`` (docs/guide/theory.rst, 'Interfaces';
+benchmarks/bench_cli.py).
 
 KF-GINS reads one YAML file (its ``config/kf-gins.yaml``) with yaml-cpp, in its own units: degrees for
 latitude, longitude and attitude, °/h and mGal for the biases, ppm for the scale factors, °/√h and m/s/√h

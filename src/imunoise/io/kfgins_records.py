@@ -39,7 +39,8 @@ class GnssData:
         return self._take((self.t >= t0) & (self.t <= t1))
 
     def without(self, windows: Iterable[tuple[float, float]]) -> GnssData:
-        """Drop the epochs inside any outage window: start ≤ t < start + duration (SPEC §8)."""
+        """Drop the epochs inside any outage window: start ≤ t < start + duration
+        (docs/guide/theory.rst, 'Navigation filter')."""
         keep = np.ones(self.t.size, dtype=bool)
         for start, dur in windows:
             keep &= ~((self.t >= start) & (self.t < start + dur))

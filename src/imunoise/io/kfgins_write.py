@@ -1,4 +1,5 @@
-"""Writers of the KF-GINS text formats (SPEC §1, §12): IMU increments, GNSS, reference/result and outage
+"""Writers of the KF-GINS text formats (docs/guide/theory.rst, 'Conventions' and 'Interfaces'): IMU increments, GNSS,
+reference/result and outage
 windows, degrees on disk, gzip when the name ends in ``.gz``, written atomically (nothing half-written)."""
 
 from __future__ import annotations

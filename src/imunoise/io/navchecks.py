@@ -1,4 +1,5 @@
-"""Plausibility checks on the inputs of a navigation run (SPEC §12; issue "Bad input, second round").
+"""Plausibility checks on the inputs of a navigation run (docs/guide/theory.rst, 'Interfaces'; issue "Bad input, second
+round").
 
 Each check turns a silently wrong run into a one-line :class:`~imunoise.errors.DataError` naming the file and
 the fix, or into a warning kept in ``metrics.json``:
@@ -8,7 +9,8 @@ the fix, or into a warning kept in ``metrics.json``:
   |lat|, |lon| < π° (≈ 350 km around 0° N 0° E, open sea in the Gulf of Guinea); read as radians the same
   numbers are an ordinary place on land. That box is the test.
 * :func:`check_imu_gaps` — a time gap in the IMU longer than ``max_gap`` s: the strapdown mechanization would
-  integrate one increment over it (SPEC §1 increments over (t_{k−1}, t_k]), and the velocity diverges.
+  integrate one increment over it (docs/guide/theory.rst, 'Conventions' increments over (t_{k−1}, t_k]), and the
+  velocity diverges.
 * :func:`gyro_unit_evidence` — gyros recorded in °/s but read as rad/s turn 180/π ≈ 57× too fast: the heading
   change the gyros integrate (ψ̇ = (ω_y sin φ + ω_z cos φ)/cos θ, the Euler-rate kinematics of
   :mod:`imunoise.nav.align`) is compared with the course change of the GNSS track over the same epochs.

@@ -1,4 +1,5 @@
-"""The IMU and GNSS inputs of a navigation run from whatever file holds them (SPEC §12): KF-GINS text files,
+"""The IMU and GNSS inputs of a navigation run from whatever file holds them (docs/guide/theory.rst, 'Interfaces'):
+KF-GINS text files,
 ROS bags (ROS 1 ``.bag``, ROS 2 ``.db3`` / ``.mcap`` / folder, :mod:`imunoise.io.rosbag`) and RTKLIB ``.pos``
 solutions (:mod:`imunoise.io.rtklib`), all leaving as :class:`~imunoise.imu.ImuData` increments in body FRD and
 :class:`~imunoise.io.kfgins.GnssData` in one time base.
@@ -14,8 +15,8 @@ IMU rates → increments: a bag holds rates [rad/s, m/s²] at the header stamps;
 KF-GINS rate CSV (:meth:`imunoise.imu.ImuData.as_increments`). So a bag written with rate_k = Δθ_k / Δt_k at the
 exact stamps gives back the increments of a KF-GINS file to rounding.
 
-Body frame: ROS uses FLU (x forward, y left, z up, REP 103), the filter FRD (SPEC §1). FLU → FRD is
-diag(1, −1, −1) on both the gyro and the accelerometer. The default frame follows the source (bags: FLU;
+Body frame: ROS uses FLU (x forward, y left, z up, REP 103), the filter FRD (docs/guide/theory.rst, 'Conventions'). FLU
+→ FRD is diag(1, −1, −1) on both the gyro and the accelerometer. The default frame follows the source (bags: FLU;
 KF-GINS text: FRD) and is checked: at rest the specific force points up, so FRD reads f_z ≈ −g and FLU
 f_z ≈ +g over the first seconds; the other sign is refused with the option that fixes it.
 """

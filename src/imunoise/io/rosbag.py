@@ -1,5 +1,5 @@
 """ROS 1 (``.bag``) and ROS 2 (``.db3``, ``.mcap`` or a bag folder) readers and writers without a ROS
-install, built on the ``rosbags`` library (SPEC §12).
+install, built on the ``rosbags`` library (docs/guide/theory.rst, 'Interfaces').
 
 - ``sensor_msgs/Imu``: ``angular_velocity`` [rad/s] and ``linear_acceleration`` [m/s²] (REP 145 units, so
   no conversion), time = header stamp (the bag receive time only when every header stamp is zero or
@@ -13,7 +13,8 @@ one length share one layout, so they are decoded at once with NumPy from the raw
 offsets of the ROS 1 / little-endian CDR layout. The offsets are checked against the ``rosbags``
 deserialiser on the first and last message of each layout, and the generic path is used if they differ.
 
-Body frame: ROS uses FLU (x forward, y left, z up, REP 103); imunoise navigation uses FRD (SPEC §1).
+Body frame: ROS uses FLU (x forward, y left, z up, REP 103); imunoise navigation uses FRD
+(docs/guide/theory.rst, 'Conventions').
 :meth:`BagImu.to_imudata` converts (y and z negated); the per-axis noise models do not depend on the
 sign, so ``imunoise fit`` models the axes as recorded.
 """

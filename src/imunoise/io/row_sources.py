@@ -1,4 +1,5 @@
-"""Rows of a table file read a piece at a time, before any column mapping (SPEC §12): ``.npy`` through a
+"""Rows of a table file read a piece at a time, before any column mapping (docs/guide/theory.rst, 'Interfaces'):
+``.npy`` through a
 memory map, ``.npz`` member by member, CSV/TXT (optionally .gz) a few ten thousand lines at a time. Each
 reader returns the file's :class:`RowsHead` (column names, units, size) and a generator of row blocks;
 :mod:`imunoise.io.imu_stream` maps the columns to SI."""

@@ -1,4 +1,5 @@
-"""Generic table readers: CSV/TXT (with or without a header) and NumPy ``.npy``/``.npz`` (SPEC §12).
+"""Generic table readers: CSV/TXT (with or without a header) and NumPy ``.npy``/``.npz``
+(docs/guide/theory.rst, 'Interfaces').
 
 The reader picks the delimiter (comma, semicolon, tab or white space), skips ``#`` comments, finds a
 header line if there is one, and returns float columns. Bad cells, NaN and Inf are reported with the

@@ -1,11 +1,13 @@
-"""Generic tabular readers: CSV/TXT (with or without a header) and NumPy ``.npy``/``.npz`` (SPEC §12).
+"""Generic tabular readers: CSV/TXT (with or without a header) and NumPy ``.npy``/``.npz``
+(docs/guide/theory.rst, 'Interfaces').
 
 The reader picks the delimiter (comma, semicolon, tab or white space), skips ``#`` comments, finds a
 header line if there is one, and returns float columns. Bad cells, NaN and Inf are reported with the
 file line they are on, so the user can find them.
 
 :func:`read_columns` maps several columns (by name or 0-based index) to output names with a unit per
-column (SPEC §1: converted to SI at the boundary) and an optional time column in s/ms/µs/ns;
+column (docs/guide/theory.rst, 'Conventions': converted to SI at the boundary) and an optional time column in
+s/ms/µs/ns;
 :func:`clean_time` sorts the stamps, drops and counts duplicates, reports gaps and the sampling jitter and
 infers (or checks) the sample rate. The same report is used by the ROS bag reader.
 

@@ -1,4 +1,4 @@
-"""How a text table is laid out: column separator, decimal mark, header (SPEC §12).
+"""How a text table is laid out: column separator, decimal mark, header (docs/guide/theory.rst, 'Interfaces').
 
 One function, :func:`text_layout`, read by the whole-file reader (:func:`imunoise.io.tabular.read_table`)
 and the block reader (:mod:`imunoise.io.imu_stream`) on the first lines of a file, so both read a file the

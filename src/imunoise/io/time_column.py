@@ -1,4 +1,5 @@
-"""Which column of an IMU table holds the time stamps, and in which unit (SPEC §1, §12).
+"""Which column of an IMU table holds the time stamps, and in which unit
+(docs/guide/theory.rst, 'Conventions' and 'Interfaces').
 
 **By name.** Without ``--time-column`` a column named like a time stamp is taken as the time, never
 fitted as a sensor: ``t``, ``time``, ``times``, ``timestamp``, ``stamp``, ``ts``, ``sec``, ``seconds``,

@@ -1,5 +1,5 @@
 """Time stamps of a log: sort, drop and count duplicates, report gaps and the sampling jitter, infer or check
-the sample rate (SPEC §12). The same report is used by the table and ROS bag readers."""
+the sample rate (docs/guide/theory.rst, 'Interfaces'). The same report is used by the table and ROS bag readers."""
 
 from __future__ import annotations
 

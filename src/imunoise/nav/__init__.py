@@ -1,4 +1,5 @@
-"""Navigation: WGS84 Earth model, strapdown mechanization, loosely coupled EKF, alignment, metrics (SPEC §8).
+"""Navigation: WGS84 Earth model, strapdown mechanization, loosely coupled EKF, alignment, metrics
+(docs/guide/theory.rst, 'Navigation filter').
 
 The last stage of the data path (IMU → detection → modelling → filter): the filter takes IMU increments,
 GNSS fixes, static/gate masks and one error model per sensor axis (anything with ``state_space(dt, freq)``).

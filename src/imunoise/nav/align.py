@@ -1,4 +1,5 @@
-"""Static coarse alignment and initial biases (SPEC §8; the KF-GINS initialisation of the shared drive).
+"""Static coarse alignment and initial biases (docs/guide/theory.rst, 'Navigation filter'; the KF-GINS initialisation of
+the shared drive).
 
 * roll, pitch from the mean specific force of a static window: at rest f^b = C_n^b [0, 0, −g], so
   roll = atan2(−f_y, −f_z), pitch = atan2(f_x, √(f_y² + f_z²));
@@ -75,7 +76,8 @@ GNSS_STILL_RADIUS_M = 10.0
 def check_static_window(
     t: np.ndarray, accel: np.ndarray, gnss, ta: float, tb: float, option: str = "--static-duration"
 ) -> None:
-    """Refuse a levelling window [ta, tb] that is not still, with the measured motion (SPEC §7 detector test).
+    """Refuse a levelling window [ta, tb] that is not still, with the measured motion
+    (docs/guide/theory.rst, 'Static detection' detector test).
 
     The static detector's statistic T (paper Eq. 9: moving std of accel x and y over N = 100 samples) is
     computed over the window; λ0 is learned on its first third by the detector's rule (2 × median T,

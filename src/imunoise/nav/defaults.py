@@ -1,13 +1,13 @@
-"""Default IMU error models and the EKF configuration (SPEC §8, issue 4).
+"""Default IMU error models and the EKF configuration (docs/guide/theory.rst, 'Navigation filter', issue 4).
 
 The "plain loosely coupled" default, used when nothing is known about the IMU, is per axis
 ``WN + RW + AR1`` (one first-order Gauss–Markov bias) built from datasheet-like continuous values:
 
-* WN:  σ²_WN = N²·f            (N noise density, unit/√Hz; SPEC §2 table)
+* WN:  σ²_WN = N²·f            (N noise density, unit/√Hz; docs/guide/theory.rst, 'Latent processes' table)
 * RW:  γ² = K²/f               (K rate random walk, unit/s/√Hz)
 * AR1: φ = exp(−1/(f·T_c)), σ² = σ²_GM(1 − φ²)   (T_c correlation time, σ_GM stationary σ)
 
-Parameters are per sample at the IMU rate ``f`` (SPEC §1), so the result plugs into
+Parameters are per sample at the IMU rate ``f`` (docs/guide/theory.rst, 'Conventions'), so the result plugs into
 ``Model.state_space`` like a GMWM fit. The numbers of :func:`kfgins_loose` are those of the KF-GINS
 reference run on the shared drive (its README): ARW 0.5 °/√h, VRW 0.5 m/s/√h, gyro bias σ 100 °/h,
 accel bias σ 5000 mGal, correlation time 1 h.
@@ -106,7 +106,7 @@ def default_axis_models(freq: float, spec: ImuSpec | None = None) -> list[tuple[
 
 @dataclass(frozen=True)
 class EkfConfig:
-    """Settings of the loosely coupled EKF (SPEC §8). SI units; angles in rad.
+    """Settings of the loosely coupled EKF (docs/guide/theory.rst, 'Navigation filter'). SI units; angles in rad.
 
     ``cov_every``: propagate the covariance every this many IMU samples (always also right before a
     measurement update) with Φ = I + FT + ½(FT)² over the accumulated interval T; 1 reproduces KF-GINS'
@@ -114,8 +114,8 @@ class EkfConfig:
     ``gate_max_reject`` consecutive rejections the next fix is accepted anyway, so the filter cannot lock
     itself out after a long outage; ``gate_abs_m`` is added (squared) to the innovation covariance of the
     gate test only, so innovations of that size are never called outliers. ``gate_q_scale`` and
-    ``fallback`` define the conservative noise used while the SPEC §7 angular-rate gate is open.
-    ``zupt_sigma`` (m/s) and ``zupt_every`` (samples) set the zero-velocity updates of the batch run when
+    ``fallback`` define the conservative noise used while the docs/guide/theory.rst, 'Static detection' angular-rate
+    gate is open. ``zupt_sigma`` (m/s) and ``zupt_every`` (samples) set the zero-velocity updates of the batch run when
     a static mask is given.
 
     ``aiding``: the optional measurements beside GNSS position and ZUPT, one settings object each (e.g.

@@ -1,7 +1,8 @@
-"""WGS84 Earth model: radii, normal gravity, Earth and transport rates, LLH/ECEF/NED, Euler/DCM (SPEC §8).
+"""WGS84 Earth model: radii, normal gravity, Earth and transport rates, LLH/ECEF/NED, Euler/DCM
+(docs/guide/theory.rst, 'Navigation filter').
 
-Conventions (SPEC §1): geodetic ``llh = [lat rad, lon rad, h m]``; navigation frame local-level NED;
-attitude ``C_b^n`` with ZYX Euler angles (roll, pitch, yaw) only at I/O.
+Conventions (docs/guide/theory.rst, 'Conventions'): geodetic ``llh = [lat rad, lon rad, h m]``; navigation frame
+local-level NED; attitude ``C_b^n`` with ZYX Euler angles (roll, pitch, yaw) only at I/O.
 
 The scalar functions are ``numba.njit`` dispatchers: callable from Python and from other numba kernels
 (the strapdown hot loop uses them directly). ``radii`` and ``gravity`` use ``np.*`` math so they also

@@ -1,4 +1,5 @@
-"""Loosely coupled, closed-loop error-state EKF in NED with augmented IMU error states (SPEC §8).
+"""Loosely coupled, closed-loop error-state EKF in NED with augmented IMU error states
+(docs/guide/theory.rst, 'Navigation filter').
 
 State vector δx = [δr (NED, m), δv (NED, m/s), φ (rad), x_g,x, x_g,y, x_g,z, x_a,x, x_a,y, x_a,z] where
 x_s,i are the states of the error model of sensor axis i built by ``model.state_space(dt, freq)``
@@ -35,8 +36,8 @@ Optional measurements (``EkfConfig.aiding``): non-holonomic constraints (:mod:`i
 applied every ``every`` samples right after the propagation and before that sample's GNSS fixes, in the batch
 loop and in :meth:`LooselyCoupledEKF.propagate` alike.
 
-Cost (SPEC §13): with ``cov_every = 5`` (the default; 1 is KF-GINS' per-sample propagation, and on the
-shared drive both agree to 0.1 mm RMS and < 1 m outage drift) the 548 s drive at 100 Hz takes ≈ 0.2 s
+Cost (docs/guide/theory.rst, 'Quality bars'): with ``cov_every = 5`` (the default; 1 is KF-GINS' per-sample propagation,
+and on the shared drive both agree to 0.1 mm RMS and < 1 m outage drift) the 548 s drive at 100 Hz takes ≈ 0.2 s
 with the 21-state default and ≈ 0.3 s with 4×AR1+DR+RW on six axes (45 states); ΦPΦᵀ is formed through
 the non-zeros of Φ only.
 """
@@ -179,8 +180,8 @@ def run_ekf(
 
     The loop (strapdown, covariance, updates) runs in one numba kernel. GNSS epochs with non-finite
     positions are dropped and non-finite/zero σ replaced by ``config.gnss_sigma_nan``/floor (logged).
-    ``gate`` (bool per IMU sample) marks epochs where the SPEC §7 angular-rate gate is open.
-    ``zupt`` (bool per IMU sample, e.g. the static epochs of :func:`imunoise.detect.detect_static`) applies
+    ``gate`` (bool per IMU sample) marks epochs where the docs/guide/theory.rst, 'Static detection' angular-rate gate is
+    open. ``zupt`` (bool per IMU sample, e.g. the static epochs of :func:`imunoise.detect.detect_static`) applies
     a zero-velocity update (σ ``config.zupt_sigma``) every ``config.zupt_every`` samples while true.
     ``store_cov`` keeps the 9×9 navigation block of P at every epoch in ``result.cov`` (for NEES).
     ``gnss_vel``: antenna velocity fixes (:class:`~imunoise.nav.measurements.gnss_velocity.GnssVelocity`, e.g.

@@ -1,4 +1,5 @@
-"""The augmented IMU error states of the EKF: layout, initial covariance and the model swap (SPEC §8).
+"""The augmented IMU error states of the EKF: layout, initial covariance and the model swap
+(docs/guide/theory.rst, 'Navigation filter').
 
 The filter state is δx = [δr, δv, φ, x_m] with the nine navigation error states followed by the ``nm``
 model states x_m of the six sensor axes (gyro x,y,z, accel x,y,z), each axis the states of its error
@@ -6,7 +7,8 @@ model's ``state_space(dt, freq)`` (bias, one per AR1, DR), and, with ``EkfConfig
 scale-factor states s_g,x..s_a,z after all of them (kind 3, h = 0: they scale the increment instead of
 adding to it; KF-GINS' SG/SA states). :class:`ModelLayout` describes x_m;
 :func:`initial_covariance` is P_0 of a fresh filter; :func:`swap_map` maps (x̂_m, P) from one layout to
-another when the error models are replaced while the filter runs (SPEC §8 hot-swap). Everything here is a
+another when the error models are replaced while the filter runs (docs/guide/theory.rst, 'Navigation filter' hot-swap).
+Everything here is a
 pure function of its arguments: :class:`~imunoise.nav.ekf.LooselyCoupledEKF` owns the state and applies
 the results.
 """
@@ -145,7 +147,8 @@ class ModelLayout:
 
 def initial_covariance(config: EkfConfig, layout: ModelLayout) -> np.ndarray:
     """P_0 ((9 + nm)²) of a filter with ``layout``: the configured navigation σ, the configured turn-on σ
-    for bias states and σ for DR states, the stationary variance for AR1 and scale-factor states (SPEC §8).
+    for bias states and σ for DR states, the stationary variance for AR1 and scale-factor states
+    (docs/guide/theory.rst, 'Navigation filter').
 
     Parameters
     ----------
@@ -225,7 +228,8 @@ def swap_map(
     *,
     preserve: bool = True,
 ) -> SwapResult:
-    """Map the filter's model-state estimates and covariance from layout ``old`` to ``new`` (SPEC §8 hot-swap).
+    """Map the filter's model-state estimates and covariance from layout ``old`` to ``new``
+    (docs/guide/theory.rst, 'Navigation filter' hot-swap).
 
     An exact linear map T of the old error state (navigation states identity): a new state listed by
     :func:`carried_states` (only with ``preserve``) continues its old state 1:1 (estimate, variance and all
@@ -233,7 +237,8 @@ def swap_map(
     axis (variance h P hᵀ, cross-covariances P[:, old] hᵀ), so the axis' total error estimate is unchanged;
     every other new state (AR1, DR) starts at 0, uncorrelated, with its variance from ``new_initial_P``
     (the stationary variance / the configured σ). ``preserve=False`` sums every old state into the bias: the
-    SPEC §8 swap; online, where a refit follows every stop, it would reset the Gauss–Markov states to their
+    docs/guide/theory.rst, 'Navigation filter' swap; online, where a refit follows every stop, it would reset the
+    Gauss–Markov states to their
     stationary variance at every stop, i.e. forget the bias knowledge right before the drive continues.
     Scale-factor states are no part of the noise model: they continue 1:1 whenever both layouts have them
     (with or without ``preserve``; counted in ``kept``); a new one without an old counterpart starts fresh.

@@ -1,4 +1,5 @@
-"""One filter step, two drivers (SPEC §8; issue 23): the update functions every path calls, and the batch loop.
+"""One filter step, two drivers (docs/guide/theory.rst, 'Navigation filter'; issue 23): the update functions every path
+calls, and the batch loop.
 
 :class:`~imunoise.nav.ekf.LooselyCoupledEKF` (the step filter, one call per IMU sample or fix) and
 :func:`run_batch` (the numba loop behind :func:`~imunoise.nav.ekf.run_ekf` and

@@ -1,4 +1,4 @@
-"""Increment-based strapdown mechanization in the local-level NED frame (SPEC §8).
+"""Increment-based strapdown mechanization in the local-level NED frame (docs/guide/theory.rst, 'Navigation filter').
 
 Inputs are IMU increments Δθ_k, Δv_k over (t_{k−1}, t_k] in the body FRD frame. One step implements the
 classical two-sample algorithm (Savage 1998; Shin 2001, Ch. 2; the same as KF-GINS ``INSMech``):

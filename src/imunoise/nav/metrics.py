@@ -1,4 +1,5 @@
-"""Navigation errors against a reference and the ``metrics.json`` summary (SPEC §8, paper Tables 1, 5).
+"""Navigation errors against a reference and the ``metrics.json`` summary (docs/guide/theory.rst, 'Navigation filter',
+paper Tables 1, 5).
 
 Errors are taken at the reference epochs. The estimate at a reference epoch t_r is the first filter
 epoch t_k ≥ t_r moved back along its velocity, r(t_r) = r(t_k) − v_k (t_k − t_r): after a GNSS update
@@ -103,7 +104,8 @@ def mean_end_drift(outages: Sequence[dict]) -> float | None:
 
 
 def outage_drift(err: NavErrors, windows: Sequence[tuple[float, float]]) -> list[dict]:
-    """Per window: error at its last reference epoch (end) and the maximum inside (SPEC §8 keys)."""
+    """Per window: error at its last reference epoch (end) and the maximum inside
+    (docs/guide/theory.rst, 'Navigation filter' keys)."""
     out = []
     hz, vt = err.horizontal, err.vertical
     for start, dur in windows:
@@ -163,7 +165,8 @@ def summarize(
     elapsed_s: float | None = None,
     duration_s: float | None = None,
 ) -> dict:
-    """The ``metrics.json`` dictionary (SPEC §8 keys plus a few extras); lengths m, velocities m/s."""
+    """The ``metrics.json`` dictionary (docs/guide/theory.rst, 'Navigation filter' keys plus a few extras); lengths m,
+    velocities m/s."""
     hz = err.horizontal
     out: dict = {
         "n_epochs": int(err.t.size),

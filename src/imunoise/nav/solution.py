@@ -1,4 +1,5 @@
-"""Derived quantities of a navigation solution shared by the batch and the online results (SPEC §8)."""
+"""Derived quantities of a navigation solution shared by the batch and the online results
+(docs/guide/theory.rst, 'Navigation filter')."""
 
 from __future__ import annotations
 
@@ -15,7 +16,8 @@ __all__ = ["antenna_llh", "NavSolution"]
 @dataclass
 class NavSolution:
     """The solution at every processed IMU epoch (IMU point) that the batch :class:`imunoise.nav.ekf.EkfResult`
-    and the online :class:`imunoise.online.OnlineResult` share (SPEC §8): ``t`` [s], ``llh`` [rad, rad, m],
+    and the online :class:`imunoise.online.OnlineResult` share (docs/guide/theory.rst, 'Navigation filter'): ``t`` [s],
+    ``llh`` [rad, rad, m],
     ``vel_ned`` [m/s], ``euler`` roll, pitch, yaw [rad], the total estimated sensor errors ``gyro_error``
     [rad/s] and ``accel_error`` [m/s²], ``std`` the 1σ of [δr (NED), δv, φ]."""
 
@@ -38,8 +40,8 @@ def antenna_llh(llh: np.ndarray, euler: np.ndarray, lever_arm: Sequence[float]) 
 
     r_ant = r_imu + D_R⁻¹ C_b^n l with C_b^n from the ZYX Euler angles (:func:`imunoise.nav.earth.euler_to_dcm`)
     and D_R⁻¹ = diag(1/(R_M + h), 1/((R_N + h) cos φ), −1) evaluated at the IMU point, the inverse of the
-    lever-arm term of the GNSS measurement model (SPEC §8); the first-order conversion errs by ~|l|²/R
-    (2e-7 m for a 1 m arm).
+    lever-arm term of the GNSS measurement model (docs/guide/theory.rst, 'Navigation filter'); the first-order
+    conversion errs by ~|l|²/R (2e-7 m for a 1 m arm).
 
     Parameters
     ----------

@@ -1,4 +1,5 @@
-"""Named indices and views of the filter's arrays (SPEC §8; KF-GINS ``StateID``): the one place that says which
+"""Named indices and views of the filter's arrays (docs/guide/theory.rst, 'Navigation filter'; KF-GINS ``StateID``): the
+one place that says which
 number of the error state δx, of the 17-float navigation array and of the covariance accumulator means what.
 
 Error state δx (length 9 + number of model states; :mod:`imunoise.nav.ekf`)::

@@ -1,4 +1,4 @@
-"""The step filter (SPEC §8): :class:`LooselyCoupledEKF`, one call per IMU sample or measurement, for online use.
+"""Step filter :class:`LooselyCoupledEKF`, one call per sample or fix (docs/guide/theory.rst, 'Navigation filter').
 
 The equations are in :mod:`imunoise.nav.ekf`; the update functions it calls are the batch loop's
 (:mod:`imunoise.nav.filter_loop`), so a run fed sample by sample equals :func:`~imunoise.nav.ekf.run_ekf`.
@@ -70,7 +70,7 @@ def new_outputs(n: int, *, store_cov: bool, has_sf: bool) -> Outputs:
 
 
 class LooselyCoupledEKF:
-    """Step-by-step loosely coupled EKF (SPEC §8) for online use; :func:`~imunoise.nav.ekf.run_ekf` is the batch form.
+    """Step-by-step EKF (docs/guide/theory.rst, 'Navigation filter'); the batch form is :func:`~imunoise.nav.run_ekf`.
 
     ``propagate(dtheta, dv, t)`` takes one IMU increment over (t_prev, t]; ``update_gnss(t, llh, sigma)``
     a fix at time t ≤ the current filter time (it is referred to the filter epoch with the velocity).
@@ -215,7 +215,7 @@ class LooselyCoupledEKF:
         )
 
     def set_gate(self, open_: bool) -> None:
-        """SPEC §7 angular-rate gate: while open the stochastic states use the conservative noise."""
+        """Angular-rate gate (docs/guide/theory.rst, 'Static detection'): open = conservative model noise."""
         self.gate_open = bool(open_)
 
     # -- measurements -----------------------------------------------------------------------------
@@ -333,7 +333,7 @@ class LooselyCoupledEKF:
 
     # -- model swap -------------------------------------------------------------------------------
     def swap_model(self, axis_models, *, preserve: bool = False, imu_rate_hz: float | None = None) -> dict[str, int]:
-        """Replace the error models (SPEC §8 hot-swap); returns ``{"kept": k, "reset": r}``.
+        """Swap the error models (docs/guide/theory.rst, 'Navigation filter'); returns ``{"kept": k, "reset": r}``.
 
         Navigation states and their covariance are kept; the new bias state of each axis takes the
         current total error estimate h·x̂ of the old states with variance h P hᵀ and cross-covariances

@@ -1,4 +1,5 @@
-"""The first-order autoregression's Haar wavelet variance in closed form, numpy and numba (SPEC §2 table).
+"""The first-order autoregression's Haar wavelet variance in closed form, numpy and numba
+(docs/guide/theory.rst, 'Latent processes' table).
 
 The numpy form (:func:`ar1_wv`, :func:`ar1_wv_dphi`) serves :class:`imunoise.noise.processes.AR1`; the numba form
 (:func:`ar1_g`) is the same formula written for the estimator's compiled kernels, and a test checks the two
@@ -41,7 +42,8 @@ def _expm1_tail(x: np.ndarray, order: int) -> np.ndarray:
 
 
 def ar1_wv(tau: np.ndarray, phi: float, sigma2: float) -> np.ndarray:
-    """Haar WV of a stationary AR1 with innovation variance σ² (SPEC §2 table, cancellation-free).
+    """Haar WV of a stationary AR1 with innovation variance σ² (docs/guide/theory.rst, 'Latent processes' table,
+    cancellation-free).
 
     With m = τ/2, L = ln φ and F_k = e^{kL} − 1 − kL − (kL)²/2 the numerator equals
     −3F_1 − mF_2 + 4F_{m+1} − F_{2m+1} exactly, and the denominator is 2m²(1−φ)²(1−φ²).
@@ -116,7 +118,8 @@ def _tail(x: float, order: int) -> float:
 
 @njit(cache=True)
 def ar1_g(m: float, L: float) -> tuple[float, float]:
-    """AR1 Haar WV per unit innovation variance g and dg/dL at L = ln φ (SPEC §2, stable form).
+    """AR1 Haar WV per unit innovation variance g and dg/dL at L = ln φ (docs/guide/theory.rst, 'Latent processes',
+    stable form).
 
     Parameters
     ----------

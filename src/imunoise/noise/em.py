@@ -1,4 +1,5 @@
-"""EM baseline: constrained expectation–maximisation on the state-space form (Stebler et al. 2011; SPEC §6).
+"""EM baseline: constrained expectation–maximisation on the state-space form (Stebler et al. 2011;
+docs/guide/theory.rst, 'Baselines').
 
 Stebler, Guerrier, Skaloud & Victoria-Feser (2011), "Constrained expectation-maximization algorithm for
 stochastic inertial error modeling: study of feasibility", Meas. Sci. Technol. 22, 085204.
@@ -123,7 +124,7 @@ def em_fit(
     weights: str = "efficient",
     **legacy: Any,
 ) -> GMWMFit:
-    """Constrained EM estimate of a state-space error model (module docstring; SPEC §6).
+    """Constrained EM estimate of a state-space error model (module docstring; docs/guide/theory.rst, 'Baselines').
 
     Same argument order as :func:`imunoise.noise.estimator.gmwm`: ``em_fit(model, data, freq=...)``.
 

@@ -1,4 +1,5 @@
-"""The EM baseline's state-space form and E-step (Stebler et al. 2011; SPEC §6; :mod:`imunoise.noise.em` runs the
+"""The EM baseline's state-space form and E-step (Stebler et al. 2011; docs/guide/theory.rst, 'Baselines';
+:mod:`imunoise.noise.em` runs the
 iterations): one sensor axis as AR1 and RW states with WN as the observation noise and an optional deterministic
 drift (:func:`state_form`), the Kalman filter and Rauch–Tung–Striebel smoother with the lag-one covariance and
 the sufficient statistics of the M-step (:func:`kalman_estep`, numba, steady-state covariances frozen once their

@@ -1,13 +1,14 @@
-"""The one mapping from a fitted composite model to a white-noise + random-walk pair (N, K) (SPEC §2, §12).
+"""The one mapping from a fitted composite model to a white-noise + random-walk pair (N, K)
+(docs/guide/theory.rst, 'Latent processes' and 'Interfaces').
 
 Kalibr, OpenVINS and ORB-SLAM3 (and the white/RW part of the online filter) know two processes per axis:
 white noise of density N and a bias random walk of density K. A fitted model has more (AR1 / Gauss–Markov,
 QN, DR). This module maps the model to the pair **by what the filter will see**: the (N, K) whose Allan
-variance (Haar wavelet variance, AV = 2ν², SPEC §1) best matches the model's over the scales that matter,
-from the update period Δt = 1/f (Haar level 1, τ = 2 samples) to a horizon T_h (default: the longest
+variance (Haar wavelet variance, AV = 2ν², docs/guide/theory.rst, 'Conventions') best matches the model's over the
+scales that matter, from the update period Δt = 1/f (Haar level 1, τ = 2 samples) to a horizon T_h (default: the longest
 scale of the data the model was fitted on, :func:`default_horizon_s`).
 
-Rule, per axis (parameters per sample at f, SPEC §2):
+Rule, per axis (parameters per sample at f, docs/guide/theory.rst, 'Latent processes'):
 
 1. Closed forms (no matching needed): WN → white σ² (N = σ·√Δt); RW → γ² (K = γ/√Δt); QN → white with
    its per-sample variance 2Q² (``qn="white"``, as :meth:`imunoise.noise.model.Model.white_variance`) or dropped
@@ -98,13 +99,13 @@ def data_horizon(fit: Any) -> float | None:
 
 def default_horizon_s(fit: Any) -> float | None:
     """The default matching horizon in seconds of averaging time: the longest Haar scale of the fit's data,
-    τ_J samples ↔ averaging time T = τ_J/2 samples (AV(T) = 2ν²(τ = 2T·f), SPEC §1)."""
+    τ_J samples ↔ averaging time T = τ_J/2 samples (AV(T) = 2ν²(τ = 2T·f), docs/guide/theory.rst, 'Conventions')."""
     tau = data_horizon(fit)
     return None if tau is None else tau / (2.0 * float(fit.freq))
 
 
 def pair_wv(tau: np.ndarray, sigma2: float, gamma2: float) -> np.ndarray:
-    """Haar WV of WN(σ²) + RW(γ²) at scales τ (samples; SPEC §2 closed forms)."""
+    """Haar WV of WN(σ²) + RW(γ²) at scales τ (samples; docs/guide/theory.rst, 'Latent processes' closed forms)."""
     tau = np.asarray(tau, dtype=float)
     return sigma2 / tau + gamma2 * (tau * tau + 2.0) / (12.0 * tau)
 

@@ -1,4 +1,5 @@
-"""Generalized Method of Wavelet Moments (paper Eq. 6, SPEC §4): the documented import path.
+"""Generalized Method of Wavelet Moments (paper Eq. 6, docs/guide/theory.rst, 'GMWM estimator'): the documented import
+path.
 
 θ̂ = argmin_θ (ν̂ − ν(θ))ᵀ Ω (ν̂ − ν(θ)). The implementation lives in :mod:`imunoise.noise.fitting`, one
 concept per module (parametrisation, compiled kernels, problem set-up, result, estimators); this module

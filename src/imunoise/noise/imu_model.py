@@ -1,5 +1,5 @@
-"""Multi-axis IMU model file (SPEC §12): one GMWM fit per axis, the input of ``imunoise export`` and
-``imunoise nav --model``.
+"""Multi-axis IMU model file (docs/guide/theory.rst, 'Interfaces'): one GMWM fit per axis, the input of ``imunoise
+export`` and ``imunoise nav --model``.
 
 JSON layout::
 
@@ -239,8 +239,8 @@ def fit_axis(
     unit: str = "u",
     seed: int = 0,
 ) -> tuple[GMWMFit, Any]:
-    """GMWM fit of one axis: ``model`` given (paper Eq. 6), or ``auto`` model selection (SPEC §5).
-    Returns (fit, ranking or None)."""
+    """GMWM fit of one axis: ``model`` given (paper Eq. 6), or ``auto`` model selection
+    (docs/guide/theory.rst, 'Model selection'). Returns (fit, ranking or None)."""
     if (model is None) == (not auto):
         raise ModelError("give exactly one of a model structure or auto selection")
     if auto:
@@ -275,7 +275,8 @@ def fit_axis_wv(
     values: np.ndarray | None = None,
 ) -> tuple[GMWMFit, Any]:
     """:func:`fit_axis` from a ready :class:`~imunoise.noise.wv.WaveletVariance` (e.g. of a log streamed through
-    :class:`~imunoise.noise.wv_stream.WVStream`): the same GMWM (paper Eq. 6) or selection (SPEC §5) on the same ν̂
+    :class:`~imunoise.noise.wv_stream.WVStream`): the same GMWM (paper Eq. 6) or selection
+    (docs/guide/theory.rst, 'Model selection') on the same ν̂
     and Ω. ``n_samples`` fills ``extra["data_span"]``; ``values``, when the series is at hand, adds its dense
     Allan curve (without it the exports read the octave curve 2ν²_j, :func:`imunoise.noise.allan.data_curve`)."""
     if (model is None) == (not auto):

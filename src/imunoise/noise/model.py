@@ -1,4 +1,5 @@
-"""Composite error models: sums of independent latent processes (SPEC §2, paper Eq. 7).
+"""Composite error models: sums of independent latent processes (docs/guide/theory.rst, 'Latent processes', paper Eq.
+7).
 
 ``2 * AR1() + WN() + RW()`` builds a :class:`Model`. Its canonical form lists the AR1s first, ordered
 by decreasing φ (slowest first, which removes label switching), then the others in the registry's order
@@ -226,7 +227,8 @@ class Model:
 
     # -- wavelet variance ------------------------------------------------------------------------------
     def wv(self, scales: np.ndarray) -> np.ndarray:
-        """Theoretical Haar WV ν²(τ) at scales τ (samples): the sum of the processes' WVs (SPEC §2).
+        """Theoretical Haar WV ν²(τ) at scales τ (samples): the sum of the processes' WVs
+        (docs/guide/theory.rst, 'Latent processes').
 
         Parameters
         ----------
@@ -274,7 +276,8 @@ class Model:
 
     # -- continuous-time and filter forms --------------------------------------------------------------
     def continuous(self, freq: float) -> dict[str, float]:
-        """Continuous-time equivalents with canonical keys (SPEC §2): noise density, K, T_c, ...
+        """Continuous-time equivalents with canonical keys (docs/guide/theory.rst, 'Latent processes'): noise density,
+        K, T_c, ...
 
         Parameters
         ----------
@@ -311,7 +314,8 @@ class Model:
         return Model(out)
 
     def state_space(self, dt: float, freq: float | None = None) -> StateSpace:
-        """Discrete (Φ, Q, H) blocks over a filter step dt for parameters per sample at ``freq`` (SPEC §8).
+        """Discrete (Φ, Q, H) blocks over a filter step dt for parameters per sample at ``freq``
+        (docs/guide/theory.rst, 'Navigation filter').
 
         AR1 over dt: Φ = φ^{dt·f}, Q = σ²_GM(1 − Φ²). RW adds γ²·dt·f to the bias state. DR is a constant
         ramp state r (unit/s) with bias_{k+1} = bias_k + r·dt. ``freq`` defaults to 1/dt.
@@ -331,7 +335,8 @@ class Model:
 
     def at_rate(self, freq_from: float, freq_to: float) -> Model:
         """The same continuous-time model with parameters per sample at ``freq_to`` instead of ``freq_from``
-        (N, K, R, Q_IEEE, T_c and σ_GM kept; SPEC §2 last column). Unchanged when the rates are equal."""
+        (N, K, R, Q_IEEE, T_c and σ_GM kept; docs/guide/theory.rst, 'Latent processes' last column). Unchanged when the
+        rates are equal."""
         if not (freq_from > 0 and freq_to > 0):
             raise ModelError(f"sample rates must be > 0 Hz, got {freq_from} and {freq_to}")
         if freq_from == freq_to:
@@ -362,7 +367,8 @@ ModelLike = Process | Model | str
 
 
 def as_model(model: ModelLike) -> Model:
-    """The :class:`Model` meant by ``model``: a single process, a Model, or a model string (SPEC §2).
+    """The :class:`Model` meant by ``model``: a single process, a Model, or a model string
+    (docs/guide/theory.rst, 'Latent processes').
 
     Every estimator (``gmwm``, ``refit``, ``em_fit``, ``select_model``'s ``complete=``) takes its model
     through this function, so ``WN()``, ``WN() + RW()``, ``Model([WN()])`` and ``"WN+RW"`` are all the

@@ -1,4 +1,5 @@
-"""The first-order Gauss–Markov process AR1 (SPEC §2): x_k = φ x_{k−1} + w_k, w ~ N(0, σ²), its Haar WV in
+"""The first-order Gauss–Markov process AR1 (docs/guide/theory.rst, 'Latent processes'): x_k = φ x_{k−1} + w_k, w ~ N(0,
+σ²), its Haar WV in
 closed form (:mod:`imunoise.noise.ar1_math`) and its numba form in natural parameters (the u-form is chained by the
 ordering of the AR1s, in the estimator's kernel, :mod:`imunoise.noise.fitting.kernels`)."""
 
@@ -43,7 +44,8 @@ def _ar1_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
 class AR1(Process):
     """First-order autoregression (discrete Gauss–Markov) x_t = φx_{t−1} + e_t, Var(e) = σ².
 
-    Continuous equivalents: T_c = −Δt/ln φ, σ²_GM = σ²/(1−φ²), q_c = 2σ²_GM/T_c (SPEC §2).
+    Continuous equivalents: T_c = −Δt/ln φ, σ²_GM = σ²/(1−φ²), q_c = 2σ²_GM/T_c
+    (docs/guide/theory.rst, 'Latent processes').
 
     Parameters
     ----------

@@ -1,4 +1,5 @@
-"""The process protocol (SPEC §2): what every latent process of an error model carries, and the shared types.
+"""The process protocol (docs/guide/theory.rst, 'Latent processes'): what every latent process of an error model
+carries, and the shared types.
 
 A process owns its math: its parameters and their bounds in the estimator's unconstrained vector u
 (:meth:`Process.u_bounds`, :meth:`Process.theta_from_u`, :meth:`Process.u_from_theta`), its Haar WV in numpy
@@ -25,17 +26,20 @@ __all__ = [
     "ar1_white_variance", "fmt_seconds", "LOG_LO", "LOG_HI", "V_LO", "V_HI", "B_LO", "B_HI",
 ]
 
-# Bounds of the estimator's unconstrained vector u (SPEC §4; imunoise.noise.fitting.params describes u).
+# Bounds of the estimator's unconstrained vector u (docs/guide/theory.rst, 'GMWM estimator';
+# imunoise.noise.fitting.params describes u).
 LOG_LO, LOG_HI = -120.0, 40.0  # normalised log-variance bounds (e^-120: indistinguishable from 0)
 V_LO, V_HI = -32.0, 4.0  # log(−ln φ): φ from 1 − 1.3e-14 down to e^-55
 B_LO, B_HI = -30.0, 4.0  # log spacing between successive AR1 correlation scales
 
-# Role of a filter state (SPEC §8): what the filter's initial covariance and model swaps do with it.
+# Role of a filter state (docs/guide/theory.rst, 'Navigation filter'): what the filter's initial covariance and model
+# swaps do with it.
 ROLE_BIAS, ROLE_STATIONARY, ROLE_RAMP = 0, 1, 2
 
 
 class FilterState(NamedTuple):
-    """One state of a process' block over a filter step: x' = phi·x + q-noise, error += h·x (SPEC §8).
+    """One state of a process' block over a filter step: x' = phi·x + q-noise, error += h·x
+    (docs/guide/theory.rst, 'Navigation filter').
     ``bias_link``: the coefficient with which the state drives the bias state (a ramp: dt)."""
 
     phi: float
@@ -60,7 +64,7 @@ class EquivalentPart(NamedTuple):
 
 def dr_equivalent_rw(omega: float, horizon: float) -> float:
     """γ² (per sample) of the random walk with the same Haar WV as a drift ω at scale τ = ``horizon`` samples:
-    ω²τ²/16 = γ²(τ² + 2)/(12τ) (SPEC §2), so γ² = 3ω²τ³/(4(τ² + 2)).
+    ω²τ²/16 = γ²(τ² + 2)/(12τ) (docs/guide/theory.rst, 'Latent processes'), so γ² = 3ω²τ³/(4(τ² + 2)).
 
     Over the scales a static record covers, a ramp and a random walk are two readings of the same rising
     WV; a ramp state in the filter would extrapolate one fitted slope over the whole drive, while the
@@ -81,7 +85,8 @@ def fmt_seconds(t: float) -> str:
 
 
 class Process:
-    """One latent process; parameters per sample (SPEC §1). Subclasses define the closed forms.
+    """One latent process; parameters per sample (docs/guide/theory.rst, 'Conventions'). Subclasses define the closed
+    forms.
 
     Parameters
     ----------
@@ -170,10 +175,12 @@ class Process:
         raise NotImplementedError
 
     def continuous(self, freq: float, prefix: str) -> dict[str, float]:
-        """Continuous-time equivalents (SPEC §2 last column) in SI-style units of the data."""
+        """Continuous-time equivalents (docs/guide/theory.rst, 'Latent processes' last column) in SI-style units of the
+        data."""
         raise NotImplementedError
 
-    # -- the estimator's unconstrained vector u (SPEC §4) ----------------------------------------------------
+    # -- the estimator's unconstrained vector u (docs/guide/theory.rst, 'GMWM estimator')
+    # ----------------------------------------------------
     code: ClassVar[int] = -1  # compiled kind code: position in PROCESS_TYPES
     singleton: ClassVar[bool] = True  # at most once per model (a sum of two is one of the same kind)
     nb_wv_u: ClassVar[Any] = None  # numba form in u (module comment above the forms)
@@ -202,7 +209,8 @@ class Process:
         raise NotImplementedError
 
     def white_variance(self) -> float:
-        """Per-sample variance this process adds to the filter's white part (SPEC §8)."""
+        """Per-sample variance this process adds to the filter's white part
+        (docs/guide/theory.rst, 'Navigation filter')."""
         return 0.0
 
     def filter_block(self, steps: float, dt: float) -> tuple[float, list[FilterState]]:
@@ -233,7 +241,7 @@ class Process:
     @classmethod
     def start_values(cls, frac: float, nu: np.ndarray, tau: np.ndarray) -> list[float]:
         """A starting θ for the estimator: the process carrying ``frac`` of the normalised empirical WV ``nu`` at
-        the finest (``starts_fine``) or the coarsest scale of ``tau`` (SPEC §4)."""
+        the finest (``starts_fine``) or the coarsest scale of ``tau`` (docs/guide/theory.rst, 'GMWM estimator')."""
         raise NotImplementedError
 
     @classmethod

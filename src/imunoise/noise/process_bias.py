@@ -1,5 +1,5 @@
-"""Non-stationary bias processes (SPEC §2): the random walk RW (ν² = γ²(τ² + 2)/(12τ)) and the drift DR, a
-ramp of slope ω (ν² = ω²τ²/16), each with its numba forms right above it (the protocol:
+"""Non-stationary bias processes (docs/guide/theory.rst, 'Latent processes'): the random walk RW (ν² = γ²(τ² + 2)/(12τ))
+and the drift DR, a ramp of slope ω (ν² = ω²τ²/16), each with its numba forms right above it (the protocol:
 :class:`imunoise.noise.process_base.Process`)."""
 
 from __future__ import annotations

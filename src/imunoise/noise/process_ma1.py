@@ -1,4 +1,5 @@
-"""First-order moving average, MA1 (simts' MA1): x_t = e_t + θe_{t−1}, Var(e) = σ², per sample (SPEC §2).
+"""First-order moving average, MA1 (simts' MA1): x_t = e_t + θe_{t−1}, Var(e) = σ², per sample
+(docs/guide/theory.rst, 'Latent processes').
 
 Haar WV ν²(τ) = σ²[(1+θ)²τ − 6θ]/τ² (the Haar filter of width τ sees γ(0) = σ²(1+θ²) on its τ taps and
 γ(1) = σ²θ on its τ − 1 neighbouring pairs, one of which straddles the sign change). Over scales longer than a

@@ -1,4 +1,5 @@
-"""White processes (SPEC §2): Gaussian white noise WN (ν² = σ²/τ) and quantization noise QN (ν² = 6Q²/τ²),
+"""White processes (docs/guide/theory.rst, 'Latent processes'): Gaussian white noise WN (ν² = σ²/τ) and quantization
+noise QN (ν² = 6Q²/τ²),
 each with its numba forms right above it (the protocol: :class:`imunoise.noise.process_base.Process`)."""
 
 from __future__ import annotations
@@ -95,7 +96,8 @@ def _qn_wv_theta(theta, p, tau, nu):  # pragma: no cover - compiled
 
 
 class QN(Process):
-    """Quantisation noise Q² (SPEC §2): x_t = u_t − u_{t−1}, Var(u) = Q²; ν² = 6Q²/τ²; Q_IEEE = QΔt.
+    """Quantisation noise Q² (docs/guide/theory.rst, 'Latent processes'): x_t = u_t − u_{t−1}, Var(u) = Q²; ν² = 6Q²/τ²;
+    Q_IEEE = QΔt.
 
     Parameters
     ----------

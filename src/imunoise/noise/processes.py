@@ -1,7 +1,8 @@
-"""Latent stochastic processes of inertial sensor errors and their Haar wavelet variance (SPEC §2).
+"""Latent stochastic processes of inertial sensor errors and their Haar wavelet variance
+(docs/guide/theory.rst, 'Latent processes').
 
 Each process is per sample at the data rate f = 1/Δt (the convention of R's simts). The closed forms
-below are the Haar MODWT wavelet variance ν²(τ) at scale τ = τ_j = 2^j samples (SPEC §1):
+below are the Haar MODWT wavelet variance ν²(τ) at scale τ = τ_j = 2^j samples (docs/guide/theory.rst, 'Conventions'):
 
 =====  ==========  ==========================================================================
 WN     σ²          σ²/τ

@@ -1,4 +1,5 @@
-"""Autonomous model selection over every sub-model of the complete model (paper §2.2, SPEC §5).
+"""Autonomous model selection over every sub-model of the complete model (paper §2.2,
+docs/guide/theory.rst, 'Model selection').
 
 All candidates are fitted on ONE shared problem (same WV, same Ω), so their GOFs (paper Eq. 8) are
 comparable. Candidates are visited from small to large; each is started from the fits of its immediate
@@ -114,7 +115,8 @@ def select_model(
     progress: Any = None,
     penalty: str = "bic",
 ) -> ModelRanking:
-    """Fit every non-empty sub-model of ``complete`` on one WV and Ω and rank them (SPEC §5, paper §2.2).
+    """Fit every non-empty sub-model of ``complete`` on one WV and Ω and rank them
+    (docs/guide/theory.rst, 'Model selection', paper §2.2).
 
     A candidate needs more wavelet levels than parameters (p < J, :func:`fits_levels`): with p ≥ J it
     reproduces any WV exactly (GOF 0, no degree of freedom left to test it), so it is skipped and listed in

@@ -1,4 +1,5 @@
-"""The discrete state-space form of one sensor axis' error model (SPEC §8): the blocks (Φ, Q, H, P0) a filter
+"""The discrete state-space form of one sensor axis' error model (docs/guide/theory.rst, 'Navigation filter'): the
+blocks (Φ, Q, H, P0) a filter
 runs over a step dt, stacked from each process' own :meth:`~imunoise.noise.process_base.Process.filter_block`
 (:meth:`imunoise.noise.model.Model.state_space` builds it)."""
 
@@ -17,7 +18,8 @@ __all__ = ["StateSpace", "stack_state_space"]
 
 @dataclass(frozen=True)
 class StateSpace:
-    """Discrete state-space blocks of one sensor axis' error model over a step dt (SPEC §8).
+    """Discrete state-space blocks of one sensor axis' error model over a step dt
+    (docs/guide/theory.rst, 'Navigation filter').
 
     Sensor error = ``H @ x + w`` with ``x_{k+1} = Phi @ x_k + q_k``, ``q ~ N(0, Q)`` and a white part w.
     States: ``bias`` (random constant, plus RW if present), then each process' own states in canonical order

@@ -1,7 +1,8 @@
 """The wavelet variance of every axis of a long IMU log in one streamed pass (issue "Calibrate from the logs
 people already have", §3): :func:`stream_wavelet_variance` feeds the SI blocks of
 :func:`imunoise.io.imu_stream.open_imu_blocks` into one :class:`imunoise.noise.wv_stream.WVStream`, so memory is set by
-the coarsest level, not by the log's length; the result equals the whole-file path's WV (SPEC §3) to 1e-9.
+the coarsest level, not by the log's length; the result equals the whole-file path's WV
+(docs/guide/theory.rst, 'Wavelet variance') to 1e-9.
 """
 
 from __future__ import annotations

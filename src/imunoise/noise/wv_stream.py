@@ -1,4 +1,5 @@
-"""Wavelet variance of ONE contiguous series fed in chunks, in memory set by the coarsest level (SPEC §3).
+"""Wavelet variance of ONE contiguous series fed in chunks, in memory set by the coarsest level
+(docs/guide/theory.rst, 'Wavelet variance').
 
 :class:`WVStream` gives what :func:`imunoise.noise.wv.wavelet_variance` gives for the whole series (same
 levels, nu^2_j, CIs, M_j and batch-means covariance, to rounding), for a series that is read piece by
@@ -89,7 +90,8 @@ def _neumaier(s, c, x):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _close_batch(st, cnt, scale):  # pragma: no cover - compiled
-    # fold the open batch of every column into the totals (SPEC §3 batch means, wv module docstring)
+    # fold the open batch of every column into the totals (docs/guide/theory.rst, 'Wavelet variance' batch means, wv
+    # module docstring)
     for c in range(st.shape[0]):
         sb = (st[c, 0] + st[c, 1]) * scale
         st[c, 2], st[c, 3] = _neumaier(st[c, 2], st[c, 3], sb)

@@ -1,4 +1,5 @@
-"""Online GMWM INS/GNSS engine (SPEC §0, §9; paper Fig. 1): static detection → online GMWM → model hot-swap in
+"""Online GMWM INS/GNSS engine (docs/guide/theory.rst, 'System overview' and 'Online engine'; paper Fig. 1): static
+detection → online GMWM → model hot-swap in
 the EKF. The last stage of the data path IMU → detection → modelling → filter: it drives the detector, the
 estimators and the filter, and imports from all three, never the other way. One concept per module, every public
 name importable from ``imunoise.online``:

@@ -1,5 +1,5 @@
-"""Settings of the online engine: :class:`OnlineConfig` (SPEC §9), the complete model the structure is
-identified from (``COMPLETE``), the threshold below which a fitted component counts as absent in the filter
+"""Settings of the online engine: :class:`OnlineConfig` (docs/guide/theory.rst, 'Online engine'), the complete model the
+structure is identified from (``COMPLETE``), the threshold below which a fitted component counts as absent in the filter
 (``NEGLIGIBLE``) and the settings summary written in the ``start`` event (:func:`config_summary`). What the
 settings do: :mod:`imunoise.online.navigator` (the engine) and :mod:`imunoise.online.to_filter` (the fit →
 filter mapping)."""
@@ -28,7 +28,8 @@ class OnlineConfig:
     ``detector``: static detector settings; ``None`` learns λ_0 from the first ``learn_lambda0_s`` of the
     IMU stream (which must be a stop, as for the alignment; :func:`imunoise.detect.learn_lambda0`).
     ``min_static_s``: static data needed before the structure identification (paper: the first long
-    stop). ``complete``/``criterion``/``top``: the selection (SPEC §5). ``modelling=False`` runs the EKF
+    stop). ``complete``/``criterion``/``top``: the selection (docs/guide/theory.rst, 'Model selection').
+    ``modelling=False`` runs the EKF
     with its initial models only (the plain/AV/EM baselines use this with ``initial_models``).
     ``latency``: fixed delay from a stop's completion to the model's effect (``None``: measured compute
     time). ``worker``: ``"inline"`` (replay) or ``"thread"``. ``gate``: use the 30 °/s angular-rate gate.

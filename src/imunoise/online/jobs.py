@@ -1,4 +1,5 @@
-"""The modelling job of the online engine (SPEC §9): :func:`model_job` identifies the structure or refits it
+"""The modelling job of the online engine (docs/guide/theory.rst, 'Online engine'): :func:`model_job` identifies the
+structure or refits it
 per axis on the pooled static WVs, and rejects an implausible fit (non-finite, or a GOF worse than the current
 model's). A pure function of its inputs, so the navigator runs it inline (replay) or in a worker thread."""
 
@@ -54,7 +55,8 @@ def model_job(kind: str, wvs: list, current: list[GMWMFit | None], config: Onlin
 
 
 def _implausible(fit: GMWMFit, current: GMWMFit | None) -> str | None:
-    """Reason to reject a fit, or None (SPEC §9: non-finite, GOF worse than the current model's)."""
+    """Reason to reject a fit, or None (docs/guide/theory.rst, 'Online engine': non-finite, GOF worse than the current
+    model's)."""
     v = fit.model.vector
     if not (np.all(np.isfinite(v)) and math.isfinite(fit.objective)):
         return "non-finite parameters or GOF"

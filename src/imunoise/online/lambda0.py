@@ -1,4 +1,5 @@
-"""The navigator's detector threshold λ_0 (SPEC §7): a fixed one from the configuration, or one learned from
+"""The navigator's detector threshold λ_0 (docs/guide/theory.rst, 'Static detection'): a fixed one from the
+configuration, or one learned from
 the first ``learn_lambda0_s`` seconds (samples held until then, then replayed through the detector)."""
 
 from __future__ import annotations

@@ -2,7 +2,8 @@
 
 :class:`StopModeller` holds what the online engine learns from the stops (paper §2.2–2.3; the rules are in
 :mod:`imunoise.online.navigator`'s docstring): the static pieces pooled so far (bias removed, one
-:class:`~imunoise.noise.wv.WVAccumulator` per axis, no wavelet coefficient across two pieces: SPEC §7), the current
+:class:`~imunoise.noise.wv.WVAccumulator` per axis, no wavelet coefficient across two pieces:
+docs/guide/theory.rst, 'Static detection'), the current
 fit of each axis, the modelling jobs (inline, or on one background thread that the filter never waits for)
 and the updates whose effect time has not come yet. The navigator hands it the samples of every kept stop and
 asks it at every sample which updates are due; it never touches the filter.
@@ -159,7 +160,8 @@ class StopModeller:
                 self._accept("identify", t0, out, t0)  # computed before the drive: in effect from its start
 
     def _pool_piece(self, piece: np.ndarray, *, keep_as_given: bool = False) -> None:
-        """Pool one static piece, its bias removed (SPEC §7). ``keep_as_given``: an earlier drive's piece is
+        """Pool one static piece, its bias removed (docs/guide/theory.rst, 'Static detection'). ``keep_as_given``: an
+        earlier drive's piece is
         stored with its exact values, so a chain of drives hands on the same bytes and a repeated piece is
         recognised (:func:`imunoise.io.static_npz.load_static_pieces`)."""
         centred = piece - piece.mean(axis=0)

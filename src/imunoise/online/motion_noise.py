@@ -17,7 +17,7 @@ from imunoise.online.learner import (
     horizontal_distance,
     ned_offset,
 )
-from imunoise.online.learner.candidates import DPH, Process, compose
+from imunoise.online.learner.candidates import DPH, LearnedProcess, compose
 
 __all__ = ["MotionNoiseConfig", "MotionNoisePrior", "MotionNoiseLearner", "add_motion_gm", "ned_offset",
            "horizontal_distance"]
@@ -29,6 +29,6 @@ def add_motion_gm(models: Sequence[Any], spec: Sequence[tuple[float, float]], ra
     out = list(models)
     for j, (sg, tc) in enumerate(spec):
         if sg > 0 and math.isfinite(sg):
-            one = compose([out[j]], (Process("gm", "gyro", float(sg) * DPH, float(tc)),), rate_hz)[0]
+            one = compose([out[j]], (LearnedProcess("gm", "gyro", float(sg) * DPH, float(tc)),), rate_hz)[0]
             out[j] = one
     return [m if isinstance(m, tuple) else (m, rate_hz) for m in out]

@@ -15,7 +15,8 @@ __all__ = ["ZuptStep", "ModellerViews"]
 
 
 class ZuptStep:
-    """Zero-velocity and zero-angular-rate updates while the detector says "static" (SPEC §8)."""
+    """Zero-velocity and zero-angular-rate updates while the detector says "static"
+    (docs/guide/theory.rst, 'Navigation filter')."""
 
     def _zupt_step(self, t: float, gate: bool) -> None:
         """A ZUPT (and ZARU) every ``zupt_every`` samples of a static run of ``zupt_after`` or more, the gate

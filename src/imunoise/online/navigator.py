@@ -1,8 +1,10 @@
-"""Online engine: static detection → online GMWM → model hot-swap in the EKF (SPEC §0, §9; paper Fig. 1).
+"""Online engine: static detection → online GMWM → model hot-swap in the EKF
+(docs/guide/theory.rst, 'System overview' and 'Online engine'; paper Fig. 1).
 
-Per IMU sample the navigator (1) feeds the static detector (SPEC §7), (2) sets the angular-rate gate,
-(3) propagates the loosely coupled EKF (SPEC §8) and applies queued GNSS fixes, (4) optionally applies
-ZUPT/ZARU while the detector says "static", (5) applies a new error model whose effect time has come.
+Per IMU sample the navigator (1) feeds the static detector (docs/guide/theory.rst, 'Static detection'), (2) sets the
+angular-rate gate,
+(3) propagates the loosely coupled EKF (docs/guide/theory.rst, 'Navigation filter') and applies queued GNSS fixes, (4)
+optionally applies ZUPT/ZARU while the detector says "static", (5) applies a new error model whose effect time has come.
 
 Modelling (paper §2.2–2.3; held by :class:`~imunoise.online.modeller.StopModeller`, which the navigator feeds
 the kept stops and asks at every sample which model updates are due). Every completed static segment (trimmed,
@@ -53,12 +55,12 @@ first swap the floor's slow Gauss–Markov state, common to the plain default an
 20 simulated drives that reset at every stop costs +30 % mean outage drift against plain (6 drives:
 128 m reset, 105 m preserve, 109 m plain); on the real drive 225 m reset vs 215 m preserve.
 
-Criterion. GOF always prefers the biggest nested model; WVIC (GOF + 2·#identifiable parameters) penalises
-size. Measured (20 simulated drives, real drive): GOF 88 m vs WVIC 96 m vs plain 92 m mean outage drift on the
-simulator (before the collapse rule below, excluding one GOF divergence), 209 m vs 216 m vs 338 m on the
-real drive. With GOF, components that collapsed to the parameter bound (σ² ~ 1e-57, kept by the nesting
-guarantee of the selection) are dropped from the filter model (``NEGLIGIBLE``): kept, they made P
-ill-conditioned and the filter diverged on one simulated drive (4 km drift). Default: ``"gof"``.
+Criterion. GOF always prefers the biggest nested model; WVIC (the WV's −2 log-likelihood + p·ln n, see
+docs/guide/theory.rst, 'Model selection') penalises size. Measured (20 simulated drives, real drive): GOF 88 m vs
+WVIC 96 m vs plain 92 m mean outage drift on the simulator (before the collapse rule below, excluding one GOF
+divergence), 209 m vs 216 m vs 338 m on the real drive. With GOF, components that collapsed to the parameter bound
+(σ² ~ 1e-57, kept by the nesting guarantee of the selection) are dropped from the filter model (``NEGLIGIBLE``):
+kept, they made P ill-conditioned and the filter diverged on one simulated drive (4 km drift). Default: ``"wvic"``.
 
 Worker. ``worker="inline"`` (replay, deterministic): a model is computed at the stop's completion and takes
 effect at that time plus ``latency`` (a fixed delay; ``None`` = the measured compute time, as the paper's
@@ -110,7 +112,7 @@ __all__ = ["OnlineNavigator", "run_online"]
 # navigator
 # --------------------------------------------------------------------------------------------------
 class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, ModellerViews):
-    """Online GMWM INS/GNSS navigator (SPEC §9). See the module docstring.
+    """Online GMWM INS/GNSS navigator (docs/guide/theory.rst, 'Online engine'). See the module docstring.
 
     Parameters
     ----------
@@ -132,8 +134,8 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, Mode
         Static IMU samples of earlier drives of the same IMU, one array of shape (n, 6) per stop (rad/s, m/s²;
         columns gyro x, y, z, accel x, y, z; e.g. :attr:`OnlineResult.static_pieces` of an earlier run, or
         ``static.npz`` of ``imunoise online``). They are pooled with this drive's stops (each piece's
-        bias removed, no wavelet coefficient across pieces: SPEC §7). With modelling on and at least
-        ``min_static_s`` of them, the model is identified on them at construction (computed here, before
+        bias removed, no wavelet coefficient across pieces: docs/guide/theory.rst, 'Static detection'). With modelling
+        on and at least ``min_static_s`` of them, the model is identified on them at construction (computed here, before
         the first sample, with either worker) and the filter runs it from the first sample; every stop of
         this drive then refits on the pool. ``static_s`` counts them.
     """
@@ -219,8 +221,8 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, Mode
         t
             Fix time (s), same time base as the IMU samples.
         llh_rad
-            (latitude rad, longitude rad, height m) of the antenna (SPEC §1: SI inside). Degrees are
-            refused: a latitude beyond ±π/2 or a longitude beyond ±π raises :class:`DataError` (convert
+            (latitude rad, longitude rad, height m) of the antenna (docs/guide/theory.rst, 'Conventions': SI inside).
+            Degrees are refused: a latitude beyond ±π/2 or a longitude beyond ±π raises :class:`DataError` (convert
             with ``np.radians``); so do non-finite values (skip fixes without a position).
         sigma_ned_m
             1σ of the fix along north, east, down (m), ≥ 0. A NaN σ is handled by the filter (replaced by

@@ -85,7 +85,7 @@ class OnlineResult(NavSolution):
 
 
     def write_events(self, path: str | Path) -> Path:
-        """JSON lines, one event per line (SPEC §9, §11)."""
+        """JSON lines, one event per line (docs/guide/theory.rst, 'Online engine' and 'Experiments')."""
         p = Path(path)
         with p.open("w") as fh:
             for e in self.events:

@@ -1,6 +1,7 @@
 """Which detected stops the online engine models: the navigation check of a static segment (``stop_guard``).
 
-The static detector (SPEC §7) looks at the IMU alone: a stop is a window whose horizontal specific force
+The static detector (docs/guide/theory.rst, 'Static detection') looks at the IMU alone: a stop is a window whose
+horizontal specific force
 scatters less than λ. With a λ_0 learned on a noisy IMU (≈ 2σ of its noise at the first stop) the
 vibration of a car cruising smoothly scatters as little, and the detector calls it static (simulator,
 ``"noisy"`` preset: epoch precision 0.5–0.6). Such a segment holds vehicle dynamics and vibration, not the

@@ -1,4 +1,5 @@
-"""The one mapping from a static GMWM fit to the filter's noise model (SPEC §9, paper §2.2–2.3):
+"""The one mapping from a static GMWM fit to the filter's noise model (docs/guide/theory.rst, 'Online engine', paper
+§2.2–2.3):
 :func:`ekf_axis_model` per axis, :func:`filter_axis_models` for the six axes (the online engine and the
 experiments' fixed-model baselines), :func:`data_horizon` and :func:`dr_equivalent_rw`. Everything that does not
 become a Gauss–Markov state goes through :func:`imunoise.noise.equivalent_noise.equivalent_noise`, the mapping the

@@ -1,4 +1,4 @@
-"""Simulator (SPEC §10): urban drives with known truth and long static recordings.
+"""Simulator (docs/guide/theory.rst, 'Simulator'): urban drives with known truth and long static recordings.
 
 ``simulate_drive(DriveConfig(...), imu_models, seed)`` returns a :class:`SimulatedDrive` (IMU with and
 without errors, GNSS, reference, truth, static mask) whose ``write(dir)`` produces the KF-GINS files and

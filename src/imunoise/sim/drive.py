@@ -1,4 +1,5 @@
-"""Simulated urban drive with known truth: IMU (true and with errors), GNSS, reference (SPEC §10).
+"""Simulated urban drive with known truth: IMU (true and with errors), GNSS, reference
+(docs/guide/theory.rst, 'Simulator').
 
 Error injection (per sensor axis j, per IMU sample k, rates in rad/s or m/s²):
 
@@ -139,8 +140,8 @@ class SimulatedDrive:
         """Write into ``out_dir`` (KF-GINS text formats): ``imu.txt`` (with errors), ``imu_true.txt``,
         ``gnss.txt`` (``gnss_full.txt`` too when outages were removed), ``ref.nav`` (antenna point, like
         the shared real drive's reference), ``ref_imu.nav`` (IMU origin), ``outages.txt`` (when outages
-        are set), ``truth.json`` and the ``dataset.json`` manifest (SPEC §12; ``ref_point`` says which
-        point ``ref`` is)."""
+        are set), ``truth.json`` and the ``dataset.json`` manifest (docs/guide/theory.rst, 'Interfaces'; ``ref_point``
+        says which point ``ref`` is)."""
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         gz = ".gz" if compress else ""
@@ -206,8 +207,8 @@ def _indices_at_rate(n_imu: int, imu_rate: float, rate: float, what: str) -> np.
 def simulate_drive(
     config: DriveConfig | None = None, imu_models: Any = None, seed: int | None = None
 ) -> SimulatedDrive:
-    """Simulate an urban drive with known truth (SPEC §10; equations in :mod:`imunoise.sim.trajectory`
-    and this module's docstring).
+    """Simulate an urban drive with known truth (docs/guide/theory.rst, 'Simulator'; equations in
+    :mod:`imunoise.sim.trajectory` and this module's docstring).
 
     ``imu_models``: anything :func:`~imunoise.sim.imu_errors.resolve_imu_models` accepts (``None``: no
     stochastic errors; turn-on bias, scale factor and vibration still follow ``config``). ``seed``

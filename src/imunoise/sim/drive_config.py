@@ -1,5 +1,5 @@
-"""Configuration of a simulated drive (SPEC §10): duration, rates, route, stops, GNSS, sensor errors and the
-motion-dependent noise law."""
+"""Configuration of a simulated drive (docs/guide/theory.rst, 'Simulator'): duration, rates, route, stops, GNSS, sensor
+errors and the motion-dependent noise law."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Manoeuvre planning of a simulated drive (SPEC §10): the scripted speed, yaw and pitch profiles, stops and
-turns, on the IMU integration grid."""
+"""Manoeuvre planning of a simulated drive (docs/guide/theory.rst, 'Simulator'): the scripted speed, yaw and pitch
+profiles, stops and turns, on the IMU integration grid."""
 
 from __future__ import annotations
 

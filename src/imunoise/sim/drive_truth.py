@@ -1,5 +1,5 @@
-"""The truth record of a simulated drive (``truth.json``, SPEC §10): the injected errors, stops, turns,
-outages and the initial state."""
+"""The truth record of a simulated drive (``truth.json``, docs/guide/theory.rst, 'Simulator'): the injected errors,
+stops, turns, outages and the initial state."""
 
 from __future__ import annotations
 
@@ -39,7 +39,8 @@ def truth_record(
     static_mask: np.ndarray,
     t: np.ndarray,
 ) -> dict[str, Any]:
-    """The ``truth.json`` content of a drive: everything injected, in GPS seconds of week (SPEC §10)."""
+    """The ``truth.json`` content of a drive: everything injected, in GPS seconds of week
+    (docs/guide/theory.rst, 'Simulator')."""
     s0 = cfg.start_sow
     step = max(1, int(round(cfg.imu_rate_hz)))
     wz = np.degrees(kin.omega_ib_b[at, 2])

@@ -1,14 +1,15 @@
-"""IMU error models for the simulator: presets, per-axis model resolution, error injection (SPEC §2, §10).
+"""IMU error models for the simulator: presets, per-axis model resolution, error injection
+(docs/guide/theory.rst, 'Latent processes' and 'Simulator').
 
 Sensor axes are :data:`imunoise.imu.AXES`: ``gyro_x, gyro_y, gyro_z`` (rad/s) and ``accel_x, accel_y,
 accel_z`` (m/s²); inputs may still use the short names ``gx`` … ``az`` of older truth files. A model's
-parameters are per sample at the IMU rate (SPEC §1). Presets are stored as continuous-time values
-(noise density, random-walk K, Gauss–Markov T_c and σ, rate ramp) and converted at the requested rate:
+parameters are per sample at the IMU rate (docs/guide/theory.rst, 'Conventions'). Presets are stored as continuous-time
+values (noise density, random-walk K, Gauss–Markov T_c and σ, rate ramp) and converted at the requested rate:
 
     WN σ² = N²·f,  RW γ² = K²/f,  AR1 φ = exp(−1/(T_c f)), σ² = σ²_GM (1 − φ²),
     DR ω = R/f,  QN Q² = (Q_IEEE f)²
 
-(inverse of the SPEC §2 "continuous-time equivalent" column).
+(inverse of the docs/guide/theory.rst, 'Latent processes' "continuous-time equivalent" column).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Long static recording for a given IMU error model (the paper's 2 h static test, SPEC §10).
+"""Long static recording for a given IMU error model (the paper's 2 h static test, docs/guide/theory.rst, 'Simulator').
 
 A motionless IMU at ``llh`` with attitude ``euler`` senses the Earth rate and gravity only:
 ω_ib^b = C_n^b ω_ie^n and f^b = −C_n^b g^n with g^n = [0, 0, g(lat, h)] (normal gravity), constant in

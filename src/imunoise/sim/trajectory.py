@@ -1,4 +1,4 @@
-"""Urban-drive trajectory with exact strapdown kinematics (SPEC §10).
+"""Urban-drive trajectory with exact strapdown kinematics (docs/guide/theory.rst, 'Simulator').
 
 The vehicle is described by four smooth scalar channels of time: speed v, yaw ψ, pitch θ (road grade)
 and roll φ. Speed, yaw and pitch are sums of non-overlapping quintic "smoothstep" ramps

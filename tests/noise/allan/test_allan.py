@@ -1,4 +1,5 @@
-"""Allan-variance baseline (SPEC §6): AV identity, dense grid, IEEE reading, equivalent model, CLI."""
+"""Allan-variance baseline (docs/guide/theory.rst, 'Baselines'): AV identity, dense grid, IEEE reading, equivalent
+model, CLI."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""The selection's fast paths compute exactly what the process classes and the model algebra compute (SPEC §4–5)."""
+"""The selection's fast paths compute exactly what the process classes and the model algebra compute
+(docs/guide/theory.rst, 'GMWM estimator'–5)."""
 
 from __future__ import annotations
 

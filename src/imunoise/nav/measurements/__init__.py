@@ -1,5 +1,5 @@
-"""Measurements of the filter (SPEC §8): the aiding half of the last stage of the data path
-(IMU → detection → modelling → filter); one filter step, pluggable measurements.
+"""Measurements of the filter (docs/guide/theory.rst, 'Navigation filter'): the aiding half of the last stage of the
+data path (IMU → detection → modelling → filter); one filter step, pluggable measurements.
 
 A measurement is a pair of plain numba functions: one builds the innovation, its Jacobian and noise for the
 current state, ``dz, H, R = <name>(nav, n, ...)`` (δz = ẑ − z with the error convention δx = x̂ − x of

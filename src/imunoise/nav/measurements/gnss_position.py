@@ -1,4 +1,4 @@
-"""GNSS antenna position (SPEC §8; KF-GINS ``GNSSUpdate``).
+"""GNSS antenna position (docs/guide/theory.rst, 'Navigation filter'; KF-GINS ``GNSSUpdate``).
 
 dz = D_R (r̂ + D_R⁻¹ C_b^n l − r_gnss) − v̂·δt (NED m) for a fix δt before the filter epoch, with the lever arm
 l (body FRD, m); H = [I, 0, (C_b^n l)×, 0]; R = diag(σ²). The velocity term refers the fix to the filter epoch

@@ -1,4 +1,4 @@
-"""Zero-velocity (ZUPT) and zero-angular-rate (ZARU) updates at stops (SPEC §7–8).
+"""Zero-velocity (ZUPT) and zero-angular-rate (ZARU) updates at stops (docs/guide/theory.rst, 'Static detection'–8).
 
 ZUPT: dz = v̂^n, H = [0, I, 0, 0], R = σ_v² I. ZARU: the last corrected angular rate equals the Earth rate in
 body, dz = Δθ̂/Δt − C_b^nᵀ ω_ie^n, H couples the gyro model states (H[a, 9 + s] = h_s for the states of gyro

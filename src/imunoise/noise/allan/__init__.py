@@ -1,11 +1,13 @@
-"""Allan-variance baseline: automated IEEE Std 952/1293 reading of the overlapping AV (SPEC §6).
+"""Allan-variance baseline: automated IEEE Std 952/1293 reading of the overlapping AV
+(docs/guide/theory.rst, 'Baselines').
 
 What practitioners do, made reproducible. The overlapping Allan variance at averaging time τ = mΔt is
 
     AVAR(m) = Σ_k (ȳ_{k+m}(m) − ȳ_k(m))² / (2(N − 2m + 1)),
 
 computed from cumulative sums for any m (the dense log grid), and on the octave grid m = 2^{j−1} it is
-exactly 2ν²_j of the Haar wavelet variance (SPEC §1), so it comes from :func:`imunoise.noise.wv.wavelet_variance`.
+exactly 2ν²_j of the Haar wavelet variance (docs/guide/theory.rst, 'Conventions'), so it comes from
+:func:`imunoise.noise.wv.wavelet_variance`.
 
 Modules: :mod:`~imunoise.noise.allan.variance` (the AVAR and its intervals), :mod:`~imunoise.noise.allan.reading` (the
 automated reading of its lines and the equivalent model), :mod:`~imunoise.noise.allan.curves` (curves of a fit, the

@@ -1,5 +1,5 @@
 """Allan curves of a fit: the data's curve stored with it, the model's curve, their JSON form and the plot
-with the reading's lines and regions (SPEC §6)."""
+with the reading's lines and regions (docs/guide/theory.rst, 'Baselines')."""
 
 from __future__ import annotations
 
@@ -24,7 +24,8 @@ def curve_to_dict(av: AllanVariance) -> dict[str, Any]:
 def data_curve(fit: GMWMFit) -> AllanVariance | None:
     """The data's Allan curve a fit carries, densest first: ``extra["data_allan"]`` (the dense grid stored by
     :func:`imunoise.noise.imu_model.fit_axis`), an AV fit's ``extra["allan_curve"]``, else the octave grid of the
-    fit's own WV (AVAR = 2ν²_j at τ = 2^(j−1)Δt, SPEC §1; η = M_j/2^j). None when the fit has no WV."""
+    fit's own WV (AVAR = 2ν²_j at τ = 2^(j−1)Δt, docs/guide/theory.rst, 'Conventions'; η = M_j/2^j). None when the fit
+    has no WV."""
     c = fit.extra.get("data_allan")
     if c:
         tau, avar, eta = (np.asarray(c[k], dtype=float) for k in ("tau_s", "avar", "dof"))

@@ -1,4 +1,5 @@
-"""Automated IEEE Std 952/1293 reading of the Allan deviation and the equivalent filter model (SPEC §6).
+"""Automated IEEE Std 952/1293 reading of the Allan deviation and the equivalent filter model
+(docs/guide/theory.rst, 'Baselines').
 
 Reading (Allan deviation AD = √AVAR, τ in seconds, data unit u):
 
@@ -59,7 +60,8 @@ __all__ = [
 
 BI_FACTOR = 0.6643  # AD at the flicker floor = sqrt(2 ln2 / π)·B
 LINES = {"Q": -1.0, "N": -0.5, "B": 0.0, "K": 0.5, "R": 1.0}
-#: Equivalent degrees of freedom an Allan point needs to be read (SPEC §3, η = max(M/(2m), 1)); the one
+#: Equivalent degrees of freedom an Allan point needs to be read (docs/guide/theory.rst, 'Wavelet variance', η =
+# max(M/(2m), 1)); the one
 #: definition of a "reliable" point, shared by the reading and the data's bound on K (:func:`rw_bound`).
 MIN_DOF = 3.0
 
@@ -254,7 +256,8 @@ def allan_fit(
     robust: bool = False,
     **reading_options: Any,
 ) -> GMWMFit:
-    """AV baseline (SPEC §6): read the AV automatically and return the equivalent model as a fit.
+    """AV baseline (docs/guide/theory.rst, 'Baselines'): read the AV automatically and return the equivalent model as a
+    fit.
 
     Parameters
     ----------

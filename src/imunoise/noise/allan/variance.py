@@ -1,11 +1,13 @@
-"""The overlapping Allan variance on a dense log grid or the octave grid, with its χ² intervals (SPEC §6).
+"""The overlapping Allan variance on a dense log grid or the octave grid, with its χ² intervals
+(docs/guide/theory.rst, 'Baselines').
 
 What practitioners do, made reproducible. The overlapping Allan variance at averaging time τ = mΔt is
 
     AVAR(m) = Σ_k (ȳ_{k+m}(m) − ȳ_k(m))² / (2(N − 2m + 1)),
 
 computed from cumulative sums for any m (the dense log grid), and on the octave grid m = 2^{j−1} it is
-exactly 2ν²_j of the Haar wavelet variance (SPEC §1), so it comes from :func:`imunoise.noise.wv.wavelet_variance`.
+exactly 2ν²_j of the Haar wavelet variance (docs/guide/theory.rst, 'Conventions'), so it comes from
+:func:`imunoise.noise.wv.wavelet_variance`.
 """
 
 from __future__ import annotations

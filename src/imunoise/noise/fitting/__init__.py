@@ -1,4 +1,5 @@
-"""GMWM machinery behind :mod:`imunoise.noise.estimator` and :mod:`imunoise.noise.selection` (paper Eq. 6, SPEC §4–5).
+"""GMWM machinery behind :mod:`imunoise.noise.estimator` and :mod:`imunoise.noise.selection` (paper Eq. 6,
+docs/guide/theory.rst, 'GMWM estimator'–5).
 
 One concept per module:
 

@@ -1,4 +1,5 @@
-"""The AR1 Haar WV and its derivative at every level of a scale grid, for the solver's kernels (SPEC §2; numba).
+"""The AR1 Haar WV and its derivative at every level of a scale grid, for the solver's kernels
+(docs/guide/theory.rst, 'Latent processes'; numba).
 
 The same operations on the same operands as :func:`imunoise.noise.ar1_math.ar1_g` at m = τ_j/2, so the same bits (tests
 in ``tests/noise/fitting/test_ar1_levels.py``), with less work: what does not depend on the level (φ, expm1(L),
@@ -42,7 +43,8 @@ def series_tail(x, order):
 
 @njit(cache=True)
 def ar1_g_levels(tau, L, g, gL):
-    """:func:`~imunoise.noise.ar1_math.ar1_g` at m = τ_j/2 for every level, into ``g`` and ``gL`` (SPEC §2).
+    """:func:`~imunoise.noise.ar1_math.ar1_g` at m = τ_j/2 for every level, into ``g`` and ``gL``
+    (docs/guide/theory.rst, 'Latent processes').
 
     The same operations on the same operands as ``ar1_g(tau[j] / 2.0, L)``, so the same bits (a test checks
     it); what does not depend on the level (φ, expm1(L), expm1(2L) and their series tails) is computed once

@@ -1,4 +1,5 @@
-"""Checks of the arguments every estimator shares: the sample rate and the data unit (SPEC §1)."""
+"""Checks of the arguments every estimator shares: the sample rate and the data unit
+(docs/guide/theory.rst, 'Conventions')."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ __all__ = ["check_freq", "check_unit"]
 
 
 def check_freq(freq: Any, name: str = "freq") -> float:
-    """The sample rate as a float, or a :class:`DataError` saying how to give it (SPEC §1).
+    """The sample rate as a float, or a :class:`DataError` saying how to give it (docs/guide/theory.rst, 'Conventions').
 
     Parameters
     ----------
@@ -42,7 +43,8 @@ def check_freq(freq: Any, name: str = "freq") -> float:
 
 
 def check_unit(unit: Any) -> str:
-    """``unit`` if it names a unit the readers know (SPEC §1; same table as the CLI's ``--units``).
+    """``unit`` if it names a unit the readers know (docs/guide/theory.rst, 'Conventions'; same table as the CLI's
+    ``--units``).
 
     ``"u"`` means "unspecified" (the default of the estimators). Anything else must be a unit of
     :data:`imunoise.units.UNITS` (e.g. ``"rad/s"``, ``"m/s²"``, ``"deg/h"``); an unknown name raises the

@@ -1,4 +1,5 @@
-"""Fitting one candidate of the selection from its immediate sub-models (paper §2.2, SPEC §5).
+"""Fitting one candidate of the selection from its immediate sub-models (paper §2.2,
+docs/guide/theory.rst, 'Model selection').
 
 Each candidate is started from the fits of its immediate sub-models (the new process added at several
 amplitudes, a new AR1 at several correlation scales) plus a few guided starts, and refined by the

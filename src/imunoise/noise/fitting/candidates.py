@@ -1,4 +1,5 @@
-"""The candidate models of the selection: every non-empty sub-model of the complete model (SPEC §5).
+"""The candidate models of the selection: every non-empty sub-model of the complete model
+(docs/guide/theory.rst, 'Model selection').
 
 A :class:`Candidate` is a structure only (how many AR1s, which of the other processes); its immediate
 sub-models (:meth:`Candidate.parents`) are where :mod:`imunoise.noise.fitting.candidate_fit` starts it from.

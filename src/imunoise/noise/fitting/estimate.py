@@ -1,4 +1,5 @@
-"""The GMWM estimators (paper Eq. 6, SPEC §4–5): :func:`gmwm`, :func:`refit` and their solver.
+"""The GMWM estimators (paper Eq. 6, docs/guide/theory.rst, 'GMWM estimator'–5): :func:`gmwm`, :func:`refit` and their
+solver.
 
 θ̂ = argmin_θ (ν̂ − ν(θ))ᵀ Ω (ν̂ − ν(θ)), solved as least squares on r(u) = W(ν̂ − ν(θ(u))) with
 WᵀW = Ω in the unconstrained parametrisation u of :mod:`imunoise.noise.fitting.params`, by the compiled
@@ -39,7 +40,8 @@ def fit_problem(
     rtol: float = 1e-10,
     with_cov: bool = True,
 ) -> GMWMFit:
-    """Fit ``model``'s structure on a prepared problem (shared WV and Ω; paper Eq. 6, SPEC §4).
+    """Fit ``model``'s structure on a prepared problem (shared WV and Ω; paper Eq. 6,
+    docs/guide/theory.rst, 'GMWM estimator').
 
     Parameters
     ----------
@@ -128,7 +130,7 @@ def gmwm(
     n_local: int = 6,
     iterate: int = 2,
 ) -> GMWMFit:
-    """Estimate ``model`` on ``data`` by GMWM (paper Eq. 6, SPEC §4).
+    """Estimate ``model`` on ``data`` by GMWM (paper Eq. 6, docs/guide/theory.rst, 'GMWM estimator').
 
     With the data-based weights (``"efficient"``, ``"diagonal"``) the fit is iterated ``iterate`` more
     times with Cov(ν̂) re-centred on the fitted WV (:meth:`GMWMProblem.reweighted`): weights computed
@@ -154,7 +156,7 @@ def gmwm(
         Parameters to start from (e.g. the previous fit of the same structure); guided starts are
         still tried unless ``n_random=0``.
     robust
-        Robust WV estimator (SPEC §3).
+        Robust WV estimator (docs/guide/theory.rst, 'Wavelet variance').
     unit
         Data unit named in summaries and JSON (``"u"``: unspecified; otherwise a unit the CLI's
         ``--units`` knows, :func:`check_unit`, else ``UnitError``).
@@ -233,7 +235,7 @@ def solve(
     Parameters
     ----------
     problem
-        The shared problem (one WV and Ω for every candidate, SPEC §5).
+        The shared problem (one WV and Ω for every candidate, docs/guide/theory.rst, 'Model selection').
     structure
         The structure being fitted.
     starts_theta
@@ -337,7 +339,8 @@ def refit(
     n_random: int = 0,
     seed: int = 0,
 ) -> GMWMFit:
-    """Re-estimate a fixed structure on (more) data, warm-started from a previous fit (SPEC §5).
+    """Re-estimate a fixed structure on (more) data, warm-started from a previous fit
+    (docs/guide/theory.rst, 'Model selection').
 
     The WV and Ω are recomputed from ``data`` (one Ω, as in the selection); the previous parameters
     and the structure's guided base starts are refined by LM (paper Eq. 6), the best kept.

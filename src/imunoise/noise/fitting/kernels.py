@@ -1,5 +1,5 @@
 """Compiled (numba) closed forms of the GMWM: model WV, its Jacobian, the objective and the
-Levenberg–Marquardt solver (paper Eq. 6, SPEC §2 and §4).
+Levenberg–Marquardt solver (paper Eq. 6, docs/guide/theory.rst, 'Latent processes' and 'GMWM estimator').
 
 The kernels work in the unconstrained parametrisation u of :mod:`imunoise.noise.fitting.params` on the
 normalised problem (ν̂' = ν̂/c, W' = cW). Kind codes and the per-process numba forms come from the registry
@@ -34,7 +34,8 @@ __all__ = ["ar1_g", "ar1_g_levels", "wv_and_jacobian", "objectives", "levenberg_
 
 @njit(cache=True)
 def wv_and_jacobian(u, kinds, tau, nu, jac):
-    """Model WV ν(u) and ∂ν/∂u (SPEC §2) for the parametrisation of :mod:`imunoise.noise.fitting.params`.
+    """Model WV ν(u) and ∂ν/∂u (docs/guide/theory.rst, 'Latent processes') for the parametrisation of
+    :mod:`imunoise.noise.fitting.params`.
 
     Parameters
     ----------
@@ -377,7 +378,8 @@ def u_rows(thetas, kinds, scale):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def wv_of_theta(theta, kinds, tau):  # pragma: no cover - compiled
-    """Model WV from natural parameters (canonical order), components summed in that order (SPEC §2).
+    """Model WV from natural parameters (canonical order), components summed in that order
+    (docs/guide/theory.rst, 'Latent processes').
 
     Parameters
     ----------

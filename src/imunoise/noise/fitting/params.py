@@ -1,4 +1,5 @@
-"""Unconstrained parametrisation of a GMWM model (paper Eq. 6 solved as least squares, SPEC §4).
+"""Unconstrained parametrisation of a GMWM model (paper Eq. 6 solved as least squares,
+docs/guide/theory.rst, 'GMWM estimator').
 
 * variances (σ², Q², γ²) and the drift ``|ω|`` as logarithms, divided by the data's WV scale c (ω by √c);
 * AR1s through their correlation times, ordered: v_k = log(−ln φ_k) with v_1 = u and

@@ -1,4 +1,5 @@
-"""The data side of a GMWM fit (SPEC §4–5): empirical WV, weight matrix Ω and normalisation, shared by
+"""The data side of a GMWM fit (docs/guide/theory.rst, 'GMWM estimator'–5): empirical WV, weight matrix Ω and
+normalisation, shared by
 every candidate model; guided starting points read off the WV; the GMM sandwich covariance of û.
 
 The data's WV is normalised by its largest value before solving so that bounds and tolerances do not
@@ -29,7 +30,8 @@ _TYPES = tuple(PROCESS_TYPES.values())
 
 @dataclass(frozen=True)
 class GMWMProblem:
-    """Everything about the data that a fit needs, shared by all candidate models (SPEC §5)."""
+    """Everything about the data that a fit needs, shared by all candidate models
+    (docs/guide/theory.rst, 'Model selection')."""
 
     wv: WaveletVariance
     weights: str
@@ -136,7 +138,8 @@ def prepare(
     weights: str | np.ndarray = "efficient",
     robust: bool = False,
 ) -> GMWMProblem:
-    """The problem a GMWM fit solves: WV of ``data``, weight matrix Ω, normalisation (SPEC §4–5).
+    """The problem a GMWM fit solves: WV of ``data``, weight matrix Ω, normalisation
+    (docs/guide/theory.rst, 'GMWM estimator'–5).
 
     Parameters
     ----------
@@ -149,7 +152,7 @@ def prepare(
         ``"efficient"`` (Ω = Cov(ν̂)⁻¹), ``"diagonal"``, ``"fast"`` (simts' 1/CI-width²), ``"identity"``
         or a J×J symmetric positive definite matrix.
     robust
-        Robust WV estimator (SPEC §3).
+        Robust WV estimator (docs/guide/theory.rst, 'Wavelet variance').
 
     Returns
     -------
@@ -184,7 +187,8 @@ def prepare(
 
 
 def guided_starts(problem: GMWMProblem, kinds: np.ndarray, n_random: int, seed: int) -> np.ndarray:
-    """Starting points from the shape of the empirical WV (SPEC §4), plus seeded perturbations.
+    """Starting points from the shape of the empirical WV (docs/guide/theory.rst, 'GMWM estimator'), plus seeded
+    perturbations.
 
     Each process starts from its own reading of the empirical WV (:meth:`imunoise.noise.processes.Process.start_values`:
     WN/QN from the finest scale, RW/DR from the coarsest); AR1 peaks sit on the scale grid with amplitudes read
@@ -277,7 +281,7 @@ def _start_plan(kinds: np.ndarray, J: int, n_random: int, seed: int) -> tuple[li
 
 
 def param_cov(problem: GMWMProblem, model: Model) -> np.ndarray | None:
-    """GMM sandwich covariance of û, (GᵀΩG)⁻¹GᵀΩVΩG(GᵀΩG)⁻¹ (SPEC §4).
+    """GMM sandwich covariance of û, (GᵀΩG)⁻¹GᵀΩVΩG(GᵀΩG)⁻¹ (docs/guide/theory.rst, 'GMWM estimator').
 
     Parameters
     ----------

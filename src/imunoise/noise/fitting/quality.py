@@ -1,4 +1,5 @@
-"""Quality of a fit against the data it was fitted to (SPEC §3, §12): the WV band check that gates an export,
+"""Quality of a fit against the data it was fitted to (docs/guide/theory.rst, 'Wavelet variance' and 'Interfaces'): the
+WV band check that gates an export,
 the exported (N, K) pair against the data's Allan variance, and the estimate of a selected structure.
 
 Three pure checks, all against the **data**, never against another model:
@@ -214,7 +215,8 @@ class PairCheck:
 
 
 def pair_model(N: float, K: float, freq: float) -> Model:
-    """The discrete model of a continuous (N, K) pair at ``freq``: WN(σ² = N²f) + RW(γ² = K²/f) (SPEC §2)."""
+    """The discrete model of a continuous (N, K) pair at ``freq``: WN(σ² = N²f) + RW(γ² = K²/f)
+    (docs/guide/theory.rst, 'Latent processes')."""
     comps = [WN(sigma2=float(N) ** 2 * freq)]
     if K > 0:
         comps.append(RW(gamma2=float(K) ** 2 / freq))

@@ -1,4 +1,5 @@
-"""The result of a model selection: :class:`ModelRanking`, every candidate fit best first (SPEC §5)."""
+"""The result of a model selection: :class:`ModelRanking`, every candidate fit best first
+(docs/guide/theory.rst, 'Model selection')."""
 
 from __future__ import annotations
 

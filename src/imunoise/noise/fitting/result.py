@@ -1,4 +1,5 @@
-"""The result of a fit (SPEC §4): :class:`GMWMFit`, its confidence intervals, summary and JSON form.
+"""The result of a fit (docs/guide/theory.rst, 'GMWM estimator'): :class:`GMWMFit`, its confidence intervals, summary
+and JSON form.
 
 Every estimator (GMWM, refit, model selection, the AV and EM baselines) builds its result with the one
 factory :meth:`GMWMFit.from_problem`, so that WV, Ω, rate and GOF (paper Eq. 8) are always taken from
@@ -47,7 +48,8 @@ def _exp(v: float) -> float:
 
 @dataclass
 class GMWMFit:
-    """Result of :func:`imunoise.noise.estimator.gmwm` and the other estimators (SPEC §4).
+    """Result of :func:`imunoise.noise.estimator.gmwm` and the other estimators
+    (docs/guide/theory.rst, 'GMWM estimator').
 
     ``objective`` is the paper's GOF (Eq. 8). Build one with :meth:`from_problem`.
 
@@ -114,7 +116,8 @@ class GMWMFit:
         param_cov_u: np.ndarray | None = None,
         extra: dict[str, Any] | None = None,
     ) -> GMWMFit:
-        """The fit of ``model`` on ``problem``: the one place a :class:`GMWMFit` is assembled (SPEC §4).
+        """The fit of ``model`` on ``problem``: the one place a :class:`GMWMFit` is assembled
+        (docs/guide/theory.rst, 'GMWM estimator').
 
         Parameters
         ----------
@@ -128,7 +131,7 @@ class GMWMFit:
         converged
             Whether the estimator reached its stopping rule.
         method
-            ``"gmwm"``, ``"av"`` (Allan baseline, SPEC §6) or ``"em"`` (EM baseline).
+            ``"gmwm"``, ``"av"`` (Allan baseline, docs/guide/theory.rst, 'Baselines') or ``"em"`` (EM baseline).
         unit
             Data unit named in summaries and JSON (``"u"``: unspecified).
         iterations, n_starts
@@ -196,7 +199,7 @@ class GMWMFit:
         return float(r @ r)
 
     def continuous(self) -> dict[str, float]:
-        """Continuous-time equivalents, SPEC §1–2 (units in :meth:`continuous_units`)."""
+        """Continuous-time equivalents, docs/guide/theory.rst, 'Conventions'–2 (units in :meth:`continuous_units`)."""
         return self.model.continuous(self.freq)
 
     def param_units(self) -> dict[str, str]:

@@ -1,5 +1,7 @@
-"""The words and units of a fit's summary (SPEC §4): units of the parameters in terms of the data unit, the
-text of a confidence interval, and the scales where a model leaves the WV's confidence band (SPEC §3)."""
+"""The words and units of a fit's summary (docs/guide/theory.rst, 'GMWM estimator'): units of the parameters in terms of
+the data unit, the
+text of a confidence interval, and the scales where a model leaves the WV's confidence band
+(docs/guide/theory.rst, 'Wavelet variance')."""
 
 from __future__ import annotations
 
@@ -62,7 +64,8 @@ def ci_text(ci: tuple[float, float] | None, available: bool = True) -> str:
 def band_departures(
     wv: WaveletVariance, theoretical: np.ndarray, *, min_levels: int = 2
 ) -> list[tuple[float, float]]:
-    """Ranges of scales where a model's WV leaves the empirical WV's confidence band (SPEC §3).
+    """Ranges of scales where a model's WV leaves the empirical WV's confidence band
+    (docs/guide/theory.rst, 'Wavelet variance').
 
     Parameters
     ----------

@@ -1,4 +1,5 @@
-"""Warm-up of the compiled kernels of the modelling path (SPEC §9: the first identification of the online engine).
+"""Warm-up of the compiled kernels of the modelling path (docs/guide/theory.rst, 'Online engine': the first
+identification of the online engine).
 
 numba compiles a kernel on its first call for each new type signature, or loads it from the on-disk
 cache (``__pycache__/*.nbi``/``*.nbc`` beside the sources, every kernel has ``cache=True``). In a fresh

@@ -1,4 +1,5 @@
-"""The wavelet variance information criterion (WVIC) of the model selection (paper §2.2, SPEC §5).
+"""The wavelet variance information criterion (WVIC) of the model selection (paper §2.2,
+docs/guide/theory.rst, 'Model selection').
 
 The GOF (paper Eq. 8) measures the in-sample misfit and always prefers the bigger of two nested models, so a
 penalised criterion is reported beside it (and ranks when ``criterion="wvic"``). Stebler, Guerrier,
@@ -58,7 +59,8 @@ _RANK_RTOL = 1e-8
 
 
 def process_spectrum(model: Model, f: np.ndarray) -> np.ndarray:
-    """Two-sided (pseudo-)spectral density S(f) of the model, f in cycles/sample (DR adds none; SPEC §2).
+    """Two-sided (pseudo-)spectral density S(f) of the model, f in cycles/sample (DR adds none;
+    docs/guide/theory.rst, 'Latent processes').
 
     Parameters
     ----------

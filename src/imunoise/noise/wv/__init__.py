@@ -1,4 +1,5 @@
-"""Haar wavelet variance (WV) of one series or of many segments (SPEC §1 and §3, paper Eq. 4).
+"""Haar wavelet variance (WV) of one series or of many segments
+(docs/guide/theory.rst, 'Conventions' and 'Wavelet variance', paper Eq. 4).
 
 Conventions (same as R ``simts``/``gmwm``, so numbers compare one for one): level j = 1..J, Haar MODWT
 filter of width tau_j = 2**j samples, m = 2**(j-1) and
@@ -16,7 +17,8 @@ Each segment is de-meaned by its own mean first (a constant cancels in every W e
 digits).
 
 Segments. For a list of 1-D arrays the coefficients are formed inside each segment only and pooled:
-nu^2_j = sum_s sum_t W^2 / sum_s M_{j,s} (SPEC §3); ``concat=True`` concatenates instead (the paper's way).
+nu^2_j = sum_s sum_t W^2 / sum_s M_{j,s} (docs/guide/theory.rst, 'Wavelet variance'); ``concat=True`` concatenates
+instead (the paper's way).
 :class:`WVAccumulator` keeps the per-level sums, so adding a stop costs only its own samples.
 Modules: :mod:`~imunoise.noise.wv.batch` (:func:`wavelet_variance`), :mod:`~imunoise.noise.wv.accumulator` (pooled
 sums, :class:`WVAccumulator`), :mod:`~imunoise.noise.wv.covariance` (eta3 CIs and the covariance of nu^2),

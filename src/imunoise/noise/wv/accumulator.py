@@ -1,9 +1,9 @@
 """Pooled classical wavelet variance over segments added one at a time, its input checks, and the WV
-from per-level sufficient statistics (SPEC §3).
+from per-level sufficient statistics (docs/guide/theory.rst, 'Wavelet variance').
 
 Segments. The coefficients are formed inside each segment only and pooled:
-nu^2_j = sum_s sum_t W^2 / sum_s M_{j,s} (SPEC §3). Each segment is de-meaned by its own mean first (a
-constant cancels in every W exactly, but would cost digits).
+nu^2_j = sum_s sum_t W^2 / sum_s M_{j,s} (docs/guide/theory.rst, 'Wavelet variance'). Each segment is de-meaned by its
+own mean first (a constant cancels in every W exactly, but would cost digits).
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ def check_args(levels: int | None, alpha: float, min_coefficients: int) -> None:
 
 
 class WVAccumulator:
-    """Pooled classical WV over segments added one at a time (SPEC §3).
+    """Pooled classical WV over segments added one at a time (docs/guide/theory.rst, 'Wavelet variance').
 
     Each added segment is a separate stop: no coefficient spans two of them. For one contiguous series
     fed in chunks (a long log read piece by piece) use :class:`imunoise.noise.wv_stream.WVStream`, which forms

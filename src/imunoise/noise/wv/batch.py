@@ -1,4 +1,5 @@
-"""The batch Haar wavelet variance of one series or of many segments (SPEC §1 and §3, paper Eq. 4)."""
+"""The batch Haar wavelet variance of one series or of many segments
+(docs/guide/theory.rst, 'Conventions' and 'Wavelet variance', paper Eq. 4)."""
 
 from __future__ import annotations
 
@@ -33,7 +34,8 @@ def wavelet_variance(
     concat: bool = False,
     min_coefficients: int = MIN_COEFFICIENTS,
 ) -> WaveletVariance:
-    """Haar wavelet variance nu^2_j, j = 1..J, with eta3 chi-square CIs (SPEC §3, paper Eq. 4).
+    """Haar wavelet variance nu^2_j, j = 1..J, with eta3 chi-square CIs (docs/guide/theory.rst, 'Wavelet variance',
+    paper Eq. 4).
 
     Parameters
     ----------

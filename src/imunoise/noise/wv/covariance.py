@@ -1,5 +1,6 @@
 """eta3 chi-square intervals and the diagonal covariance of nu^2 hat; the one place a
-:class:`~imunoise.noise.wv.result.WaveletVariance` is finished from per-level sums (SPEC §3, paper Eq. 4).
+:class:`~imunoise.noise.wv.result.WaveletVariance` is finished from per-level sums
+(docs/guide/theory.rst, 'Wavelet variance', paper Eq. 4).
 
 Covariance of nu^2 (``WaveletVariance.cov``). Diagonal. Per level the long-run variance of W^2_{j,t} is
 estimated by non-overlapping batch means (asymptotically the Bartlett lag-window estimate of the
@@ -38,7 +39,8 @@ COV_PRIOR_BATCHES = 4.0
 
 
 def chi2_ci(variance: np.ndarray, m: np.ndarray, scales: np.ndarray, alpha: float):
-    """eta3 chi-square CI (SPEC §3): eta = max(M_j / 2**j, 1), [eta nu^2 / q_{1-a/2}, eta nu^2 / q_{a/2}]."""
+    """eta3 chi-square CI (docs/guide/theory.rst, 'Wavelet variance'): eta = max(M_j / 2**j, 1), [eta nu^2 / q_{1-a/2},
+    eta nu^2 / q_{a/2}]."""
     eta = np.maximum(m / scales, 1.0)
     # chi-square quantiles as scipy.stats.chi2.ppf computes them, without its per-call overhead
     lo = eta * variance / (2.0 * gammaincinv(eta / 2.0, 1.0 - alpha / 2.0))

@@ -1,5 +1,5 @@
 """Numba kernels of the Haar wavelet variance: window-sum pyramid, per-level sums and batch statistics
-(paper Eq. 4, SPEC §3).
+(paper Eq. 4, docs/guide/theory.rst, 'Wavelet variance').
 
 Window sums S_m(t) of length m = 2**(j-1) are built by the pyramid recursion S_2m(t) = S_m(t) + S_m(t-m),
 and W_{j,t} = (S_m(t) - S_m(t-m)) / (2m). One vectorised pass over memory per two levels, O(N*J) in total;

@@ -1,4 +1,4 @@
-"""The wavelet variance result type (SPEC §3) and helpers over its levels."""
+"""The wavelet variance result type (docs/guide/theory.rst, 'Wavelet variance') and helpers over its levels."""
 
 from __future__ import annotations
 
@@ -14,7 +14,8 @@ __all__ = ["WaveletVariance", "diagonal_weights", "scale_runs"]
 
 @dataclass(frozen=True)
 class WaveletVariance:
-    """Haar wavelet variance per level (SPEC §3). Arrays are per kept level j (ascending).
+    """Haar wavelet variance per level (docs/guide/theory.rst, 'Wavelet variance'). Arrays are per kept level j
+    (ascending).
 
     Attributes
     ----------
@@ -96,7 +97,8 @@ class WaveletVariance:
         return np.rint(np.log2(self.scales)).astype(np.int64)
 
     def avar(self) -> tuple[np.ndarray, np.ndarray]:
-        """(averaging time m/freq in s with m = 2**(j-1), overlapping Allan variance 2*nu^2_j) (SPEC §1)."""
+        """(averaging time m/freq in s with m = 2**(j-1), overlapping Allan variance 2*nu^2_j)
+        (docs/guide/theory.rst, 'Conventions')."""
         return self.scales / 2.0 / self.freq, 2.0 * self.variance
 
     def to_dict(self) -> dict:

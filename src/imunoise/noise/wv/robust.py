@@ -1,4 +1,5 @@
-"""Robust wavelet variance: Huber M-estimate of scale of the W_{j,t} per level (SPEC §3).
+"""Robust wavelet variance: Huber M-estimate of scale of the W_{j,t} per level
+(docs/guide/theory.rst, 'Wavelet variance').
 
 rho(u) = min(u^2, c^2) with c = ``HUBER_C`` (60 % Gaussian efficiency, simts' default efficiency; breakdown
 point beta/c^2 = 43 %). The covariance of the robust nu^2 is the batch-means estimate applied to its influence

@@ -17,19 +17,30 @@ Parts (one concept per module):
 * :mod:`~imunoise.online.learner.decision`: choose / confirm at α/m on disjoint later rounds / revert; the NIS
   guard on position and velocity;
 * :mod:`~imunoise.online.learner.likelihood`: the selectable likelihood statistic (``statistic="likelihood"``,
-  development only): likelihood-ratio tests on the shadows' one-step GNSS innovations, a GNSS σ-scale rival, the
-  rehearsal drift as a harm guard;
+  EXPERIMENTAL research code): likelihood-ratio tests on the shadows' one-step GNSS innovations, a GNSS σ-scale
+  rival, the rehearsal drift as a harm guard;
 * :mod:`~imunoise.online.learner.core`: the learner's state (searches, phases, decisions, cost);
 * :mod:`~imunoise.online.learner.host`: the navigator's side (live swaps, departure steps, the event log);
 * :mod:`~imunoise.online.learner.config`: settings and the evidence carried to the next drive.
 """
 
-from imunoise.online.learner.candidates import DEFAULT_FAMILIES, Family, Process, compose, describe
+from imunoise.online.learner.candidates import DEFAULT_FAMILIES, Family, LearnedProcess, compose, describe
 from imunoise.online.learner.config import MotionNoiseConfig, MotionNoisePrior
 from imunoise.online.learner.core import MotionNoiseLearner
 from imunoise.online.learner.decision import Verdict, choose, confirm, nis_ok, revert
 from imunoise.online.learner.rehearsal import horizontal_distance, ned_offset
 
-__all__ = ["DEFAULT_FAMILIES", "Family", "Process", "compose", "describe", "MotionNoiseConfig", "MotionNoisePrior",
-           "MotionNoiseLearner", "Verdict", "choose", "confirm", "nis_ok", "revert", "horizontal_distance",
-           "ned_offset"]
+__all__ = ["DEFAULT_FAMILIES", "Family", "LearnedProcess", "compose", "describe", "MotionNoiseConfig",
+           "MotionNoisePrior", "MotionNoiseLearner", "Verdict", "choose", "confirm", "nis_ok", "revert",
+           "horizontal_distance", "ned_offset"]
+
+
+def __getattr__(name: str):
+    # the learner's process was called Process, the same name as the noise process of imunoise.noise.processes
+    if name == "Process":
+        import warnings
+
+        warnings.warn("imunoise.online.learner.Process is renamed LearnedProcess (imunoise.noise.processes.Process is "
+                      "the noise process); the old name goes in the next release", DeprecationWarning, stacklevel=2)
+        return LearnedProcess
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,6 +1,6 @@
 """What the in-motion noise learner can add to a filter model, and the candidates of one search.
 
-A learned model is a tuple of :class:`Process` (at most one per family = (kind, sensor)), added on top of the
+A learned model is a tuple of :class:`LearnedProcess` (at most one per family = (kind, sensor)), added on top of the
 static model the stops identified (the six per-axis models of the filter, gyro x, y, z then accel x, y, z):
 
 * ``gm``: an in-motion first-order Gauss–Markov bias on the sensor's three axes, the same σ and T_c on each,
@@ -28,7 +28,7 @@ from imunoise.errors import ModelError
 from imunoise.noise.model import Model
 from imunoise.noise.processes import AR1, WN
 
-__all__ = ["Process", "Family", "DEFAULT_FAMILIES", "LIKELIHOOD_FAMILIES", "compose", "with_process", "describe",
+__all__ = ["LearnedProcess", "Family", "DEFAULT_FAMILIES", "LIKELIHOOD_FAMILIES", "compose", "with_process", "describe",
            "departure_variance", "search_candidates", "refine", "spec_from_dicts", "DPH"]
 
 DPH = math.pi / 180.0 / 3600.0  # °/h → rad/s
@@ -37,7 +37,7 @@ KINDS = ("gm", "white", "step")
 
 
 @dataclass(frozen=True)
-class Process:
+class LearnedProcess:
     """One learned process on the three axes of ``sensor`` (module docstring); ``sigma`` SI (factor for
     ``white``), ``tc_s`` the Gauss–Markov correlation time [s] (0 otherwise)."""
 
@@ -71,7 +71,7 @@ class Process:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> Process:
+    def from_dict(cls, d: dict[str, Any]) -> LearnedProcess:
         try:
             sig = next(v for k, v in d.items() if k.startswith("sigma_") and k != "sigma_dph")
             return cls(str(d["kind"]), str(d["sensor"]), float(sig), float(d.get("tc_s", 0.0)))
@@ -79,7 +79,7 @@ class Process:
             raise ModelError(f"not a learned process: {d!r} (needs kind, sensor and sigma_<unit>)") from exc
 
 
-Spec = tuple[Process, ...]
+Spec = tuple[LearnedProcess, ...]
 
 
 @dataclass(frozen=True)
@@ -115,12 +115,12 @@ DEFAULT_FAMILIES: tuple[Family, ...] = (
 # The one-step innovation likelihood sees seconds ahead; a T_c shorter than an outage makes the filter forget,
 # within the outage, the bias it had estimated, and white-noise inflation fits the fixes without better bias
 # estimates: on development seeds both fitted the fixes better and drifted more in 60-s outages
-# (docs/acceptance/issue24_likelihood.md)
+# (docs/evidence/in_motion_likelihood.md)
 LIKELIHOOD_FAMILIES: tuple[Family, ...] = (Family("gm", "gyro", 100.0 * DPH, 3.0, (100.0,)), DEFAULT_FAMILIES[1],
                                            *DEFAULT_FAMILIES[4:])
 
 
-def with_process(spec: Spec, p: Process) -> Spec:
+def with_process(spec: Spec, p: LearnedProcess) -> Spec:
     """``spec`` with ``p`` in place of the process of its family (added if the family has none)."""
     return tuple(sorted([q for q in spec if q.family != p.family] + [p], key=lambda q: (q.sensor, q.kind)))
 
@@ -134,13 +134,13 @@ def search_candidates(current: Spec, families: Sequence[Family]) -> list[Spec]:
     for f in families:
         for v in f.values():
             for tc in (f.tc_s or (0.0,)):
-                s = with_process(current, Process(f.kind, f.sensor, v, tc))
+                s = with_process(current, LearnedProcess(f.kind, f.sensor, v, tc))
                 if s != current and s not in out:
                     out.append(s)
     return out
 
 
-def refine(families: Sequence[Family], best: dict[tuple[str, str], Process], min_ratio: float = 1.25) -> tuple:
+def refine(families: Sequence[Family], best: dict[tuple[str, str], LearnedProcess], min_ratio: float = 1.25) -> tuple:
     """The next search's scales: each family centred on its best process of the last search (if any), the ratio
     its square root (not below ``min_ratio``; a ratio of 1 stays 1: one value)."""
     out = []
@@ -199,5 +199,16 @@ def describe(spec: Spec) -> list[dict[str, Any]]:
 def spec_from_dicts(items: Sequence[dict[str, Any]]) -> Spec:
     out: Spec = ()
     for d in items:
-        out = with_process(out, Process.from_dict(d))
+        out = with_process(out, LearnedProcess.from_dict(d))
     return out
+
+
+def __getattr__(name: str):
+    # the old name of LearnedProcess (it clashed with imunoise.noise.processes.Process, the noise process)
+    if name == "Process":
+        import warnings
+
+        warnings.warn("imunoise.online.learner.candidates.Process is renamed LearnedProcess; the old name goes in the "
+                      "next release", DeprecationWarning, stacklevel=2)
+        return LearnedProcess
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

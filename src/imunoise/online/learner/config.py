@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from imunoise.errors import DataError, ModelError
-from imunoise.online.learner.candidates import DEFAULT_FAMILIES, Family, Process, Spec, describe, spec_from_dicts
+from imunoise.online.learner.candidates import DEFAULT_FAMILIES, Family, LearnedProcess, Spec, describe, spec_from_dicts
 
 __all__ = ["MotionNoiseConfig", "MotionNoisePrior", "STATISTICS"]
 
@@ -27,7 +27,7 @@ class MotionNoisePrior:
     rounds: int = 0
 
     def __post_init__(self) -> None:
-        if not all(isinstance(p, Process) for p in self.spec) or not all(isinstance(f, Family)
+        if not all(isinstance(p, LearnedProcess) for p in self.spec) or not all(isinstance(f, Family)
                                                                          for f in self.families):
             raise ModelError("a motion-noise prior needs spec = learned processes and families = σ scales")
         if not (isinstance(self.rounds, int) and self.rounds >= 0):
@@ -85,7 +85,7 @@ class MotionNoiseConfig:
     vehicle learned (:class:`MotionNoisePrior`) or None.
 
     ``statistic``: the evidence of a decision. ``"drift"`` (the default, the reported learner): the log RMS
-    drift of the rehearsed outages, paired t tests. ``"likelihood"`` (development only until reported): the
+    drift of the rehearsed outages, paired t tests. ``"likelihood"`` (EXPERIMENTAL research code, not reported): the
     shadows' accumulated one-step GNSS innovation NLL, likelihood-ratio tests against χ²(``lr_df``) at
     1 − ``alpha``/m (:mod:`imunoise.online.learner.likelihood`), every round with fixes counted; ``r_scales``: the
     GNSS σ factors of the R-only nuisance candidates an in-motion change must also beat; ``harm_margin``: the
@@ -122,7 +122,7 @@ class MotionNoiseConfig:
         if not fams or not all(isinstance(f, Family) for f in fams):
             raise ModelError("MotionNoiseConfig.families needs at least one Family (σ scale)")
         for f in fams:
-            Process(f.kind, f.sensor, f.centre if f.kind != "white" else max(f.centre, 1.01), f.tc_s[0]
+            LearnedProcess(f.kind, f.sensor, f.centre if f.kind != "white" else max(f.centre, 1.01), f.tc_s[0]
                     if f.tc_s else 1.0)  # checks kind, sensor and units
             if not (f.ratio >= 1.0 and math.isfinite(f.ratio)) or (f.kind == "gm" and not f.tc_s):
                 raise ModelError(f"MotionNoiseConfig: family {f.kind}/{f.sensor} needs ratio ≥ 1 (and T_c values "

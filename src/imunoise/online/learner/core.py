@@ -11,7 +11,7 @@ Cost per round (one round every ``every_s`` = 20 s of aided driving): per active
 ``outage_s`` (rehearsal) plus ``every_s`` (advance) of samples, 4000 samples at 100 Hz; warm and choose rounds
 run 1 + m (+1 after a switch) shadows (m = 21 with the default families), confirm rounds 2. A search (1 warm,
 4 choose, 6 confirm rounds) takes 220 s of aided driving; on development drives of the simulator a choose round
-took ≈ 0.2 s CPU, a confirm round ≈ 0.02 s (docs/acceptance/issue24.md).
+took ≈ 0.2 s CPU, a confirm round ≈ 0.02 s (docs/evidence/in_motion_learner.md).
 """
 
 from __future__ import annotations

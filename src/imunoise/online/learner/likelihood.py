@@ -1,5 +1,5 @@
-"""The likelihood statistic of the learner (``MotionNoiseConfig(statistic="likelihood")``; development only until
-reported): decide and revert by likelihood-ratio tests on the shadows' one-step GNSS innovations.
+"""EXPERIMENTAL research code: the likelihood statistic of the learner (``MotionNoiseConfig(statistic="likelihood")``,
+not frozen nor reported): decide and revert by likelihood-ratio tests on the shadows' one-step GNSS innovations.
 
 Statistic. Every shadow filter processes every aided fix of a round; the batch loop returns each fix's one-step
 innovation NLL ½(νᵀS⁻¹ν + log det S + 3 log 2π), S = HPHᵀ + R before the update
@@ -8,7 +8,7 @@ innovation NLL ½(νᵀS⁻¹ν + log det S + 3 log 2π), S = HPHᵀ + R before 
 candidate k against the current model (negative: the fixes are more likely under k). It scores the covariance,
 not only the mean: too little process noise makes the innovations large for S, too much inflates log det S.
 
-Rule (the design diagnostic docs/acceptance/issue24_likelihood.md).
+Rule (the design diagnostic docs/evidence/in_motion_likelihood.md).
 
 1. Choose, on the ``choose_rounds`` rounds after the warm ones: the in-motion candidate with the lowest ΔNLL < 0
    among those whose position NIS is inside its band (:func:`~imunoise.online.learner.decision.nis_ok`); the

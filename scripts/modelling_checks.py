@@ -1,7 +1,7 @@
 """Measure every acceptance number of issue 3 and print Markdown tables (takes several minutes).
 
-    .venv/bin/python scripts/acceptance_issue3.py              # all parts
-    .venv/bin/python scripts/acceptance_issue3.py --parts 3 5  # real data and the AV/EM checks only
+    .venv/bin/python scripts/modelling_checks.py              # all parts
+    .venv/bin/python scripts/modelling_checks.py --parts 3 5  # real data and the AV/EM checks only
 
 1. structure recovery (20 seeds per case and size), 2. timing, 3. ADIS16405 unit 1, all six axes:
 selected model + GOF, AV and EM (writes docs/img/compare_adis_gyrox.png), 4. nesting on the simts

@@ -5,7 +5,7 @@ N within 10 % of the truth on every axis; K a value within a factor 2, or a boun
 seeds (used while building the rules) are 101–103; the reported seeds are 201–204. Then drive_0708: the
 calibrated values beside a static fit of its longest stop and the Allan reading of that stop.
 
-    PYTHONPATH=src python scripts/acceptance_calibrate.py [--seeds 201 202 203 204]
+    PYTHONPATH=src python scripts/calibrate_evidence.py [--seeds 201 202 203 204]
 """
 
 from __future__ import annotations

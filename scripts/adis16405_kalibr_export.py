@@ -1,6 +1,6 @@
 """Acceptance 1 of the "trustworthy outputs" issue: exported (N, K) of ADIS16405 units 1–5 against the Allan reading.
 
-    .venv/bin/python scripts/acceptance_issue10.py [--data ../shared/data/imudata_adis16405] [--out out/issue10]
+    .venv/bin/python scripts/adis16405_kalibr_export.py [--data ../shared/data/imudata_adis16405] [--out out/issue10]
 
 For each unit (10^6 samples × 6 axes at 100 Hz; gyros in deg/s, accelerometers in g, converted to SI) this
 does what ``imunoise fit FILE --freq 100 --columns gyro_x,...,accel_z --units gyro=deg/s,accel=g --auto

@@ -21,7 +21,8 @@ root.mkdir(parents=True)
 cols = []
 for i in range(6):
     N, K = TRUTH["gyro" if i < 3 else "accel"]
-    m = Model.parse("WN+RW").with_params({"WN.sigma2": N * N * F, "RW.gamma2": K * K / F})  # SPEC §2
+    # docs/guide/theory.rst, 'Latent processes'
+    m = Model.parse("WN+RW").with_params({"WN.sigma2": N * N * F, "RW.gamma2": K * K / F})
     cols.append(m.simulate(n, seed=100 + i))
 x = np.column_stack(cols)
 stamps = 1_700_000_000_000_000_000 + np.arange(n, dtype=np.int64) * 5_000_000

@@ -1,6 +1,6 @@
 """Measure every acceptance number of issue 5 (online system) and write them to one Markdown file.
 
-    .venv/bin/python scripts/acceptance_issue5.py --out out/issue5 [--seeds 20] [--reuse]
+    .venv/bin/python scripts/online_system_evidence.py --out out/issue5 [--seeds 20] [--reuse]
 
 1. detection on 20 simulated drives (truth: speed < 0.05 m/s and no rotation) and on drive_0708 (RTK speed
    < 0.2 m/s): epoch precision and recall;
@@ -152,7 +152,7 @@ def main() -> int:
     from imunoise.report import fmt
 
     md = ["# Issue 5 acceptance numbers", "", f"Measured {time.strftime('%Y-%m-%d %H:%M')} UTC with "
-          f"`.venv/bin/python scripts/acceptance_issue5.py --out {args.out} --seeds {args.seeds}`.", ""]
+          f"`.venv/bin/python scripts/online_system_evidence.py --out {args.out} --seeds {args.seeds}`.", ""]
     t_all = time.perf_counter()
 
     print("[5] streaming vs batch", flush=True)
