@@ -131,14 +131,14 @@ def test_run_in_chunks_with_the_motion_noise_learner(scenario):
                                                      confirm_rounds=2, alpha=0.9, margin=0.0, prior=prior))
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate)
     bumps = []
-    orig = nav._learner_step
+    orig = nav.learner.step
 
-    def spy(t, dth, dvv, is_static, prev_run):
-        if nav.departure_due(prev_run, is_static):
+    def spy(nav_, t, dth, dvv, is_static, prev_run):
+        if nav.learner.departure_due(prev_run, is_static):
             bumps.append(t)
-        orig(t, dth, dvv, is_static, prev_run)
+        orig(nav_, t, dth, dvv, is_static, prev_run)
 
-    nav._learner_step = spy
+    nav.learner.step = spy
     batch = nav.run(sc.imu, gnss)
     stream = _push(OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate), sc.imu, gnss)
     assert any(e["event"] == "motion_noise_start" for e in batch.events)
@@ -190,4 +190,4 @@ def test_a_bad_fix_in_the_record_raises_where_push_gnss_would(scenario):
     with pytest.raises(DataError) as pushed:
         fresh.push_gnss(bad.t[k], llh[k], bad.sigma_ned[k])
     assert str(in_run.value) == str(pushed.value) and "cannot be radians" in str(in_run.value)
-    assert 0 < nav._t_last <= bad.t[k]
+    assert 0 < nav.state.t_last <= bad.t[k]
