@@ -3,7 +3,7 @@
 :meth:`~imunoise.online.navigator.OnlineNavigator.run` feeds the streaming detector a chunk of IMU samples
 (:meth:`~imunoise.detect.StaticDetector.push_chunk`: it decides the stops from the IMU alone, so it runs
 ahead of the filter), then walks the chunk from event to event. An *event* is a sample that needs the
-per-sample Python path (:meth:`OnlineNavigator._sample`):
+per-sample Python path (:meth:`OnlineNavigator.step_sample`):
 
 * the first sample after the initial time (the strapdown is primed there);
 * a sample at which the detector completed a segment (stop end: the stop guard, the modeller, an inline fit);
@@ -277,7 +277,7 @@ def _span(nav: Any, a: int, e: int, t, dth, dv, gyro, accel, static, gate, runs)
     ts = t[a:e]
     m = e - a
     n0 = st.n
-    # -- the raw-sample bookkeeping of _sample -------------------------------------------------------
+    # -- the raw-sample bookkeeping of step_sample---------------------------------------------------
     st.rows.extend(np.concatenate([gyro[a:e], accel[a:e]], axis=1))
     st.static_raw.extend(static.tolist())
     st.sample_t.extend(ts.tolist())
