@@ -190,13 +190,13 @@ def stream_stops(
 
     base = config or DetectorConfig()
     bar_of = progress or (lambda desc, total, unit: _NoBar())
-    src = ImuSource.of(path, topic=topic, columns=columns, units=units, time_column=time_column,
-                       time_unit=time_unit, freq=freq)
-    path, freq = src.path, src.freq
+    source = ImuSource.of(path, topic=topic, columns=columns, units=units, time_column=time_column,
+                          time_unit=time_unit, freq=freq)
+    path, freq = source.path, source.freq
     need_g = lambda0 is None and learn_from_s is None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        blocks = open_imu_blocks(src)
+        blocks = open_imu_blocks(source)
         meta: dict[str, Any] = {k: v for k, v in blocks.meta.items() if k in ("format", "topic", "frame_id", "frame")}
         ts, axy, gs = [], [], []
         g_of = _gyro_std_stream(base.window)
@@ -255,7 +255,7 @@ def stream_stops(
                 dropped.extend(cut)
                 samples.extend(bx[s.i0 - buf0 : s.i1 - buf0].copy() for s in kept)
 
-        blocks = open_imu_blocks(src)
+        blocks = open_imu_blocks(source)
         bar = bar_of("detecting stops", blocks.size, blocks.size_unit)
         try:
             for t, gyro, accel, adv in _si_blocks(blocks, freq):
