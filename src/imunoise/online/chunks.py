@@ -224,7 +224,7 @@ def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: d
         i = int(np.searchsorted(t[a:b], nav.init.t, side="right"))
         py.append(np.array([i], dtype=np.int64))
     for idx, _ in st.event_sources:
-        py.append(idx[(idx >= st.n) & (idx < st.n + b - a)] - st.n)
+        py.append(idx[(idx >= st.n_samples) & (idx < st.n_samples + b - a)] - st.n_samples)
     py = [np.unique(p) for p in py if p.size]
     # starts from a stop: events while the learned model adds a departure step there
     prev_run = np.concatenate([[st.static_run], runs[:-1]])
@@ -276,13 +276,13 @@ def _span(nav: Any, a: int, e: int, t, dth, dv, gyro, accel, static, gate, runs)
     cfg = nav.config
     ts = t[a:e]
     m = e - a
-    n0 = st.n
+    n0 = st.n_samples
     # -- the raw-sample bookkeeping of step_sample---------------------------------------------------
     st.rows.extend(np.concatenate([gyro[a:e], accel[a:e]], axis=1))
     st.static_raw.extend(static.tolist())
     st.sample_t.extend(ts.tolist())
     st.t_last = float(ts[-1])
-    st.n += m
+    st.n_samples += m
     st.static_run = int(runs[-1])
     starts = np.flatnonzero(runs == 1)
     if starts.size:

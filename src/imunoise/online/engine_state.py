@@ -28,7 +28,7 @@ class EngineState:
     ``init_t``: the initial time (samples at or before it only feed the detector and the modeller);
     ``events``: the event log (shared with the stop modeller); ``started``: the first sample after ``init_t`` was
     seen (the strapdown is primed there); ``t_last``: time of the last sample the filter/detector processed;
-    ``t_in``: time of the last sample pushed (held while λ_0 is learned); ``n``: samples processed;
+    ``t_in``: time of the last sample pushed (held while λ_0 is learned); ``n_samples``: samples processed;
     ``static_run``: length of the current raw static run (0 when not static); ``stop_start_n``: the run length at
     which a raw static run becomes a segment (−1 without a detector); ``zupt_rejected``: a ZUPT of the current
     static run was refused by its χ² test (logged once per run); ``gate``: the angular-rate gate of the last
@@ -45,7 +45,7 @@ class EngineState:
     started: bool = False
     t_last: float = -math.inf
     t_in: float = -math.inf
-    n: int = 0
+    n_samples: int = 0
     static_run: int = 0
     stop_start_n: int = -1
     zupt_rejected: bool = False

@@ -334,18 +334,18 @@ class OnlineNavigator(ModellerViews):
         cfg = self.config
         st = self.state
         for idx, hook in st.event_sources:
-            if np.any(idx == st.n):
-                hook(self, st.n)
+            if np.any(idx == st.n_samples):
+                hook(self, st.n_samples)
         st.rows.append(np.concatenate([gyro, accel]))
         st.static_raw.append(is_static)
         st.sample_t.append(t)
         st.t_last = t
-        st.n += 1
+        st.n_samples += 1
         prev_run = st.static_run
         st.static_run = st.static_run + 1 if is_static else 0
         if st.static_run == 1:
             # a new raw static run: the previous run's segments were completed at its first non-static sample
-            self.guard.new_run(st.n - 1)
+            self.guard.new_run(st.n_samples - 1)
         if not is_static:
             st.zupt_rejected = False
         if st.static_run == st.stop_start_n and self.detector is not None:
