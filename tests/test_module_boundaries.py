@@ -1,5 +1,6 @@
-"""Module boundaries: no module reaches into another's private names, the EKF owns its state (the online
-engine never writes an attribute of its EKF), and a GMWMFit is assembled in one place."""
+"""Module boundaries: no module reaches into another's private names (imported or as attributes of its
+objects), the EKF owns its state (the online engine never writes an attribute of its EKF), and a GMWMFit is
+assembled in one place."""
 
 from __future__ import annotations
 
@@ -46,6 +47,67 @@ def private_imports(source: str, module: str, *, is_package: bool = False) -> li
 def private_imports_of(path: Path) -> list[str]:
     found = private_imports(path.read_text(encoding="utf-8"), _module_name(path), is_package=path.name == "__init__.py")
     return [f"{path.relative_to(SRC.parent)}:{f}" for f in found]
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def defined_private_names(tree: ast.AST) -> set[str]:
+    """The private names a module defines: its module-level and class-level names (assignments, annotations,
+    imports, functions, classes), every function or method it defines, and the attributes it sets on ``self``
+    or ``cls``."""
+    names: set[str] = set()
+
+    def body(stmts: list[ast.stmt]) -> None:
+        for s in stmts:
+            if isinstance(s, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+                names.add(s.name)
+            elif isinstance(s, ast.Assign):
+                names.update(n.id for t in s.targets for n in ast.walk(t) if isinstance(n, ast.Name))
+            elif isinstance(s, ast.AnnAssign) and isinstance(s.target, ast.Name):
+                names.add(s.target.id)
+            elif isinstance(s, ast.Import | ast.ImportFrom):
+                names.update((a.asname or a.name).split(".")[0] for a in s.names)
+
+    body(tree.body)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ClassDef):
+            body(node.body)
+        elif isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            names.add(node.name)
+        elif (isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store | ast.Del)
+              and isinstance(node.value, ast.Name) and node.value.id in ("self", "cls")):
+            names.add(node.attr)
+    return {n for n in names if _private(n)}
+
+
+def private_attribute_uses(source: str, package_names: set[str], filename: str = "<src>") -> list[str]:
+    """``x._name`` (read, write or call; also ``getattr/setattr/hasattr/delattr(x, "_name")``) where ``x`` is
+    not ``self``/``cls``, ``_name`` is not a name this module defines (:func:`defined_private_names`: then it is
+    another module's) and ``_name`` is one a module of the package defines (``package_names``; private names
+    of other libraries, e.g. argparse's, are theirs to keep): "filename:lineno: x._name" per use."""
+    tree = ast.parse(source, filename=filename)
+    own = defined_private_names(tree)
+    out = []
+    for node in ast.walk(tree):
+        base = None
+        if isinstance(node, ast.Attribute) and _private(node.attr):
+            base, name, what = node.value, node.attr, ast.unparse(node)
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+              and node.func.id in ("getattr", "setattr", "hasattr", "delattr") and len(node.args) >= 2
+              and isinstance(node.args[1], ast.Constant) and isinstance(node.args[1].value, str)
+              and _private(node.args[1].value)):
+            base, name, what = node.args[0], node.args[1].value, ast.unparse(node)
+        if base is None or (isinstance(base, ast.Name) and base.id in ("self", "cls")):
+            continue
+        if name not in own and name in package_names:
+            out.append((node.lineno, node.col_offset, what))
+    return [f"{filename}:{n}: {what}" for n, _, what in sorted(out)]
+
+
+def package_private_names() -> set[str]:
+    return set().union(*(defined_private_names(ast.parse(p.read_text(encoding="utf-8"))) for p in ENFORCED))
 
 
 def fit_constructions(source: str, filename: str = "<src>") -> list[str]:
@@ -198,3 +260,53 @@ def test_ekf_write_check_finds_offenders():
         "setattr(ekf, 'P', P)",
         "e.t",
     ]
+
+
+def test_no_private_attributes_of_other_modules():
+    """No module reads, writes or calls another module's private attributes (``nav._store``, ``acc._stats``):
+    what a module needs from another is public (a property, a method, a state object's field)."""
+    names = package_private_names()
+    found = []
+    for path in ENFORCED:
+        found += private_attribute_uses(path.read_text(encoding="utf-8"), names, str(path.relative_to(SRC)))
+    assert found == []
+
+
+def test_private_attribute_check_finds_offenders():
+    src = (
+        "import argparse\n"
+        "_CACHE = {}\n"
+        "class Engine:\n"
+        "    def __init__(self, nav):\n"
+        "        self._own = 1\n"  # the module's own attribute: allowed, on any object of it
+        "        self._nav = nav\n"
+        "    def run(self, other):\n"
+        "        other._own += 1\n"
+        "        x = self._nav._store\n"  # another module's attribute through one of ours
+        "        nav_learn = other._learn_from(x)\n"
+        "        other._t_in = 0.0\n"  # a write into another module's object
+        "        s = getattr(other, '_store', None)\n"
+        "        a = argparse._SubParsersAction\n"  # not the package's: argparse keeps its own
+        "        return _CACHE, self._helper(), other.__class__\n"
+        "    def _helper(self):\n"
+        "        return cls._helper\n"
+    )
+    names = {"_store", "_learn_from", "_t_in", "_own", "_helper", "_CACHE", "_nav"}
+    assert [f.split(": ", 1)[1] for f in private_attribute_uses(src, names)] == [
+        "self._nav._store",
+        "other._learn_from",
+        "other._t_in",
+        "getattr(other, '_store', None)",
+    ]
+    # the same use in the module that defines the name is not a crossing
+    assert private_attribute_uses("class N:\n    def f(self):\n        self._store = 1\n"
+                                  "def g(nav):\n    return nav._store\n", names) == []
+
+
+def test_private_attribute_check_catches_a_planted_violation(tmp_path):
+    """The package-wide check, run on a copy of a real module with one crossing planted, finds exactly it."""
+    path = SRC / "experiments" / "window_errors.py"
+    planted = path.read_text(encoding="utf-8") + "\n\ndef _planted(nav):\n    return nav._pending_samples, nav.state\n"
+    names = package_private_names() | {"_pending_samples"}
+    found = private_attribute_uses(planted, names, "window_errors.py")
+    assert len(found) == 1 and found[0].endswith("nav._pending_samples")

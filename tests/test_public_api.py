@@ -271,7 +271,7 @@ def test_push_gnss_refuses_degrees_and_non_finite_positions(navigator_factory):
         nav.push_gnss(1.0, llh0[:2], np.ones(3))
     with pytest.raises(DataError, match="≥ 0"):
         nav.push_gnss(1.0, llh0, [-1.0, 1.0, 1.0])
-    assert nav._gnss == []  # nothing refused reached the filter queue
+    assert nav.state.gnss == []  # nothing refused reached the filter queue
 
 
 def test_push_gnss_in_radians_is_used(navigator_factory):

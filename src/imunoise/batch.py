@@ -108,21 +108,15 @@ def process_file(path: str, cfg: dict[str, Any], out_dir: str, name: str) -> lis
     """
     from imunoise.export import axis_noise, density_units
     from imunoise.io.imu_input import read_imu_source, sensor_of
+    from imunoise.io.imu_source import SOURCE_FIELDS, ImuSource
     from imunoise.noise.imu_model import ImuModel, fit_axis
 
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            series = read_imu_source(
-                path,
-                topic=cfg.get("topic"),
-                columns=cfg.get("columns"),
-                units=cfg.get("units"),
-                time_column=cfg.get("time_column"),
-                time_unit=cfg.get("time_unit") or "s",
-                freq=cfg.get("freq"),
-                decimate_by=int(cfg.get("decimate") or 1),
-            )
+            # the reader settings cfg gives (None or missing: the ImuSource default)
+            source = ImuSource(path, **{k: cfg[k] for k in SOURCE_FIELDS if cfg.get(k) is not None})
+            series = read_imu_source(source, decimate_by=int(cfg.get("decimate") or 1))
         notes = " | ".join(str(w.message) for w in caught)
         fits = {}
         rows = []

@@ -139,7 +139,7 @@ def test_learner_decides_logs_its_evidence_and_streaming_equals_batch(drive, inl
     ev_b, ev_s = ([{k: v for k, v in e.items() if k != "elapsed_s"} for e in r.events
                    if e["event"].startswith("motion_noise")] for r in (res_b, res_s))
     assert ev_b == ev_s and np.array_equal(res_b.llh, res_s.llh)
-    L = nav_b._motion
+    L = nav_b.learner.motion
     assert L.n_rehearsals >= 10 and L.n_searches >= 2
     kinds = {e["event"] for e in ev_b}
     assert {"motion_noise_start", "motion_noise_choose", "motion_noise_end"} <= kinds
@@ -160,7 +160,7 @@ def test_thread_worker_runs_rounds_without_blocking(drive, inline_run):
     # a replay runs far faster than real time, so the background thread completes fewer rounds before the end
     sc, gnss = drive
     nav_t, res = _dyn_run(sc, gnss, push=False, worker="thread")
-    assert nav_t._motion.n_rehearsals >= 1 and nav_t._motion._future is None  # finish() waited for it
+    assert nav_t.learner.motion.n_rehearsals >= 1 and nav_t.learner.motion._future is None  # finish() waited for it
     assert any(e["event"] == "motion_noise_end" for e in res.events)
 
 
@@ -172,10 +172,10 @@ def test_shadows_wait_out_a_gnss_outage_and_restart(drive, inline_run):
     t0 = float(sc.init.t) + 200.0
     cut = gnss.without([(t0, 60.0)])
     nav, res = _dyn_run(sc, cut, push=False)
-    L = nav._motion
+    L = nav.learner.motion
     nav_full, _ = inline_run
     assert L.n_stale >= 1 and L.n_starts == L.n_searches  # a search that lost GNSS starts again
-    assert 0 < L.n_rehearsals < nav_full._motion.n_rehearsals
+    assert 0 < L.n_rehearsals < nav_full.learner.motion.n_rehearsals
     assert [e["event"] for e in res.events].count("motion_noise_start") == 1
 
 
@@ -192,7 +192,7 @@ def test_a_carried_model_runs_from_the_first_sample(drive):
         n_gm = sum(isinstance(c, AR1) for c in nav.current_models[j][0].components)
         n_static = sum(isinstance(c, AR1) for c in nav.static_models[j][0].components)
         assert n_gm == n_static + 1
-    assert nav._motion.evidence().rounds == 7
+    assert nav.learner.motion.evidence().rounds == 7
 
 
 def test_prior_files_are_checked(tmp_path):
@@ -253,7 +253,7 @@ DRIFT_LLH_ATOL = np.array([1e-12, 1e-12, 1e-6])
 def test_the_default_statistic_is_the_drift_and_decides_as_before(drive, inline_run):
     sc, gnss = drive
     nav, res = inline_run
-    assert nav.config.motion_noise.statistic == "drift" and not nav._motion._lik
+    assert nav.config.motion_noise.statistic == "drift" and not nav.learner.motion._lik
     got = []
     for e in res.events:
         if e["event"] in ("motion_noise_choose", "motion_noise_confirm", "motion_noise_refuse", "motion_noise_revert"):
@@ -267,7 +267,7 @@ def test_the_default_statistic_is_the_drift_and_decides_as_before(drive, inline_
 def test_likelihood_statistic_logs_its_tests_on_a_drive(drive):
     sc, gnss = drive
     nav, res = _dyn_run(sc, gnss, push=False, statistic="likelihood")
-    L = nav._motion
+    L = nav.learner.motion
     assert L._lik and sorted(r for r, role in zip(L._rscale, L._roles, strict=True) if role == "rscale") == [0.7, 1.4]
     dec = [e for e in res.events if e["event"] in ("motion_noise_confirm", "motion_noise_refuse", "motion_noise_revert")
            and e.get("stage") != "choose"]

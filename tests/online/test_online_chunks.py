@@ -131,14 +131,14 @@ def test_run_in_chunks_with_the_motion_noise_learner(scenario):
                                                      confirm_rounds=2, alpha=0.9, margin=0.0, prior=prior))
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate)
     bumps = []
-    orig = nav._learner_step
+    orig = nav.learner.step
 
-    def spy(t, dth, dvv, is_static, prev_run):
-        if nav.departure_due(prev_run, is_static):
+    def spy(nav_, t, dth, dvv, is_static, prev_run):
+        if nav.learner.departure_due(prev_run, is_static):
             bumps.append(t)
-        orig(t, dth, dvv, is_static, prev_run)
+        orig(nav_, t, dth, dvv, is_static, prev_run)
 
-    nav._learner_step = spy
+    nav.learner.step = spy
     batch = nav.run(sc.imu, gnss)
     stream = _push(OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate), sc.imu, gnss)
     assert any(e["event"] == "motion_noise_start" for e in batch.events)
@@ -190,4 +190,28 @@ def test_a_bad_fix_in_the_record_raises_where_push_gnss_would(scenario):
     with pytest.raises(DataError) as pushed:
         fresh.push_gnss(bad.t[k], llh[k], bad.sigma_ned[k])
     assert str(in_run.value) == str(pushed.value) and "cannot be radians" in str(in_run.value)
-    assert 0 < nav._t_last <= bad.t[k]
+    assert 0 < nav.state.t_last <= bad.t[k]
+
+
+def test_collaborators_share_one_engine_state_and_a_fork_its_own(scenario):
+    """The navigator's collaborators (detector feed, stop guard, ZUPT, learner host, modeller's event log) hold
+    the navigator's one EngineState; a fork's collaborators hold the fork's copy, never the original's."""
+    from imunoise.online.motion_noise import MotionNoiseConfig
+
+    sc = scenario
+    cfg = _config(sc, zupt=True, motion_noise=MotionNoiseConfig())
+    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate)
+    n = sc.imu.t.size // 3
+    dth, dv = sc.imu.increments()
+    nav.push_chunk(sc.imu.t[:n], dth[:n], dv[:n])
+    (br,) = nav.fork()
+    for x in (nav, br):
+        st = x.state
+        assert x.feed.state is st and x.guard.state is st and x.zupt.state is st and x.learner.state is st
+        assert x.modeller.events is st.events is x.events
+        assert x.store is st.store
+    assert br.state is not nav.state and br.state.rows is not nav.state.rows
+    assert br.state.n_samples == nav.state.n_samples == n and br.state.rows[-1] is nav.state.rows[-1]
+    assert br.store.n == 0 < nav.store.n  # the branch stores only its own epochs
+    br.push_chunk(sc.imu.t[n:n + 100], dth[n:n + 100], dv[n:n + 100])
+    assert br.state.n_samples == n + 100 and nav.state.n_samples == n

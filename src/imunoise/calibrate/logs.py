@@ -13,6 +13,7 @@ import numpy as np
 
 from imunoise.errors import DataError
 from imunoise.imu import AXES
+from imunoise.io.imu_source import UNSET, ImuSource
 
 GYRO_UNIT, ACCEL_UNIT = "rad/s", "m/s²"
 
@@ -82,14 +83,14 @@ def speed_of_gnss(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def read_log(
-    path: str | Path,
+    path: str | Path | ImuSource,
     *,
-    topic: str | None = None,
-    columns: str | Sequence[str | int] | Mapping[str, str | int] | None = None,
-    units: str | Mapping[str, str] | None = None,
-    time_column: str | int | None = None,
-    time_unit: str = "s",
-    freq: float | None = None,
+    topic: str | None = UNSET,
+    columns: str | Sequence[str | int] | Mapping[str, str | int] | None = UNSET,
+    units: str | Mapping[str, str] | None = UNSET,
+    time_column: str | int | None = UNSET,
+    time_unit: str | None = UNSET,
+    freq: float | None = UNSET,
     ref: str | Path | None = None,
     gnss: str | Path | None = None,
 ) -> ImuLog:
@@ -97,14 +98,16 @@ def read_log(
 
     Parameters
     ----------
-    path : str or Path
-        A ROS bag (``.bag``, ``.db3``, ``.mcap``, ROS 2 folder; all six axes of ``topic``), a dataset folder
-        with ``dataset.json`` (its IMU, and its reference for the speed), a KF-GINS IMU file (increments, or
-        a rate CSV with ``sow,gx,..,az``), or a table/.npz whose columns map to ``gyro_x`` .. ``accel_z``.
+    path : str, Path or ImuSource
+        An :class:`~imunoise.io.imu_source.ImuSource` (with the reader settings below), or a ROS bag (``.bag``,
+        ``.db3``, ``.mcap``, ROS 2 folder; all six axes of ``topic``), a dataset folder with ``dataset.json``
+        (its IMU, and its reference for the speed), a KF-GINS IMU file (increments, or a rate CSV with
+        ``sow,gx,..,az``), or a table/.npz whose columns map to ``gyro_x`` .. ``accel_z``.
     topic : str, optional
         Bag topic.
     columns, units, time_column, time_unit, freq
-        As for :func:`imunoise.io.imu_input.read_imu_source` (tables): the six axes must be named.
+        As for :func:`imunoise.io.imu_input.read_imu_source` (tables): the six axes must be named. Not given:
+        the :class:`~imunoise.io.imu_source.ImuSource` defaults (or the fields of ``path`` when it is one).
     ref, gnss : str or Path, optional
         A KF-GINS reference (speed from its velocity) or a GNSS file (KF-GINS, RTKLIB .pos, bag; speed from
         successive positions), same time base as the IMU.
@@ -115,7 +118,9 @@ def read_log(
     """
     from imunoise.io.rosbag import is_bag
 
-    p = Path(path)
+    src = ImuSource.of(path, topic=topic, columns=columns, units=units, time_column=time_column,
+                       time_unit=time_unit, freq=freq)
+    p = Path(src.path)
     speed = None
     meta: dict[str, Any] = {}
     with warnings.catch_warnings(record=True) as caught:
@@ -133,8 +138,8 @@ def read_log(
                 ref = ds.ref
             elif ref is None and gnss is None and getattr(ds, "gnss", None):
                 gnss = ds.gnss
-        elif is_bag(p) or columns is not None or p.suffix.lower() in (".npz", ".npy"):
-            t, gyro, accel, rate, meta = _read_source(p, topic, columns, units, time_column, time_unit, freq)
+        elif is_bag(p) or src.columns is not None or p.suffix.lower() in (".npz", ".npy"):
+            t, gyro, accel, rate, meta = _read_source(src)
         else:
             from imunoise.io.kfgins import read_imu
 
@@ -151,14 +156,15 @@ def read_log(
     msgs = list(dict.fromkeys(str(w.message) for w in caught))
     if msgs:
         meta["warnings"] = msgs
-    return ImuLog(str(path), t, np.ascontiguousarray(gyro), np.ascontiguousarray(accel), rate, speed, meta)
+    name = str(src.path)  # as given (a folder keeps its slash)
+    return ImuLog(name, t, np.ascontiguousarray(gyro), np.ascontiguousarray(accel), rate, speed, meta)
 
 
-def _read_source(p, topic, columns, units, time_column, time_unit, freq):
+def _read_source(src: ImuSource):
     from imunoise.io.imu_input import read_imu_source
 
-    s = read_imu_source(p, topic=topic, columns=columns, units=units, time_column=time_column,
-                        time_unit=time_unit, freq=freq)
+    p = Path(src.path)
+    s = read_imu_source(src)
     missing = [a for a in AXES if a not in s.data]
     if missing:
         raise DataError(

@@ -17,6 +17,7 @@ from imunoise.calibrate.stops import LEARN_S, LogStops, Stop, choose_lambda0, cu
 from imunoise.detect import DetectorConfig, StaticSegment
 from imunoise.errors import DataError
 from imunoise.imu import AXES
+from imunoise.io.imu_source import UNSET, ImuSource
 
 
 # --------------------------------------------------------------------------------------------------
@@ -134,18 +135,18 @@ class _PerSecond:
 
 
 def stream_stops(
-    path: str | Path,
+    path: str | Path | ImuSource,
     config: DetectorConfig | None = None,
     *,
     lambda0: float | None = None,
     learn_from_s: float | None = None,
     learn_s: float = LEARN_S,
-    topic: str | None = None,
-    columns: str | Sequence[str | int] | Mapping[str, str | int] | None = None,
-    units: str | Mapping[str, str] | None = None,
-    time_column: str | int | None = None,
-    time_unit: str = "s",
-    freq: float | None = None,
+    topic: str | None = UNSET,
+    columns: str | Sequence[str | int] | Mapping[str, str | int] | None = UNSET,
+    units: str | Mapping[str, str] | None = UNSET,
+    time_column: str | int | None = UNSET,
+    time_unit: str | None = UNSET,
+    freq: float | None = UNSET,
     ref: str | Path | None = None,
     gnss: str | Path | None = None,
     progress: Callable[[str, int, str], Any] | None = None,
@@ -168,8 +169,9 @@ def stream_stops(
 
     Parameters
     ----------
-    path : str or Path
-        A ROS bag or a table (CSV/TXT, .npy, .npz) whose columns map to ``gyro_x`` .. ``accel_z``.
+    path : str, Path or ImuSource
+        A ROS bag or a table (CSV/TXT, .npy, .npz) whose columns map to ``gyro_x`` .. ``accel_z``, or an
+        :class:`~imunoise.io.imu_source.ImuSource` of one.
     config, lambda0, learn_from_s, learn_s
         As for :func:`detect_stops`.
     topic, columns, units, time_column, time_unit, freq, ref, gnss
@@ -189,12 +191,13 @@ def stream_stops(
 
     base = config or DetectorConfig()
     bar_of = progress or (lambda desc, total, unit: _NoBar())
-    src_args = dict(topic=topic, columns=columns, units=units, time_column=time_column, time_unit=time_unit,
-                    freq=freq)
+    source = ImuSource.of(path, topic=topic, columns=columns, units=units, time_column=time_column,
+                          time_unit=time_unit, freq=freq)
+    path, freq = source.path, source.freq
     need_g = lambda0 is None and learn_from_s is None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        blocks = open_imu_blocks(path, **src_args)
+        blocks = open_imu_blocks(source)
         meta: dict[str, Any] = {k: v for k, v in blocks.meta.items() if k in ("format", "topic", "frame_id", "frame")}
         ts, axy, gs = [], [], []
         g_of = _gyro_std_stream(base.window)
@@ -253,7 +256,7 @@ def stream_stops(
                 dropped.extend(cut)
                 samples.extend(bx[s.i0 - buf0 : s.i1 - buf0].copy() for s in kept)
 
-        blocks = open_imu_blocks(path, **src_args)
+        blocks = open_imu_blocks(source)
         bar = bar_of("detecting stops", blocks.size, blocks.size_unit)
         try:
             for t, gyro, accel, adv in _si_blocks(blocks, freq):

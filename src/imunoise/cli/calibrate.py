@@ -7,6 +7,7 @@ import json
 import sys
 import warnings
 from pathlib import Path
+from typing import Any
 
 from imunoise.cli.export_gate import add_force, refusal, write_exports
 from imunoise.cli.fit import STREAM_ABOVE
@@ -16,7 +17,7 @@ from imunoise.cli.options import (
     add_topic,
     add_units,
     check_freq,
-    parse_units,
+    imu_source,
     prepare_out_dir,
     print_warnings,
 )
@@ -103,11 +104,13 @@ def _bar(desc: str, total: int, unit: str):
     return tqdm(total=total, unit=unit, unit_scale=True, desc=desc, disable=not sys.stderr.isatty(), leave=False)
 
 
-def _should_stream(args: argparse.Namespace, path: str, source: dict) -> bool:
-    """Stream a bag or table when forced (--stream) or when it holds more than --stream-above samples."""
+def _should_stream(args: argparse.Namespace, source: Any) -> bool:
+    """Stream a bag or table (an :class:`~imunoise.io.imu_source.ImuSource`) when forced (--stream) or when it
+    holds more than --stream-above samples."""
     from imunoise.io.imu_stream import open_imu_blocks
     from imunoise.io.rosbag import is_bag
 
+    path = source.path
     p = Path(path)
     streamable = not (p.is_dir() and (p / "dataset.json").exists()) and (
         is_bag(p) or args.columns is not None or p.suffix.lower() in (".npz", ".npy"))
@@ -121,7 +124,7 @@ def _should_stream(args: argparse.Namespace, path: str, source: dict) -> bool:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the reader that runs says it again
-            n = open_imu_blocks(path, **source).n_estimate
+            n = open_imu_blocks(source).n_estimate
     except (DataError, OSError):
         return False  # the whole-log reader says what is wrong, in its own words
     if n > args.stream_above:
@@ -144,18 +147,16 @@ def run(args: argparse.Namespace) -> int:
     out = prepare_out_dir(args.out or f"{Path(args.logs[0]).name.split('.')[0]}_calib")
     cfg = DetectorConfig(window=args.window, min_duration_s=args.min_duration, margin_s=args.margin)
     columns = parse_column_map(args.columns) if args.columns else None
-    source = {"topic": args.topic, "columns": columns, "units": parse_units(args.units),
-              "time_column": args.time_column, "time_unit": args.time_unit, "freq": args.freq}
     logs = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         for path in _tqdm_wrap(args.logs, "reading"):
-            if _should_stream(args, path, source):
-                logs.append(stream_stops(path, cfg, lambda0=args.lambda0, learn_from_s=args.learn_from,
-                                         learn_s=args.learn_s, ref=args.ref, gnss=args.gnss, progress=_bar,
-                                         **source))
+            source = imu_source(args, path, columns=columns)
+            if _should_stream(args, source):
+                logs.append(stream_stops(source, cfg, lambda0=args.lambda0, learn_from_s=args.learn_from,
+                                         learn_s=args.learn_s, ref=args.ref, gnss=args.gnss, progress=_bar))
             else:
-                logs.append(read_log(path, ref=args.ref, gnss=args.gnss, **source))
+                logs.append(read_log(source, ref=args.ref, gnss=args.gnss))
     print_warnings(caught)
     for item in logs:
         log = getattr(item, "log", item)

@@ -8,6 +8,7 @@ import json
 import sys
 import warnings
 from pathlib import Path
+from typing import Any
 
 from imunoise.cli.export_gate import add_force, band_checks, refusal, write_exports
 from imunoise.cli.options import (
@@ -22,8 +23,8 @@ from imunoise.cli.options import (
     add_units,
     add_weights,
     check_freq,
+    imu_source,
     out_dir,
-    parse_units,
     print_warnings,
 )
 from imunoise.errors import DataError, ModelError
@@ -139,24 +140,14 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError(f"--max-scale must be a positive time in seconds, got {args.max_scale}")
     if args.stream and args.robust:
         raise ModelError("--stream cannot use --robust: the robust WV needs every coefficient of a level at once")
-    source_args = {
-        "topic": args.topic,
-        "columns": columns,
-        "units": parse_units(args.units),
-        "time_column": args.time_column,
-        "time_unit": args.time_unit,
-        "freq": args.freq,
-        "stamps": args.stamps,
-    }
+    source = imu_source(args, args.data, columns=columns)
     series = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         if args.stream or not args.robust:
-            series = _streamed(args, source_args)
+            series = _streamed(args, source)
         if series is None:
-            series = read_imu_source(
-                args.data, **source_args, decimate_by=args.decimate, decimate_method=args.decimate_method
-            )
+            series = read_imu_source(source, decimate_by=args.decimate, decimate_method=args.decimate_method)
     # one readable line per handled data problem (sorted, duplicates, gaps, doubtful units), kept in the output
     series.meta["warnings"] = print_warnings(caught)
     if not multi and len(series.axes) != 1:
@@ -172,7 +163,7 @@ def run(args: argparse.Namespace) -> int:
     return _run_single(args, series, out)
 
 
-def _streamed(args: argparse.Namespace, source_args: dict):
+def _streamed(args: argparse.Namespace, source: Any):
     """The input's WV per axis in one pass (:func:`imunoise.noise.wv_log.stream_wavelet_variance`) when it is
     forced (--stream) or the input holds more than --stream-above samples; else None (whole-file path)."""
     from tqdm import tqdm
@@ -183,7 +174,7 @@ def _streamed(args: argparse.Namespace, source_args: dict):
     try:
         with warnings.catch_warnings(record=True) as early:
             warnings.simplefilter("always")
-            blocks = open_imu_blocks(args.data, **source_args)
+            blocks = open_imu_blocks(source)
     except (DataError, OSError):
         if args.stream:
             raise

@@ -30,6 +30,23 @@ def parse_units(text: str | None) -> str | dict[str, str] | None:
     return {k.strip(): v.strip() for k, v in (item.split("=", 1) for item in text.split(",") if item.strip())}
 
 
+def imu_source(args: argparse.Namespace, path: Any, **override: Any) -> Any:
+    """The :class:`~imunoise.io.imu_source.ImuSource` the reader options of a command name (``--topic``,
+    ``--columns``, ``--units``, ``--time-column``, ``--time-unit``, ``--freq``, ``--stamps``: those it has) for
+    ``path``; ``override`` replaces fields (e.g. a command's own reading of ``--columns``). An option the command
+    lacks takes the ImuSource default."""
+    from imunoise.io.imu_source import SOURCE_FIELDS, ImuSource
+
+    given = {k: getattr(args, k) for k in SOURCE_FIELDS if k not in ("columns", "units") and hasattr(args, k)}
+    if getattr(args, "units", None) is not None:
+        given["units"] = parse_units(args.units)
+    if getattr(args, "columns", None) is not None:
+        from imunoise.io.tabular import parse_column_map
+
+        given["columns"] = parse_column_map(args.columns)
+    return ImuSource(path, **{**given, **override})
+
+
 def check_freq(freq: float | None) -> None:
     """Refuse a ``--freq`` that is given but not a positive rate."""
     if freq is not None and not freq > 0:
@@ -55,15 +72,8 @@ def load_series(args: argparse.Namespace) -> Any:
         raise DataError("a bag holds six axes: choose one with --column gyro_x|gyro_y|gyro_z|accel_x|...")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        series = read_imu_source(
-            args.data,
-            topic=args.topic,
-            columns=[args.column] if args.column is not None else None,
-            units=args.units,
-            time_column=args.time_column,
-            time_unit=args.time_unit,
-            freq=args.freq,
-        )
+        series = read_imu_source(imu_source(args, args.data, columns=[args.column] if args.column is not None else None,
+                                            units=args.units))
     args.data_warnings = print_warnings(caught)  # printed now, kept in the output by source_extra
     if len(series.data) != 1:
         raise DataError(

@@ -32,7 +32,7 @@ def _fork(nav: OnlineNavigator, upd: Updater | None, shared: Sequence[Any]):
     # run's store is shared rather than copied, since the fork replaces it with an empty one. The finished
     # modelling jobs (ModelUpdate, never changed once made; their fits and rankings are most of what a fork
     # would copy) are shared too: the branch gets its own list of them.
-    store = getattr(nav, "_store", None)
+    store = nav.store
     done = tuple(nav.updates)
     nav2, upd2 = nav.fork(upd, share=(*shared, *((store,) if store is not None else ()), *done))
     return nav2, upd2
@@ -50,7 +50,7 @@ def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, sh
         # those samples, learns from the same accelerations at the first later sample, then replays them one by
         # one): the detector exists before the first chunk, so no sample takes the per-sample path for it
         dt = np.diff(t, prepend=t[0] - nav.dt_nom)
-        nav._learn_from((dv / dt[:, None])[t < t[0] + nav.config.learn_lambda0_s], t[0])
+        nav.learn_lambda0((dv / dt[:, None])[t < t[0] + nav.config.learn_lambda0_s], t[0])
     i0 = k = 0
     for j in order_w:
         s, length = windows[j]

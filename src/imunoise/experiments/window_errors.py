@@ -58,7 +58,7 @@ def stored_errors(nav, sc: Scenario, start: float | None = None):
     (:func:`branch_errors`)."""
     from imunoise.nav.solution import antenna_llh
 
-    store = nav._store
+    store = nav.store
     if store is None or not store.n:
         return None
     t = store.t if start is None else np.concatenate([[start - 1e-6], store.t])

@@ -26,6 +26,7 @@ import numpy as np
 
 from imunoise.errors import DataError
 from imunoise.imu import AXES
+from imunoise.io.imu_source import UNSET, ImuSource
 from imunoise.io.rosbag import is_bag, read_imu_bag
 from imunoise.io.tabular import RATE_TOLERANCE, TimeReport, TimingWarning, UnitWarning, clean_time, read_columns
 from imunoise.units import quantity_of
@@ -140,19 +141,22 @@ def _as_rates(values: np.ndarray, source_unit: str, si: str, freq: float) -> tup
 
 
 def read_imu_source(
-    path: str | Path,
+    path: str | Path | ImuSource,
     *,
-    topic: str | None = None,
-    columns: str | Sequence[str | int] | Mapping[str, str | int] | None = None,
-    units: str | Mapping[str, str] | None = None,
-    time_column: str | int | None = None,
-    time_unit: str | None = None,
-    freq: float | None = None,
+    topic: str | None = UNSET,
+    columns: str | Sequence[str | int] | Mapping[str, str | int] | None = UNSET,
+    units: str | Mapping[str, str] | None = UNSET,
+    time_column: str | int | None = UNSET,
+    time_unit: str | None = UNSET,
+    freq: float | None = UNSET,
     decimate_by: int = 1,
     decimate_method: str = "average",
-    stamps: str = "header",
+    stamps: str = UNSET,
 ) -> ImuSeries:
     """Read IMU data from a ROS bag or a table into SI per-axis arrays.
+
+    ``path`` is an :class:`~imunoise.io.imu_source.ImuSource`, or a path with the reader keywords (those not given
+    take the :class:`~imunoise.io.imu_source.ImuSource` defaults; given with an ImuSource they replace its fields).
 
     Bags: all six axes of ``topic`` (``gyro_x`` … ``accel_z``) unless ``columns`` names a subset; the
     rate comes from the header stamps (checked against ``freq`` when given). Tables: ``columns`` as in
@@ -163,10 +167,12 @@ def read_imu_source(
 
     A near-constant axis (:func:`degenerate_axis`) is refused: it has no noise to model.
     """
-    path = Path(path)
+    src = ImuSource.of(path, topic=topic, columns=columns, units=units, time_column=time_column,
+                       time_unit=time_unit, freq=freq, stamps=stamps)
+    path, topic, columns, freq = Path(src.path), src.topic, src.columns, src.freq
     check_axis_names(columns)
     if is_bag(path):
-        bag = read_imu_bag(path, topic, stamps=stamps, freq=freq)
+        bag = read_imu_bag(path, topic, stamps=src.stamps, freq=freq)
         all_axes = bag.axes()
         wanted = _bag_axes(columns, all_axes)
         data = {a: all_axes[a] for a in wanted}
@@ -182,7 +188,8 @@ def read_imu_source(
             meta={"format": "rosbag", "topic": bag.topic, "frame_id": bag.frame_id, "frame": "FLU (ROS)"},
         )
     else:
-        cols = read_columns(path, columns, units=units, time_column=time_column, time_unit=time_unit, freq=freq)
+        cols = read_columns(path, columns, units=src.units, time_column=src.time_column, time_unit=src.time_unit,
+                            freq=freq)
         file_freq = cols.extra.get("freq_hz")
         if freq and file_freq and abs(float(freq) - file_freq) > RATE_TOLERANCE * file_freq:
             raise DataError(

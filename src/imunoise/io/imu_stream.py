@@ -24,6 +24,7 @@ import numpy as np
 
 from imunoise.errors import DataError, UnitError
 from imunoise.io.imu_input import check_axis_names
+from imunoise.io.imu_source import UNSET, ImuSource
 from imunoise.io.rosbag import imu_topic, is_bag, iter_imu_bag
 from imunoise.io.row_sources import RowsHead, npy_rows, npz_rows, text_rows
 from imunoise.io.tabular import (
@@ -84,26 +85,29 @@ class ImuBlocks:
 # readers
 # ----------------------------------------------------------------------------------------------
 def open_imu_blocks(
-    path: str | Path,
+    path: str | Path | ImuSource,
     *,
-    topic: str | None = None,
-    columns: str | Sequence[str | int] | Mapping[str, str | int] | None = None,
-    units: str | Mapping[str, str] | None = None,
-    time_column: str | int | None = None,
-    time_unit: str | None = None,
-    freq: float | None = None,
-    stamps: str = "header",
+    topic: str | None = UNSET,
+    columns: str | Sequence[str | int] | Mapping[str, str | int] | None = UNSET,
+    units: str | Mapping[str, str] | None = UNSET,
+    time_column: str | int | None = UNSET,
+    time_unit: str | None = UNSET,
+    freq: float | None = UNSET,
+    stamps: str = UNSET,
     chunk_rows: int = CHUNK_ROWS,
 ) -> ImuBlocks:
-    """The axes :func:`~imunoise.io.imu_input.read_imu_source` would return, as blocks (module docstring).
+    """The axes :func:`~imunoise.io.imu_input.read_imu_source` would return, as blocks (module docstring);
+    ``path`` and the reader keywords as there (an :class:`~imunoise.io.imu_source.ImuSource`, or a path).
 
     Headers, column names, units and the rate are checked here, before any block is read; bad cells
     and non-finite values raise :class:`DataError` when their block is reached.
     """
-    path = Path(path)
+    src = ImuSource.of(path, topic=topic, columns=columns, units=units, time_column=time_column,
+                       time_unit=time_unit, freq=freq, stamps=stamps)
+    path, columns, time_unit, freq = Path(src.path), src.columns, src.time_unit, src.freq
     check_axis_names(columns)
     if is_bag(path):
-        return _bag_blocks(path, topic, columns, freq, stamps, chunk_rows)
+        return _bag_blocks(path, src.topic, columns, freq, src.stamps, chunk_rows)
     if not path.exists():
         raise DataError(f"file not found: {path}")
     if time_unit is not None and time_unit not in TIME_UNITS:
@@ -115,7 +119,7 @@ def open_imu_blocks(
         head, rows = npz_rows(path, chunk_rows)
     else:
         head, rows = text_rows(path, chunk_rows)
-    return _table_blocks(path, head, rows, columns, units, time_column, time_unit, freq)
+    return _table_blocks(path, head, rows, columns, src.units, src.time_column, time_unit, freq)
 
 
 

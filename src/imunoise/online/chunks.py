@@ -3,7 +3,7 @@
 :meth:`~imunoise.online.navigator.OnlineNavigator.run` feeds the streaming detector a chunk of IMU samples
 (:meth:`~imunoise.detect.StaticDetector.push_chunk`: it decides the stops from the IMU alone, so it runs
 ahead of the filter), then walks the chunk from event to event. An *event* is a sample that needs the
-per-sample Python path (:meth:`OnlineNavigator._sample`):
+per-sample Python path (:meth:`OnlineNavigator.step_sample`):
 
 * the first sample after the initial time (the strapdown is primed there);
 * a sample at which the detector completed a segment (stop end: the stop guard, the modeller, an inline fit);
@@ -52,6 +52,7 @@ def chunked(nav: Any) -> bool:
 def replay(nav: Any, imu: Any, gnss: Any, progress: Any = None) -> Any:
     """:meth:`OnlineNavigator.run`: check and prepare the record (rates, sorted fixes, λ0), replay it with
     :func:`run_record`, and finish."""
+    st = nav.state
     t0 = time.perf_counter()
     t = np.asarray(imu.t, dtype=float)
     dth_all, dv_all = imu.increments() if hasattr(imu, "increments") else (imu.dtheta, imu.dv)
@@ -68,8 +69,8 @@ def replay(nav: Any, imu: Any, gnss: Any, progress: Any = None) -> Any:
     gt, gllh, gsig = gt[order], np.asarray(gnss.llh)[order], np.asarray(gnss.sigma_ned)[order]
     if nav.detector is None:
         lam_mask = t < t[0] + nav.config.learn_lambda0_s
-        nav._learn_from(accel[lam_mask], t[0])
-    nav._elapsed += time.perf_counter() - t0
+        nav.learn_lambda0(accel[lam_mask], t[0])
+    st.elapsed += time.perf_counter() - t0
     run_record(nav, t, dth_all, dv_all, gyro, accel, gt, gllh, gsig, progress)
     if progress is not None:
         progress(t.size, t.size)
@@ -81,6 +82,7 @@ def push_chunk(nav: Any, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -
     Δt (the first after the last pushed sample, else the nominal one), then :func:`run_record` without
     finishing. While λ_0 is still to be learned, a chunk that ends before the learning window does goes through
     :meth:`push_imu` (held); the chunk that reaches its end learns λ_0 at once (:func:`_learn_in_chunk`)."""
+    st = nav.state
     t = np.asarray(t, dtype=float).reshape(-1)
     dth = np.ascontiguousarray(dtheta, dtype=float)
     dvv = np.ascontiguousarray(dv, dtype=float)
@@ -108,16 +110,16 @@ def push_chunk(nav: Any, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -
         for k in range(gi, gt.size):
             nav.push_gnss(gt[k], gllh[k], gsig[k])
         return
-    prev = np.concatenate([[nav._t_in], t[:-1]])
+    prev = np.concatenate([[st.t_in], t[:-1]])
     if not np.all(t > prev):
         k = int(np.flatnonzero(~(t > prev))[0])
         raise DataError(f"push_chunk: time {t[k]!r} does not follow {prev[k]!r}; stamps must increase")
     t0 = time.perf_counter()
     dt = t - prev
-    if not math.isfinite(nav._t_in):
+    if not math.isfinite(st.t_in):
         dt[0] = nav.dt_nom
-    nav._t_in = float(t[-1])
-    nav._elapsed += time.perf_counter() - t0
+    st.t_in = float(t[-1])
+    st.elapsed += time.perf_counter() - t0
     run_record(nav, t, dth, dvv, dth / dt[:, None], dvv / dt[:, None], gt, gllh, gsig)
 
 
@@ -126,20 +128,20 @@ def _learn_in_chunk(nav: Any, t, dth, dvv, gt, gllh, gsig) -> bool:
     samples and the chunk's (the accelerations :meth:`push_imu` would hold), then everything held and the chunk
     replayed by :func:`run_record` (the same as the per-sample path, which learns at the first later sample and
     replays the held ones). False (nothing done) when the chunk ends before."""
-    t0 = nav._learn_t0 if nav._learn_t0 is not None else float(t[0])
+    st = nav.state
+    t0 = nav.feed.learn_t0 if nav.feed.learn_t0 is not None else float(t[0])
     k = int(np.searchsorted(t, t0 + nav.config.learn_lambda0_s, side="left"))
-    if k >= t.size or not np.all(t > np.concatenate([[nav._t_in], t[:-1]])):
+    if k >= t.size or not np.all(t > np.concatenate([[st.t_in], t[:-1]])):
         return False  # still learning, or bad stamps: push_imu says which
-    dt = t - np.concatenate([[nav._t_in], t[:-1]])
-    if not math.isfinite(nav._t_in):
+    dt = t - np.concatenate([[st.t_in], t[:-1]])
+    if not math.isfinite(st.t_in):
         dt[0] = nav.dt_nom
     gyro, accel = dth / dt[:, None], dvv / dt[:, None]
-    held = nav._pending_samples
-    nav._pending_samples = []
-    nav._learn_t0 = t0
+    held = nav.feed.take_pending()
+    nav.feed.learn_t0 = t0
     hacc = np.array([h[4] for h in held]).reshape(-1, 3)
-    nav._learn_from(np.concatenate([hacc, accel[:k]]), t0)
-    nav._t_in = float(t[-1])
+    nav.learn_lambda0(np.concatenate([hacc, accel[:k]]), t0)
+    st.t_in = float(t[-1])
 
     def cat(i: int, x: np.ndarray) -> np.ndarray:
         return np.concatenate([np.array([h[i] for h in held]).reshape((-1,) + x.shape[1:]), x])
@@ -160,6 +162,7 @@ def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: n
                gt: np.ndarray, gllh: np.ndarray, gsig: np.ndarray, progress: Any = None) -> None:
     """Replay samples and fixes (sorted) through ``nav``: detector chunks, then per chunk the events and the
     kernel spans between them (or every sample in Python when :func:`chunked` is false)."""
+    st = nav.state
     n = t.size
     every = max(n // 100, 1)
     gi = 0
@@ -168,7 +171,7 @@ def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: n
     if fixes_pass(gt, gllh, gsig):  # what push_gnss checks per fix, at once; then each fix goes in as checked
 
         def push_gnss(k: int) -> None:
-            nav._push_fix(float(gt[k]), np.asarray(gllh[k], dtype=float).reshape(-1).copy(),
+            nav.push_checked_fix(float(gt[k]), np.asarray(gllh[k], dtype=float).reshape(-1).copy(),
                           np.asarray(gsig[k], dtype=float).reshape(-1).copy())
     else:  # push_gnss raises for the first bad fix when the replay reaches it
 
@@ -182,7 +185,7 @@ def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: n
         done_at: dict[int, list] = {}
         for s, k in zip(det.segments, det.completed_at, strict=True):
             done_at.setdefault(k - base, []).append(s)
-        nav._elapsed += time.perf_counter() - t1
+        st.elapsed += time.perf_counter() - t1
         if fast:
             gi = run_chunk(nav, a, b, t, dth, dv, gyro, accel, det, done_at, gt, push_gnss, gi, progress, every, n)
             continue
@@ -191,9 +194,9 @@ def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: n
             while gi < gt.size and gt[gi] <= t[k]:
                 push_gnss(gi)
                 gi += 1
-            nav._sample(t[k], dth[k], dv[k], gyro[k], accel[k], bool(det.static_raw[k - a]),
+            nav.step_sample(t[k], dth[k], dv[k], gyro[k], accel[k], bool(det.static_raw[k - a]),
                         bool(det.gate_open[k - a]), done_at.get(k, []))
-            nav._elapsed += time.perf_counter() - t1
+            st.elapsed += time.perf_counter() - t1
             if progress is not None and k % every == 0:
                 progress(k, n)
     while gi < gt.size:
@@ -205,26 +208,27 @@ def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: d
               progress: Any, every: int, n_total: int) -> int:
     """Samples ``a``..``b−1`` (one detector chunk ``det``) from event to event; returns the next fix index
     (``push_gnss(k)`` hands fix k of the record to the navigator)."""
+    st = nav.state
     t1 = time.perf_counter()
     cfg = nav.config
     static = np.asarray(det.static_raw, dtype=bool)
     gate = np.asarray(det.gate_open, dtype=bool) & bool(cfg.gate)
-    runs = _static_runs(static, nav._static_run)
+    runs = _static_runs(static, st.static_run)
     rel = np.arange(b - a)
     py = [np.fromiter(sorted(k - a for k in done_at), dtype=np.int64)]
     bad = ~(np.all(np.isfinite(dth[a:b]), axis=1) & np.all(np.isfinite(dv[a:b]), axis=1))
     py.append(rel[bad])
     if cfg.zupt:
         py.append(rel[static & (runs >= cfg.zupt_after) & (runs % cfg.zupt_every == 0)])
-    if not nav._started:
+    if not st.started:
         i = int(np.searchsorted(t[a:b], nav.init.t, side="right"))
         py.append(np.array([i], dtype=np.int64))
-    for idx, _ in nav._event_sources:
-        py.append(idx[(idx >= nav._n) & (idx < nav._n + b - a)] - nav._n)
+    for idx, _ in st.event_sources:
+        py.append(idx[(idx >= st.n_samples) & (idx < st.n_samples + b - a)] - st.n_samples)
     py = [np.unique(p) for p in py if p.size]
     # starts from a stop: events while the learned model adds a departure step there
-    prev_run = np.concatenate([[nav._static_run], runs[:-1]])
-    learner = nav._motion
+    prev_run = np.concatenate([[st.static_run], runs[:-1]])
+    learner = nav.learner.motion
     departures = rel[~static & (prev_run >= learner.min_stop_n)] if learner is not None else rel[:0]
     k = 0
     m = b - a
@@ -233,10 +237,10 @@ def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: d
         due = [nav.modeller.next_effect()]
         if departures.size and learner.departure_var() is not None:
             sources.append(departures)
-        if learner is not None and nav._started:
+        if learner is not None and st.started:
             if learner.waiting():
                 # the shadows start at an aided moving step: every sample that applies a fix
-                q = [f[0] for f in nav._gnss] + gt[gi:].tolist()
+                q = [f[0] for f in st.gnss] + gt[gi:].tolist()
                 sources.append(np.unique(np.searchsorted(t[a:b], np.array(q, dtype=float), side="left")))
             else:
                 due.append(learner.next_round_t())
@@ -257,78 +261,76 @@ def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: d
             while gi < gt.size and gt[gi] <= t[j]:
                 push_gnss(gi)
                 gi += 1
-            nav._sample(t[j], dth[j], dv[j], gyro[j], accel[j], bool(static[e]), bool(det.gate_open[e]),
+            nav.step_sample(t[j], dth[j], dv[j], gyro[j], accel[j], bool(static[e]), bool(det.gate_open[e]),
                         done_at.get(j, []))
             if progress is not None and j % every == 0:
                 progress(j, n_total)
         k = e + 1
-    nav._elapsed += time.perf_counter() - t1
+    st.elapsed += time.perf_counter() - t1
     return gi
 
 
 def _span(nav: Any, a: int, e: int, t, dth, dv, gyro, accel, static, gate, runs) -> None:
     """Samples a..e−1, none of them an event: bookkeeping on arrays, the filter in one kernel call."""
+    st = nav.state
     cfg = nav.config
     ts = t[a:e]
     m = e - a
-    n0 = nav._n
-    # -- the raw-sample bookkeeping of _sample -------------------------------------------------------
-    nav._rows.extend(np.concatenate([gyro[a:e], accel[a:e]], axis=1))
-    nav._static_raw.extend(static.tolist())
-    nav._sample_t.extend(ts.tolist())
-    nav._t_last = float(ts[-1])
-    nav._n += m
-    nav._static_run = int(runs[-1])
+    n0 = st.n_samples
+    # -- the raw-sample bookkeeping of step_sample---------------------------------------------------
+    st.rows.extend(np.concatenate([gyro[a:e], accel[a:e]], axis=1))
+    st.static_raw.extend(static.tolist())
+    st.sample_t.extend(ts.tolist())
+    st.t_last = float(ts[-1])
+    st.n_samples += m
+    st.static_run = int(runs[-1])
     starts = np.flatnonzero(runs == 1)
     if starts.size:
-        nav._run_len = 0
-        nav._run_i0 = n0 + int(starts[-1])
+        nav.guard.new_run(n0 + int(starts[-1]))
     if not np.all(static):
-        nav._zupt_rejected = False
+        st.zupt_rejected = False
     evs = []
     if nav.detector is not None:
-        for i in np.flatnonzero(runs == nav._stop_start_n):
-            evs.append((int(i), 0, "stop_start", {"t0": nav._sample_t[n0 + i - nav._stop_start_n + 1]}))
-    prev = np.concatenate([[nav._gate], gate[:-1]])
+        for i in np.flatnonzero(runs == st.stop_start_n):
+            evs.append((int(i), 0, "stop_start", {"t0": st.sample_t[n0 + i - st.stop_start_n + 1]}))
+    prev = np.concatenate([[st.gate], gate[:-1]])
     for i in np.flatnonzero(gate != prev):
         evs.append((int(i), 1, "gate_open" if gate[i] else "gate_closed", {}))
-    nav._gate = bool(gate[-1])
-    nav._gate_log.extend(gate.tolist())
+    st.gate = bool(gate[-1])
+    st.gate_log.extend(gate.tolist())
     for i, _, name, kw in sorted(evs, key=lambda x: (x[0], x[1])):
-        nav._event(name, float(ts[i]), **kw)
+        st.event(name, float(ts[i]), **kw)
     rec = static.copy()
     if starts.size:
         rec[: starts[-1]] = False
     # -- the filter ------------------------------------------------------------------------------------
-    if not nav._started:
-        fixes = nav._gnss
+    if not st.started:
+        fixes = st.gnss
         while fixes and fixes[0][0] <= ts[-1]:
             fixes.pop(0)
         if cfg.stop_guard == "nav":
             k = int(rec.sum())
-            nav._run_rows(np.column_stack([np.full(k, math.nan), np.full(k, math.nan), np.zeros(k),
+            nav.guard.rows(np.column_stack([np.full(k, math.nan), np.full(k, math.nan), np.zeros(k),
                                            np.full(k, math.nan)]))
     else:
         _filter_span(nav, ts, dth[a:e], dv[a:e], gate, rec, static)
     # raw samples are needed only back to the start of a possible segment
-    if not np.all(static) and len(nav._rows) > 4096:
+    if not np.all(static) and len(st.rows) > 4096:
         last_moving = int(np.flatnonzero(~static)[-1])
-        drop = len(nav._rows) - (m - last_moving) - 15
-        if drop > 0:
-            del nav._rows[:drop]
-            nav._raw_t0 += drop
+        st.drop_old_rows(m - last_moving + 15)
 
 
 def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
+    st = nav.state
     cfg = nav.config
     ekf = nav.ekf
     ec = ekf.config
     m = ts.size
-    q = nav._gnss
+    q = st.gnss
     j = 0
     while j < len(q) and q[j][0] <= ts[-1]:
         j += 1
-    fl, nav._gnss = q[:j], q[j:]
+    fl, st.gnss = q[:j], q[j:]
     if fl:  # finite positions (one vectorised test; push_gnss keeps (3,) positions)
         finite = np.isfinite(np.array([f[1] for f in fl], dtype=float).reshape(len(fl), -1)).all(axis=1).tolist()
         fl = [f for f, ok in zip(fl, finite, strict=True) if f[0] > nav.init.t and ok]
@@ -348,14 +350,14 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
     used = ekf.run_span(imu, fixes, rows, pv)
     # the sample each fix was applied at (the first with t ≥ the fix time)
     at = np.searchsorted(ts, ft, side="left")
-    t_aided = np.full(m, nav._t_aided)
+    t_aided = np.full(m, st.t_aided)
     if used.any():
         ua = at[used]
         mark = np.full(m, -1)
         mark[ua] = ua
         last = np.maximum.accumulate(mark)
-        t_aided = np.where(last >= 0, ts[np.maximum(last, 0)], nav._t_aided)
-        nav._t_aided = float(ts[ua[-1]])
+        t_aided = np.where(last >= 0, ts[np.maximum(last, 0)], st.t_aided)
+        st.t_aided = float(ts[ua[-1]])
     if guard:
         # the rows _record_nav writes, one block per span: the same scalar operations (math.hypot, math.sqrt of
         # max(·, 0.0)) on the same values, element by element
@@ -371,8 +373,8 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
                     nis[n] = float(v @ np.linalg.solve(pv[i] + cfg.zupt_sigma_v**2 * np.eye(3), v))
                 except np.linalg.LinAlgError:
                     nis[n] = math.inf
-        nav._run_rows(np.column_stack([speed, sigma, aided, nis]))
-    if nav._motion is not None:
-        nav._motion.observe_span(ts, dth, dv, static, [f for f, u in zip(fl, used, strict=True) if u])
-    if nav._store is not None:
-        nav._store.extend(rows)
+        nav.guard.rows(np.column_stack([speed, sigma, aided, nis]))
+    if nav.learner.motion is not None:
+        nav.learner.motion.observe_span(ts, dth, dv, static, [f for f, u in zip(fl, used, strict=True) if u])
+    if st.store is not None:
+        st.store.extend(rows)

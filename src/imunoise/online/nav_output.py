@@ -38,27 +38,29 @@ def fork_navigator(nav: Any, others: Sequence[Any], share: tuple) -> tuple:
     # the per-sample logs get their own lists (both runs append and trim them) holding the same elements:
     # floats, bools and raw-sample rows that nothing writes into once appended (they are only read,
     # sliced and copied), so a shallow copy is the deep one without copying a row per sample
-    for seq in (nav._gate_log, nav._sample_t, nav._static_raw, nav._rows):
+    st = nav.state
+    for seq in (st.gate_log, st.sample_t, st.static_raw, st.rows):
         memo[id(seq)] = list(seq)
     nav, *rest = copy.deepcopy((nav, *others), memo)
-    if nav._store is not None:
-        nav._store = EpochStore()
+    if nav.state.store is not None:
+        nav.state.store = EpochStore()
     return (nav, *rest)
 
 
 def build_result(nav: Any) -> OnlineResult:
     """The :class:`OnlineResult` of navigator ``nav`` (:meth:`OnlineNavigator.finish`)."""
-    if nav._store is not None and nav._store.n:
-        t, pos, vel, eul, eg, ea, std = nav._store.arrays()
+    st = nav.state
+    if st.store is not None and st.store.n:
+        t, pos, vel, eul, eg, ea, std = st.store.arrays()
     else:
         z = np.zeros((0, 3))
         t, pos, vel, eul, eg, ea, std = np.zeros(0), z, z, z, z, z, np.zeros((0, 9))
     return OnlineResult(
         t=t, llh=pos, vel_ned=vel, euler=eul, gyro_error=eg, accel_error=ea, std=std,
         events=nav.events, updates=nav.updates, segments=list(nav.segments),
-        gate_open=np.array(nav._gate_log, dtype=bool), static_raw=np.array(nav._static_raw, dtype=bool),
+        gate_open=np.array(st.gate_log, dtype=bool), static_raw=np.array(st.static_raw, dtype=bool),
         lambda0=float(nav.lambda0) if nav.lambda0 is not None else float("nan"),
-        elapsed_s=nav._elapsed, final_models=list(nav.current_models), fits=list(nav.fits),
-        sample_t=np.array(nav._sample_t), rejected_segments=list(nav.rejected_segments),
+        elapsed_s=st.elapsed, final_models=list(nav.current_models), fits=list(nav.fits),
+        sample_t=np.array(st.sample_t), rejected_segments=list(nav.rejected_segments),
         detected_segments=list(nav.detected_segments), static_pieces=nav.modeller.static_pieces(copy=False),
     )

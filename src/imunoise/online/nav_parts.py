@@ -1,48 +1,62 @@
-"""Two parts of :class:`~imunoise.online.navigator.OnlineNavigator` kept apart (mixins that read its state):
-the ZUPT/ZARU step at a detected stop, and the views of the stop modeller."""
+"""Two parts of :class:`~imunoise.online.navigator.OnlineNavigator` kept apart: the ZUPT/ZARU step at a detected
+stop (a collaborator handed the engine state) and the views of the stop modeller (a mixin reading its
+``modeller``)."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from imunoise.detect import StaticSegment
 from imunoise.noise.estimator import GMWMFit
+from imunoise.noise.model import Model
+from imunoise.online.engine_state import EngineState
 from imunoise.online.result import ModelUpdate
 
-__all__ = ["ZuptStep", "ModellerViews"]
+__all__ = ["Zupt", "ModellerViews"]
 
 
-class ZuptStep:
+class Zupt:
     """Zero-velocity and zero-angular-rate updates while the detector says "static"
-    (docs/guide/theory.rst, 'Navigation filter')."""
+    (docs/guide/theory.rst, 'Navigation filter').
 
-    def _zupt_step(self, t: float, gate: bool) -> None:
+    Reads ``state.static_run`` and ``state.rows``, writes ``state.zupt_rejected`` and the ``zupt_rejected``
+    event."""
+
+    def __init__(self, config: Any, state: EngineState):
+        self.config = config
+        self.state = state
+
+    def step(self, t: float, gate: bool, ekf: Any, models: Sequence[tuple[Model, float]]) -> None:
         """A ZUPT (and ZARU) every ``zupt_every`` samples of a static run of ``zupt_after`` or more, the gate
-        closed and the filter slower than ``zupt_max_speed``."""
+        closed and the filter slower than ``zupt_max_speed``; ``models``: the filter's current axis models."""
         cfg = self.config
-        if self._static_run >= cfg.zupt_after and self._static_run % cfg.zupt_every == 0 \
-                and not gate and self.ekf.view.speed_h < cfg.zupt_max_speed:
+        st = self.state
+        if st.static_run >= cfg.zupt_after and st.static_run % cfg.zupt_every == 0 \
+                and not gate and ekf.view.speed_h < cfg.zupt_max_speed:
             # the χ² test of the zero-velocity pseudo-measurement (NIS = vᵀ(P_vv + σ²I)⁻¹v ≤ zupt_chi2, 3 dof;
             # 0 = off): a detector false positive on a moving car (a noisy IMU's learned λ0 lets smooth
             # cruising pass Eq. 9) would otherwise be forced into the filter
-            if self.ekf.zupt_update(cfg.zupt_sigma_v, chi2=cfg.zupt_chi2):
-                self.ekf.zaru_update(self._zaru_sigma())
-            elif not self._zupt_rejected:
-                self._zupt_rejected = True
-                self._event("zupt_rejected", t, speed_mps=float(np.linalg.norm(self.ekf.view.vel)))
+            if ekf.zupt_update(cfg.zupt_sigma_v, chi2=cfg.zupt_chi2):
+                ekf.zaru_update(self.zaru_sigma(models))
+            elif not st.zupt_rejected:
+                st.zupt_rejected = True
+                st.event("zupt_rejected", t, speed_mps=float(np.linalg.norm(ekf.view.vel)))
 
-    def _zaru_sigma(self) -> float:
+    def zaru_sigma(self, models: Sequence[tuple[Model, float]]) -> float:
         """σ of one ZARU sample: the larger of the configured σ, the current gyro model's per-sample white σ
         and the gyro scatter measured over this stop so far (the update uses a single increment, whose noise
         on a vibrating car is the vibration, not the datasheet's)."""
         s = self.config.zaru_sigma_w
-        for m, _ in self.current_models[:3]:
+        for m, _ in models[:3]:
             s = max(s, math.sqrt(m.white_variance()))
-        n = min(self._static_run, 200, len(self._rows))
+        rows = self.state.rows
+        n = min(self.state.static_run, 200, len(rows))
         if n >= 10:
-            g = np.array(self._rows[-n:])[:, :3]
+            g = np.array(rows[-n:])[:, :3]
             s = max(s, float(np.max(np.std(g, axis=0))))
         return s
 

@@ -93,13 +93,14 @@ from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, normalize_axis_mod
 from imunoise.noise.model import Model
 from imunoise.online.chunks import push_chunk, replay
 from imunoise.online.config import OnlineConfig, config_summary
-from imunoise.online.lambda0 import Lambda0Learning
+from imunoise.online.engine_state import EngineState
+from imunoise.online.lambda0 import DetectorFeed
 from imunoise.online.learner.host import LearnerHost
 from imunoise.online.modeller import StopModeller
 from imunoise.online.nav_output import build_result, fork_navigator, store_epoch
-from imunoise.online.nav_parts import ModellerViews, ZuptStep
-from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult, log_event
-from imunoise.online.stops import NavStopGuard
+from imunoise.online.nav_parts import ModellerViews, Zupt
+from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
+from imunoise.online.stops import StopGuard
 from imunoise.online.stream_checks import check_fix, check_increment
 from imunoise.online.to_filter import filter_axis_models
 
@@ -111,8 +112,14 @@ __all__ = ["OnlineNavigator", "run_online"]
 # --------------------------------------------------------------------------------------------------
 # navigator
 # --------------------------------------------------------------------------------------------------
-class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, ModellerViews):
+class OnlineNavigator(ModellerViews):
     """Online GMWM INS/GNSS navigator (docs/guide/theory.rst, 'Online engine'). See the module docstring.
+
+    The engine's per-sample state is one :class:`~imunoise.online.engine_state.EngineState` (``state``) handed to
+    named collaborators: ``feed`` (:class:`~imunoise.online.lambda0.DetectorFeed`: the static detector and
+    λ_0), ``guard`` (:class:`~imunoise.online.stops.StopGuard`: which detected stops are modelled), ``modeller``
+    (:class:`~imunoise.online.modeller.StopModeller`), ``zupt`` (:class:`~imunoise.online.nav_parts.Zupt`) and
+    ``learner`` (:class:`~imunoise.online.learner.host.LearnerHost`: the in-motion noise learner).
 
     Parameters
     ----------
@@ -149,59 +156,59 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, Mode
         self.rate = float(imu_rate_hz)
         self.dt_nom = 1.0 / self.rate
         self.init = init
+        self.state = EngineState(init.t, store=EpochStore() if config.store else None)
         models = initial_models if initial_models is not None else default_axis_models(self.rate,
                                                                                         config.ekf.fallback)
         # the models without the learned in-motion part (the stops' model; what the learner adds to)
         self.static_models = normalize_axis_models(models, self.rate)
-        models = self._learner_init(models)  # a carried prior's processes hold from the first sample
+        self.learner = LearnerHost(config, self.state, self.rate)
+        models = self.learner.first_models(models, self.static_models)  # a carried prior's from the first sample
         self.ekf = LooselyCoupledEKF(config.ekf, models, init, imu_rate_hz=self.rate)
-        self._floor = [m for m, _ in default_axis_models(self.rate, config.ekf.fallback)]
-        self._started = False  # first sample after init.t seen
-        self._t_last = -math.inf  # time of the last sample the filter/detector processed
-        self._t_in = -math.inf  # time of the last sample pushed (held while λ0 is learned)
-        self._n = 0
-        self.detector: StaticDetector | None = None
-        self.lambda0: float | None = None
-        self._stop_start_n = -1
-        self._zupt_rejected = False
-        if config.detector is not None:
-            self._make_detector(config.detector)
-        self._learn: list[np.ndarray] = []
-        self._learn_t0: float | None = None
-        self._pending_samples: list[tuple[float, np.ndarray, np.ndarray]] = []
-        self._rows: list[np.ndarray] = []  # raw samples (rates) kept for the segments
-        self._raw_t0 = 0  # absolute index of _rows[0]
-        self._gnss: list[tuple[float, np.ndarray, np.ndarray]] = []
+        self.floor = [m for m, _ in default_axis_models(self.rate, config.ekf.fallback)]
+        self.feed = DetectorFeed(self.state, self.rate, config.learn_lambda0_s, config.detector)
+        self.guard = StopGuard(config, self.state, self.rate)
+        self.zupt = Zupt(config, self.state)
         self.detected_segments: list[StaticSegment] = []  # every completed detector segment, before the guard
-        self.rejected_segments: list[StaticSegment] = []  # the parts of them the stop guard dropped
-        self._t_aided = -math.inf  # filter time of the last GNSS fix the filter used
-        # navigation solution at each sample of the current raw static run (rows: speed, σ_h, aided, NIS) for
-        # the stop guard, in a growing array (a 2 h static record would be 720k rows); _run_i0 = absolute index
-        # of the run's first sample
-        self._run_nav = np.empty((1024, 4))
-        self._run_len = 0
-        self._run_i0 = 0
-        self.events: list[dict] = []
-        self.modeller = StopModeller(config, self.rate, self.events, job_cache)
-        self._gate = False
-        self._static_run = 0
-        self._store = EpochStore() if config.store else None
-        self._static_raw: list[bool] = []
-        self._sample_t: list[float] = []
-        self._gate_log: list[bool] = []
-        self._elapsed = 0.0
+        self.modeller = StopModeller(config, self.rate, self.state.events, job_cache)
         self.current_models = models
-        self._ekf_models_log: list[tuple[float, list[str]]] = []
-        self._event_sources: list[tuple[np.ndarray, Any]] = []
-        self._event("start", init.t, lambda0=self.lambda0, config=config_summary(config))
+        self.state.event("start", init.t, lambda0=self.lambda0, config=config_summary(config))
         if earlier_static is not None:
             self.modeller.add_earlier(earlier_static, init.t)
         if config.modelling and config.warm_up and all(f is None for f in self.fits):
             self.modeller.start_warm_up(init.t)
 
-    # -- helpers ----------------------------------------------------------------------------------
-    def _event(self, event: str, t: float, **kw: Any) -> None:
-        log_event(self.events, event, t, **kw)
+    # -- views ------------------------------------------------------------------------------------
+    @property
+    def events(self) -> list[dict]:
+        """The event log so far."""
+        return self.state.events
+
+    @property
+    def store(self) -> EpochStore | None:
+        """The stored epochs so far (None with ``OnlineConfig(store=False)``); read, e.g., by the experiments'
+        errors of a running navigator (:func:`imunoise.experiments.window_errors.stored_errors`)."""
+        return self.state.store
+
+    @property
+    def detector(self) -> StaticDetector | None:
+        """The static detector (None while λ_0 is still to be learned)."""
+        return self.feed.detector
+
+    @property
+    def lambda0(self) -> float | None:
+        """The detector's λ_0 [m/s²] (None while still to be learned)."""
+        return self.feed.lambda0
+
+    @property
+    def rejected_segments(self) -> list[StaticSegment]:
+        """The parts of the detected segments the stop guard dropped."""
+        return self.guard.rejected_segments
+
+    def learn_lambda0(self, accel_static: np.ndarray, t0: float) -> None:
+        """Learn λ_0 now from the specific forces ``accel_static`` (n, 3) [m/s²] of the first ``learn_lambda0_s``
+        of the record, starting at ``t0`` [s] (:meth:`DetectorFeed.learn_from`): what :meth:`push_imu` does at
+        the first sample after them, done at once by a replay that has the whole record."""
+        self.feed.learn_from(accel_static, t0)
 
     def add_event_source(self, indices: np.ndarray, hook: Any) -> None:
         """Call ``hook(navigator, i)`` just before IMU sample ``i`` (0-based, in push order) for every ``i`` of the
@@ -209,7 +216,7 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, Mode
         per-sample noise schedule). :meth:`run` makes each such sample an event of its chunked replay
         (:mod:`imunoise.online.chunks`), so the kernel stops there and the sample takes the per-sample path,
         which calls the hook (as for :meth:`push_imu`)."""
-        self._event_sources.append((np.asarray(indices, dtype=np.int64), hook))
+        self.state.event_sources.append((np.asarray(indices, dtype=np.int64), hook))
 
     # -- streaming API ----------------------------------------------------------------------------
     def push_gnss(self, t: float, llh_rad: np.ndarray, sigma_ned_m: np.ndarray) -> None:
@@ -228,19 +235,19 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, Mode
             1σ of the fix along north, east, down (m), ≥ 0. A NaN σ is handled by the filter (replaced by
             ``EkfConfig.gnss_sigma_nan``, logged), as in the batch EKF.
         """
-        self._push_fix(*check_fix(t, llh_rad, sigma_ned_m))
+        self.push_checked_fix(*check_fix(t, llh_rad, sigma_ned_m))
 
-    def _push_fix(self, t: float, llh: np.ndarray, sig: np.ndarray) -> None:
+    def push_checked_fix(self, t: float, llh: np.ndarray, sig: np.ndarray) -> None:
         """:meth:`push_gnss` of a fix :func:`~imunoise.online.stream_checks.check_fix` already passed (the replay
         checks a record's fixes at once: :func:`imunoise.online.chunks.run_record`)."""
+        st = self.state
         fix = (t, llh, sig)
-        if t <= self._t_last:
-            if self._started and t > self.init.t and self.ekf.update_gnss(*fix):
-                self._t_aided = self._t_last
-                if self._motion is not None:
-                    self._motion_fixes.append(fix)
+        if t <= st.t_last:
+            if st.started and t > self.init.t and self.ekf.update_gnss(*fix):
+                st.t_aided = st.t_last
+                self.learner.fix_used(fix)
             return
-        self._gnss.append(fix)
+        st.gnss.append(fix)
 
     def push_imu(self, t: float, dtheta: np.ndarray, dv: np.ndarray) -> None:
         """One IMU increment (Δθ rad, Δv m/s over (t_prev, t], body FRD): ``dtheta`` and ``dv`` three
@@ -254,16 +261,12 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, Mode
             Angle [rad] and velocity [m/s] increments, shape (3,).
         """
         t0 = time.perf_counter()
-        t, dth, dvv = check_increment(t, dtheta, dv, self._t_in)
-        dt = t - self._t_in if math.isfinite(self._t_in) else self.dt_nom
-        self._t_in = t
-        gyro, accel = dth / dt, dvv / dt
-        if self.detector is None:
-            self._learn_push(t, dth, dvv, gyro, accel)
-        else:
-            segs = self.detector.push(t, accel, gyro)
-            self._sample(t, dth, dvv, gyro, accel, self.detector.is_static, self.detector.gate_open, segs)
-        self._elapsed += time.perf_counter() - t0
+        st = self.state
+        t, dth, dvv = check_increment(t, dtheta, dv, st.t_in)
+        dt = t - st.t_in if math.isfinite(st.t_in) else self.dt_nom
+        st.t_in = t
+        self.feed.push(t, dth, dvv, dth / dt, dvv / dt, self.step_sample)
+        st.elapsed += time.perf_counter() - t0
 
     def push_chunk(self, t, dtheta, dv, gnss_t=(), gnss_llh=(), gnss_sigma=()) -> None:
         """Many IMU increments (n,), (n, 3), (n, 3) and the fixes up to them at once: the same as :meth:`push_gnss`
@@ -293,16 +296,17 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, Mode
         -------
         OnlineResult
         """
+        st = self.state
         t0 = time.perf_counter()
-        if self.detector is None and self._pending_samples:
-            self._learn_finish()
-        self.modeller.finish(self._t_last)
-        self._learner_finish()
+        if self.detector is None and self.feed.pending:
+            self.feed.finish_learning(self.step_sample)
+        self.modeller.finish(st.t_last)
+        self.learner.finish(self)
         if self.detector is not None:
             self.detector.finish()
-        self._elapsed += time.perf_counter() - t0
-        self._event("end", self._t_last, static_s=self.static_s, n_updates=len(self.updates))
-        return self._result()
+        st.elapsed += time.perf_counter() - t0
+        st.event("end", st.t_last, static_s=self.static_s, n_updates=len(self.updates))
+        return build_result(self)
 
     # -- batch ------------------------------------------------------------------------------------
     def run(self, imu, gnss, *, progress: Any = None) -> OnlineResult:
@@ -325,74 +329,74 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, Mode
         return replay(self, imu, gnss, progress)
 
     # -- one sample -----------------------------------------------------------------------------------
-    def _sample(self, t, dth, dvv, gyro, accel, is_static: bool, gate_open: bool, segs) -> None:
+    def step_sample(self, t, dth, dvv, gyro, accel, is_static: bool, gate_open: bool, segs) -> None:
+        """The per-sample path of one increment whose detector verdict is known (``is_static``, ``gate_open``, the
+        segments it completed): the bookkeeping, the filter step with its fixes, the stop guard's row, ZUPT, the
+        learner, the stops and the model swaps. :meth:`push_imu` and the chunked replay's events take it."""
         cfg = self.config
-        for idx, hook in self._event_sources:
-            if np.any(idx == self._n):
-                hook(self, self._n)
-        self._rows.append(np.concatenate([gyro, accel]))
-        self._static_raw.append(is_static)
-        self._sample_t.append(t)
-        self._t_last = t
-        self._n += 1
-        prev_run = self._static_run
-        self._static_run = self._static_run + 1 if is_static else 0
-        if self._static_run == 1:
+        st = self.state
+        for idx, hook in st.event_sources:
+            if np.any(idx == st.n_samples):
+                hook(self, st.n_samples)
+        st.rows.append(np.concatenate([gyro, accel]))
+        st.static_raw.append(is_static)
+        st.sample_t.append(t)
+        st.t_last = t
+        st.n_samples += 1
+        prev_run = st.static_run
+        st.static_run = st.static_run + 1 if is_static else 0
+        if st.static_run == 1:
             # a new raw static run: the previous run's segments were completed at its first non-static sample
-            self._run_len = 0
-            self._run_i0 = self._n - 1
+            self.guard.new_run(st.n_samples - 1)
         if not is_static:
-            self._zupt_rejected = False
-        if self._static_run == self._stop_start_n and self.detector is not None:
+            st.zupt_rejected = False
+        if st.static_run == st.stop_start_n and self.detector is not None:
             # the raw static run is now long enough to become a segment: a stop has started
-            self._event("stop_start", t, t0=self._sample_t[-self._static_run])
+            st.event("stop_start", t, t0=st.sample_t[-st.static_run])
         gate = bool(gate_open) and cfg.gate
-        if gate != self._gate:
-            self._gate = gate
-            self._event("gate_open" if gate else "gate_closed", t)
-        self._gate_log.append(gate)
+        if gate != st.gate:
+            st.gate = gate
+            st.event("gate_open" if gate else "gate_closed", t)
+        st.gate_log.append(gate)
         if t > self.init.t:
-            if not self._started:
-                self._started = True
+            if not st.started:
+                st.started = True
                 # previous increment for the coning/sculling terms, as run_ekf does
                 self.ekf.prime(dth, dvv)
             self.ekf.set_gate(gate)
             self.ekf.propagate(dth, dvv, t)
-            while self._gnss and self._gnss[0][0] <= t:
-                fix = self._gnss.pop(0)
+            while st.gnss and st.gnss[0][0] <= t:
+                fix = st.gnss.pop(0)
                 if fix[0] > self.init.t and self.ekf.update_gnss(*fix):
-                    self._t_aided = t
-                    if self._motion is not None:
-                        self._motion_fixes.append(fix)
+                    st.t_aided = t
+                    self.learner.fix_used(fix)
             if is_static and cfg.stop_guard == "nav":
-                self._record_nav(t)
+                self.guard.record(t, self.ekf)
             if cfg.zupt:
-                self._zupt_step(t, gate)
-            if self._motion is not None:
-                self._learner_step(t, dth, dvv, is_static, prev_run)
+                self.zupt.step(t, gate, self.ekf, self.current_models)
+            if self.learner.motion is not None:
+                self.learner.step(self, t, dth, dvv, is_static, prev_run)
         else:
-            while self._gnss and self._gnss[0][0] <= t:
-                self._gnss.pop(0)
+            while st.gnss and st.gnss[0][0] <= t:
+                st.gnss.pop(0)
             if is_static and cfg.stop_guard == "nav":
-                self._run_row(math.nan, math.nan, 0.0, math.nan)
+                self.guard.row(math.nan, math.nan, 0.0, math.nan)
         for s in segs:
             self._segment(s, t)
         self._poll(t)
-        if self._store is not None and self._started:
-            store_epoch(self._store, self.ekf, t)
+        if st.store is not None and st.started:
+            store_epoch(st.store, self.ekf, t)
         # raw samples are needed only back to the start of a possible segment
-        if not is_static and len(self._rows) > 4096:
-            drop = len(self._rows) - 16
-            del self._rows[:drop]
-            self._raw_t0 += drop
+        if not is_static and len(st.rows) > 4096:
+            st.drop_old_rows(16)
 
     # -- modelling ------------------------------------------------------------------------------------
     def _segment(self, seg: StaticSegment, t_now: float) -> None:
-        if seg.i0 - self._raw_t0 < 0:
+        if seg.i0 - self.state.raw_t0 < 0:
             log.warning("static segment %.2f–%.2f s starts before the kept raw data; skipped", seg.t0, seg.t1)
             return
         self.detected_segments.append(seg)
-        kept = self._guard(seg, t_now)
+        kept = self.guard.guard(seg, t_now, self.detector.config.min_duration_s)
         for s in kept:
             self._add_static(s, t_now)
         if kept:
@@ -400,33 +404,29 @@ class OnlineNavigator(Lambda0Learning, NavStopGuard, LearnerHost, ZuptStep, Mode
 
     def _add_static(self, seg: StaticSegment, t_now: float) -> None:
         """Hand the raw samples of one kept segment to the modeller."""
-        a, b = seg.i0 - self._raw_t0, seg.i1 - self._raw_t0
-        self.modeller.add_stop(seg, np.array(self._rows[a:b]), t_now)
+        a, b = seg.i0 - self.state.raw_t0, seg.i1 - self.state.raw_t0
+        self.modeller.add_stop(seg, np.array(self.state.rows[a:b]), t_now)
 
     def _poll(self, t: float) -> None:
-        self._learner_poll(t)
+        self.learner.poll(self, t)
         for upd in self.modeller.due(t):
             self._swap(t, upd)
 
     def filter_models(self) -> list[tuple[Model, float]]:
         """The six (model, freq) the filter gets from the current fits (plain default where none)."""
-        return filter_axis_models(self.fits, self.rate, self.config, floor=self._floor)
+        return filter_axis_models(self.fits, self.rate, self.config, floor=self.floor)
 
     def _swap(self, t: float, upd: ModelUpdate) -> None:
         models = self.filter_models()
         self.static_models = models
-        if self._motion is not None:
-            self._motion.static_changed(t, models)
-            models = self._motion.compose(models)
+        motion = self.learner.motion
+        if motion is not None:
+            motion.static_changed(t, models)
+            models = motion.compose(models)
         counts = self.ekf.swap_model(models, preserve=self.config.swap == "preserve", imu_rate_hz=self.rate)
         self.current_models = models
-        self._ekf_models_log.append((t, [str(m) for m, _ in models]))
-        self._event("swap", t, job=upd.kind, t_stop=upd.t_stop, filter_models=[str(m) for m, _ in models],
-                    **counts)
-
-    # -- result ---------------------------------------------------------------------------------------
-    def _result(self) -> OnlineResult:
-        return build_result(self)
+        self.state.event("swap", t, job=upd.kind, t_stop=upd.t_stop, filter_models=[str(m) for m, _ in models],
+                         **counts)
 
 
 def run_online(imu, gnss, init: InitialState, config: OnlineConfig | None = None, *, initial_models=None,

@@ -35,14 +35,16 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from imunoise.detect import StaticSegment
+from imunoise.online.engine_state import EngineState
 
 log = logging.getLogger("imunoise.online.navigator")
 
-__all__ = ["NavStopGuard", "StopVerdict", "stop_verdict"]
+__all__ = ["StopGuard", "StopVerdict", "stop_verdict"]
 
 
 @dataclass(frozen=True)
@@ -147,18 +149,36 @@ def stop_verdict(speed: np.ndarray, sigma: np.ndarray, aided: np.ndarray, nis: n
     return StopVerdict(keep, _runs(~kept), "; ".join(parts), vmax, thr, nmax, n_tested, n_bad)
 
 
-class NavStopGuard:
-    """The navigator's stop guard (``stop_guard="nav"``): the navigation rows of the current raw static run and
-    the verdict on each segment the detector completes (:func:`stop_verdict`). A mixin of
-    :class:`~imunoise.online.navigator.OnlineNavigator`, whose state it reads."""
+class StopGuard:
+    """The online engine's stop guard (``stop_guard="nav"``): the navigation rows of the current raw static run and
+    the verdict on each segment the detector completes (:func:`stop_verdict`).
 
-    def _record_nav(self, t: float) -> None:
+    Reads ``state.t_aided`` and ``state.sample_t``, writes the ``stop_rejected`` events; ``rejected_segments``:
+    the parts of detected segments it dropped so far."""
+
+    def __init__(self, config: Any, state: EngineState, rate: float):
+        self.config = config
+        self.state = state
+        self.rate = rate
+        self.rejected_segments: list[StaticSegment] = []
+        # navigation solution at each sample of the current raw static run (rows: speed, σ_h, aided, NIS), in a
+        # growing array (a 2 h static record would be 720k rows); run_i0 = absolute index of the run's first sample
+        self.run_nav = np.empty((1024, 4))
+        self.run_len = 0
+        self.run_i0 = 0
+
+    def new_run(self, i0: int) -> None:
+        """A new raw static run starts at sample ``i0``."""
+        self.run_len = 0
+        self.run_i0 = i0
+
+    def record(self, t: float, ekf: Any) -> None:
         """The navigation solution at this static sample, before any ZUPT (a ZUPT would make a false stop
         look still): horizontal speed, its σ from the (lazily propagated) covariance, whether a GNSS fix was
         used within ``stop_aided_s``, and with ``stop_chi2`` > 0 the zero-velocity NIS (3 dof). P is read as
         is, never flushed here, so the guard does not change the filter's numbers."""
         cfg = self.config
-        sv = self.ekf.view
+        sv = ekf.view
         v, P_vel = sv.vel, sv.P_vel
         nis = math.nan
         if cfg.stop_chi2 > 0:
@@ -166,41 +186,42 @@ class NavStopGuard:
                 nis = float(v @ np.linalg.solve(P_vel + cfg.zupt_sigma_v**2 * np.eye(3), v))
             except np.linalg.LinAlgError:
                 nis = math.inf
-        self._run_row(math.hypot(v[0], v[1]), math.sqrt(max(P_vel[0, 0] + P_vel[1, 1], 0.0)),
-                      float(t - self._t_aided <= cfg.stop_aided_s), nis)
+        self.row(math.hypot(v[0], v[1]), math.sqrt(max(P_vel[0, 0] + P_vel[1, 1], 0.0)),
+                 float(t - self.state.t_aided <= cfg.stop_aided_s), nis)
 
-    def _run_row(self, speed: float, sigma: float, aided: float, nis: float) -> None:
-        if self._run_len == self._run_nav.shape[0]:
-            self._run_nav = np.concatenate([self._run_nav, np.empty_like(self._run_nav)])
-        self._run_nav[self._run_len] = (speed, sigma, aided, nis)
-        self._run_len += 1
+    def row(self, speed: float, sigma: float, aided: float, nis: float) -> None:
+        """One navigation row of the current run."""
+        if self.run_len == self.run_nav.shape[0]:
+            self.run_nav = np.concatenate([self.run_nav, np.empty_like(self.run_nav)])
+        self.run_nav[self.run_len] = (speed, sigma, aided, nis)
+        self.run_len += 1
 
-    def _run_rows(self, rows: np.ndarray) -> None:
-        """:meth:`_run_row` for each row of ``rows`` (k, 4), in order (a kernel span's static samples)."""
-        need = self._run_len + rows.shape[0]
-        while need > self._run_nav.shape[0]:
-            self._run_nav = np.concatenate([self._run_nav, np.empty_like(self._run_nav)])
-        self._run_nav[self._run_len:need] = rows
-        self._run_len = need
+    def rows(self, rows: np.ndarray) -> None:
+        """:meth:`row` for each row of ``rows`` (k, 4), in order (a kernel span's static samples)."""
+        need = self.run_len + rows.shape[0]
+        while need > self.run_nav.shape[0]:
+            self.run_nav = np.concatenate([self.run_nav, np.empty_like(self.run_nav)])
+        self.run_nav[self.run_len:need] = rows
+        self.run_len = need
 
-    def _guard(self, seg: StaticSegment, t_now: float) -> list[StaticSegment]:
-        """The pieces of a detected segment the navigation solution agrees are a stop (:func:`stop_verdict`):
-        ``[seg]`` when nothing contradicts it; otherwise a ``stop_rejected`` event, the dropped pieces added to
-        ``rejected_segments``, and the kept pieces (possibly none)."""
+    def guard(self, seg: StaticSegment, t_now: float, min_duration_s: float) -> list[StaticSegment]:
+        """The pieces of a detected segment the navigation solution agrees are a stop (:func:`stop_verdict`;
+        ``min_duration_s``: the detector's): ``[seg]`` when nothing contradicts it; otherwise a ``stop_rejected``
+        event, the dropped pieces added to ``rejected_segments``, and the kept pieces (possibly none)."""
         cfg = self.config
         if cfg.stop_guard != "nav":
             return [seg]
-        a, b = seg.i0 - self._run_i0, seg.i1 - self._run_i0
-        if a < 0 or b > self._run_len:  # cannot happen: a segment lies inside the raw run that just ended
+        a, b = seg.i0 - self.run_i0, seg.i1 - self.run_i0
+        if a < 0 or b > self.run_len:  # cannot happen: a segment lies inside the raw run that just ended
             log.warning("static segment %.2f–%.2f s outside the recorded run; not guarded", seg.t0, seg.t1)
             return [seg]
-        rows = self._run_nav[a:b]
+        rows = self.run_nav[a:b]
         v = stop_verdict(rows[:, 0], rows[:, 1], rows[:, 2] > 0, rows[:, 3], rate_hz=self.rate,
                          max_speed=cfg.stop_max_speed, sigma_k=cfg.stop_sigma_k, chi2=cfg.stop_chi2,
-                         edge_s=cfg.stop_edge_s, min_duration_s=self.detector.config.min_duration_s)
+                         edge_s=cfg.stop_edge_s, min_duration_s=min_duration_s)
         if v.whole:
             return [seg]
-        ts = self._sample_t
+        ts = self.state.sample_t
 
         def piece(p: int, q: int) -> StaticSegment:
             return StaticSegment(ts[seg.i0 + p], ts[seg.i0 + q - 1], seg.i0 + p, seg.i0 + q)
@@ -208,8 +229,8 @@ class NavStopGuard:
         kept = [piece(p, q) for p, q in v.keep]
         dropped = [piece(p, q) for p, q in v.drop]
         self.rejected_segments.extend(dropped)
-        self._event("stop_rejected", t_now, t0=seg.t0, t1=seg.t1, duration_s=seg.duration, reason=v.reason,
-                    max_speed_mps=v.max_speed_mps, threshold_mps=v.threshold_mps, max_nis=v.max_nis,
-                    rejected_s=float(sum(d.i1 - d.i0 for d in dropped) / self.rate),
-                    kept=[(k.t0, k.t1) for k in kept])
+        self.state.event("stop_rejected", t_now, t0=seg.t0, t1=seg.t1, duration_s=seg.duration, reason=v.reason,
+                         max_speed_mps=v.max_speed_mps, threshold_mps=v.threshold_mps, max_nis=v.max_nis,
+                         rejected_s=float(sum(d.i1 - d.i0 for d in dropped) / self.rate),
+                         kept=[(k.t0, k.t1) for k in kept])
         return kept

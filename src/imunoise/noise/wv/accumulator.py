@@ -156,9 +156,11 @@ class WVAccumulator:
         1-D array of finite samples [u].
     """
         x, total = as_series(segment, self.n_segments)
-        self._add_validated(x, total / max(x.shape[0], 1))
+        self.add_checked(x, total / max(x.shape[0], 1))
 
-    def _add_validated(self, x: np.ndarray, mean: float) -> None:
+    def add_checked(self, x: np.ndarray, mean: float) -> None:
+        """:meth:`add` of a segment :func:`as_series` already checked (a contiguous float64 1-D array) with its
+        ``mean``."""
         n = x.shape[0]
         self.n_samples += n
         self.n_segments += 1
@@ -172,6 +174,11 @@ class WVAccumulator:
         if stats[0, 0] > 0.0:
             self._n_varying += 1
         self._stats[:n_levels] += stats
+
+    def level_stats(self, top: int) -> np.ndarray:
+        """The pooled per-level sums of the first ``top`` levels (rows: levels; columns: the kernel's
+        ``N_STATS`` sums), as :func:`~imunoise.noise.wv.result.finish` takes them (a view: do not write)."""
+        return self._stats[:top]
 
     def result(self) -> WaveletVariance:
         """The pooled wavelet variance of everything added so far.

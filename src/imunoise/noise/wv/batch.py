@@ -75,9 +75,9 @@ def wavelet_variance(
         levels=levels, freq=freq, alpha=alpha, min_coefficients=min_coefficients, max_levels=LEVEL_CAP
     )
     for seg, seg_sum in segments:
-        acc._add_validated(seg, seg_sum / max(seg.shape[0], 1))
+        acc.add_checked(seg, seg_sum / max(seg.shape[0], 1))
     if not robust:
         return acc.result()
     top = min(acc.max_levels, default_levels(acc.max_length))
     rob = robust_stats([seg for seg, _ in segments], top)
-    return finish(acc._stats[:top], min_coefficients, alpha, freq, robust=True, rob=rob)
+    return finish(acc.level_stats(top), min_coefficients, alpha, freq, robust=True, rob=rob)
