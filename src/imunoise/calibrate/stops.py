@@ -21,6 +21,16 @@ there ≤ this × their 90th percentile over the log. Cruising vibration can qui
 statistic to a stop's level, not the gyros' (simulator: 0.93 on a log without a stop; 0.32 on a drive
 with stops, 0.30 on drive_0708)."""
 
+MAX_STOPS_PER_MIN = 1.0
+"""Stops per minute of log above which a log without a speed source is taken to hold cruising called stops
+(:func:`implausible_stops`), counted when it has at least :data:`MIN_STOPS_CHECKED` stops. Measured on
+simulated 30-min drives without a speed source (development seeds 3600–3611, docs/evidence/calibrate_stops.md):
+0.47 per minute under the default motion law (the true stops), 1.40–1.93 under law ``none`` (cruising whose
+noise equals a stop's); drive_0708: 0.44 per minute."""
+
+MIN_STOPS_CHECKED = 10
+"""Fewer stops than this are not judged by their rate (a short log with a few real stops)."""
+
 LEARN_S = 10.0
 """Seconds of the quietest stretch λ_0 is learned from (the online engine's ``learn_lambda0_s``)."""
 
@@ -263,6 +273,23 @@ def _detection(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, cfg: Detector
     for s in segs:
         static[s.slice] = True
     return replace(det, segments=segs, static=static)
+
+
+def implausible_stops(ls: LogStops, max_per_min: float = MAX_STOPS_PER_MIN) -> str | None:
+    """Why the stops of a log without a speed source look like cruising (None when they do not, or when the
+    log has a speed): more than ``max_per_min`` stops per minute of log, and at least :data:`MIN_STOPS_CHECKED`.
+    Where the noise while moving equals the noise at rest (a smooth ride, an IMU mounted on a damped plate),
+    no IMU statistic tells a steady cruise from a stop; only a speed does."""
+    if ls.log.speed is not None or not math.isfinite(max_per_min):
+        return None
+    n = len(ls.stops)
+    minutes = ls.log.duration_s / 60.0
+    if n < MIN_STOPS_CHECKED or minutes <= 0 or n / minutes <= max_per_min:
+        return None
+    return (f"{ls.log.name}: {n} stops in {minutes:.1f} min ({n / minutes:.2f} per minute, more than "
+            f"{max_per_min:g}) without a speed source: steady cruising is taken for stops when the IMU is as quiet "
+            "moving as at rest; give --gnss or --ref (a speed tells the stops from the cruise), or "
+            "--max-stop-rate if these stops are real")
 
 
 def speed_at(t: np.ndarray, speed: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
