@@ -31,8 +31,12 @@ EXAMPLES = """examples:
   imunoise calibrate imu_inc.txt --ref ref.nav --lambda0 0.05 --out calib/   # KF-GINS increments, fixed λ0
 
 Each log: λ0 learned on its quietest 10 s (--learn-s; --learn-from S: the first S s are a stop; --lambda0:
-fixed), the static detector, the angular-rate gate and, with a speed (--ref, --gnss or a dataset's
-reference), the online engine's stop check. The stops of all logs are pooled per axis (bias removed per
+fixed), the static detector run forward and time-reversed (a stop keeps no second of its departure), the
+angular-rate gate and, with a speed (--ref, --gnss or a dataset's reference), the online engine's stop check
+looking 3 s past each stop's ends. Without a speed, more than --max-stop-rate stops per minute (>= 10) is
+refused as cruising taken for stops: give --gnss or --ref. The readers' time-stamp warnings (sorted,
+repeated stamps, gaps) are printed and kept in imu_model.json and calibration.json, as `fit` keeps them.
+The stops of all logs are pooled per axis (bias removed per
 stop), the model selected (WVIC by default), and the horizon stated: the longest averaging time the pooled
 stops support. N is a value; K is a value only where the random walk rises above the white noise inside
 the horizon, else a bound that holds for any model. Writes DIR/imu_model.json, DIR/calibration.json,
