@@ -17,12 +17,20 @@ Stops, per log (as the online engine does, with the same public pieces):
   engine learns it from the first seconds, which it assumes are a stop; a log picked from a drawer need not
   start still, so the default here learns it from the *quietest* ``learn_s`` seconds (the stretch with the
   smallest median statistic), which is the first stop when the log starts with one.
-* the streaming detector over the whole log (:func:`imunoise.detect.detect_static`: adaptive threshold,
-  ``margin_s`` trimmed at both ends, ``min_duration_s``), then the angular-rate gate: samples with
-  ‖ω‖ > 30 °/s cut a segment (a turning vehicle is not at rest, whatever its accelerometers say).
+* the static detector (:func:`imunoise.detect.detect_static`: adaptive threshold, ``margin_s`` trimmed at both
+  ends, ``min_duration_s``) run both ways on a whole log (:func:`imunoise.detect.both_ways.detect_static_both_ways`:
+  forward ∩ time-reversed, so neither end carries the window's lag into a departure); a streamed log has the
+  forward pass alone, each stop's end cut by :data:`~imunoise.calibrate.stops.STREAM_END_TRIM_S` more (the lag
+  measured at departures); then the angular-rate gate: samples with ‖ω‖ > 30 °/s cut a segment (a turning
+  vehicle is not at rest, whatever its accelerometers say).
 * with a speed (a reference trajectory or GNSS), each segment goes through the online engine's stop check
-  (:func:`imunoise.online.stop_verdict`): samples faster than ``OnlineConfig.stop_max_speed`` and their
-  ``stop_edge_s`` neighbourhood are dropped.
+  (:func:`imunoise.online.stop_verdict`) on its samples and ``stop_edge_s`` past either end
+  (:func:`~imunoise.calibrate.stops.edge_verdict`): samples within ``stop_edge_s`` of one faster than
+  ``OnlineConfig.stop_max_speed`` are dropped, so a stop ends before the departure reaches that speed.
+* without a speed, a log with more than :data:`~imunoise.calibrate.stops.MAX_STOPS_PER_MIN` stops per minute
+  (and at least 10) is refused in one line naming ``--gnss``/``--ref``: where the IMU is as quiet moving as at
+  rest, steady cruising passes for stops and only a speed tells them apart
+  (:func:`~imunoise.calibrate.stops.implausible_stops`).
 * bias removed per segment (segment mean, docs/guide/theory.rst, 'Static detection'); no wavelet coefficient spans two
   segments (:class:`imunoise.noise.wv.WVAccumulator`).
 

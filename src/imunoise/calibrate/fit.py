@@ -12,7 +12,7 @@ import numpy as np
 
 from imunoise.calibrate.logs import ACCEL_UNIT, GYRO_UNIT, ImuLog, read_log
 from imunoise.calibrate.result import CalibrationResult, axis_calibration
-from imunoise.calibrate.stops import LEARN_S, LogStops, detect_stops
+from imunoise.calibrate.stops import LEARN_S, MAX_STOPS_PER_MIN, LogStops, detect_stops, implausible_stops
 from imunoise.detect import DetectorConfig
 from imunoise.errors import DataError
 from imunoise.imu import AXES
@@ -148,6 +148,7 @@ def calibrate(
     min_static_s: float = MIN_STATIC_S,
     seed: int = 0,
     progress: Callable[[Any, str], Any] | None = None,
+    max_stops_per_min: float = MAX_STOPS_PER_MIN,
 ) -> CalibrationResult:
     """Noise model of an IMU from the stops of its moving logs (module docstring).
 
@@ -176,6 +177,9 @@ def calibrate(
         Seed of the random starts of the selection.
     progress : callable, optional
         ``progress(iterable, desc)`` wrapping the per-log and per-axis loops (e.g. a tqdm factory).
+    max_stops_per_min : float
+        A log without a speed source with more stops per minute (and at least 10) is refused as cruising taken
+        for stops (:func:`imunoise.calibrate.stops.implausible_stops`); ``inf`` turns the check off.
 
     Returns
     -------
@@ -184,7 +188,8 @@ def calibrate(
     Raises
     ------
     DataError
-        A log without a usable stop, too little pooled static time, or logs at different rates.
+        A log without a usable stop, implausibly many stops without a speed source, too little pooled static
+        time, or logs at different rates.
     """
     from imunoise.noise.imu_model import ImuModel
 
@@ -201,6 +206,8 @@ def calibrate(
     for ls in found:
         if not ls.stops:
             raise _no_stop_error(ls, min_static_s)
+        if (why := implausible_stops(ls, max_stops_per_min)) is not None:
+            raise DataError(why)
     f = found[0].log.rate_hz
     for ls in found[1:]:
         if abs(ls.log.rate_hz - f) > RATE_TOLERANCE * f:

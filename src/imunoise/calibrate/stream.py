@@ -13,7 +13,15 @@ from typing import Any
 import numpy as np
 
 from imunoise.calibrate.logs import ACCEL_UNIT, GYRO_UNIT, ImuLog, speed_of_gnss, speed_of_reference
-from imunoise.calibrate.stops import LEARN_S, LogStops, Stop, choose_lambda0, cut_segment, speed_at
+from imunoise.calibrate.stops import (
+    LEARN_S,
+    STREAM_END_TRIM_S,
+    LogStops,
+    Stop,
+    choose_lambda0,
+    cut_segment,
+    end_trimmed,
+)
 from imunoise.detect import DetectorConfig, StaticSegment
 from imunoise.errors import DataError
 from imunoise.imu import AXES
@@ -152,7 +160,10 @@ def stream_stops(
     progress: Callable[[str, int, str], Any] | None = None,
 ) -> LogStops:
     """:func:`read_log` + :func:`detect_stops` of a bag or table too large to hold, in two passes over
-    :func:`imunoise.io.imu_stream.open_imu_blocks` (same stops and stop samples as the whole-log path).
+    :func:`imunoise.io.imu_stream.open_imu_blocks`: the same stops and stop samples as
+    ``detect_stops(read_log(path), both_ways=False)`` — a stream cannot look back at a stop from its
+    departure, so the forward pass alone, each stop's end cut by :data:`STREAM_END_TRIM_S` (the lag of the
+    detector's window measured at departures) instead of the whole-log path's time-reversed pass.
 
     Pass 1 holds, per sample, the stamp and accel x, y (the rate is the whole-file reader's rule over all the
     stamps; λ_0 is learned exactly as :func:`learn_lambda0_quietest` does, on the quietest ``learn_s`` seconds,
@@ -246,12 +257,16 @@ def stream_stops(
 
         def close(segs: list[StaticSegment]) -> None:
             for seg in segs:
-                segments.append(seg)
+                lo, hi = seg.i0 - buf0, seg.i1 - buf0
+                # forward only: the end cut by the measured lag of the window at a departure (STREAM_END_TRIM_S)
+                short = end_trimmed(seg, bt[lo:hi], STREAM_END_TRIM_S, cfg.min_duration_s)
+                if short is None:
+                    continue
+                segments.append(short)
                 if why is not None:
                     continue  # no usable stop (λ0 from a stretch that is not still): the detection only
-                lo, hi = seg.i0 - buf0, seg.i1 - buf0
-                sp = None if speed is None else speed_at(bt[lo:hi], speed)
-                kept, cut = cut_segment(seg, bt[lo:hi], bg[lo:hi], sp, f, cfg)
+                hi = short.i1 - buf0
+                kept, cut = cut_segment(short, bt[lo:hi], bg[lo:hi], speed, f, cfg)
                 stops.extend(kept)
                 dropped.extend(cut)
                 samples.extend(bx[s.i0 - buf0 : s.i1 - buf0].copy() for s in kept)

@@ -32,8 +32,12 @@ EXAMPLES = """examples:
   imunoise calibrate imu_inc.txt --ref ref.nav --lambda0 0.05 --out calib/   # KF-GINS increments, fixed λ0
 
 Each log: λ0 learned on its quietest 10 s (--learn-s; --learn-from S: the first S s are a stop; --lambda0:
-fixed), the static detector, the angular-rate gate and, with a speed (--ref, --gnss or a dataset's
-reference), the online engine's stop check. The stops of all logs are pooled per axis (bias removed per
+fixed), the static detector run forward and time-reversed (a stop keeps no second of its departure), the
+angular-rate gate and, with a speed (--ref, --gnss or a dataset's reference), the online engine's stop check
+looking 3 s past each stop's ends. Without a speed, more than --max-stop-rate stops per minute (>= 10) is
+refused as cruising taken for stops: give --gnss or --ref. The readers' time-stamp warnings (sorted,
+repeated stamps, gaps) are printed and kept in imu_model.json and calibration.json, as `fit` keeps them.
+The stops of all logs are pooled per axis (bias removed per
 stop), the model selected (WVIC by default), and the horizon stated: the longest averaging time the pooled
 stops support. N is a value; K is a value only where the random walk rises above the white noise inside
 the horizon, else a bound that holds for any model. Writes DIR/imu_model.json, DIR/calibration.json,
@@ -74,6 +78,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--learn-from", type=float, metavar="S", help="learn λ0 from the first S seconds (of each log)")
     p.add_argument("--learn-s", type=float, default=10.0, metavar="S",
                    help="learn λ0 on the quietest S seconds of each log (default 10)")
+    p.add_argument("--max-stop-rate", type=float, default=1.0, metavar="PER_MIN",
+                   help="a log without --gnss/--ref with more stops per minute (and >= 10) is refused as steady "
+                   "cruising taken for stops (default 1; inf: off)")
     p.add_argument("--stream", action="store_true",
                    help="read block by block (bags and tables; two passes, bounded by the stops; see below)")
     p.add_argument("--stream-above", type=float, default=STREAM_ABOVE, metavar="N",
@@ -141,6 +148,9 @@ def run(args: argparse.Namespace) -> int:
     check_freq(args.freq)
     if (args.ref or args.gnss) and len(args.logs) > 1:
         raise ModelError("--ref/--gnss belong to one log; give one log, or use dataset folders with a reference")
+    if not args.max_stop_rate > 0:
+        raise ModelError(f"--max-stop-rate must be a positive number of stops per minute (inf: off), got "
+                         f"{args.max_stop_rate:g}")
     if args.learn_s is not None and not args.learn_s > 0:
         raise ModelError(f"--learn-s must be a positive number of seconds, got {args.learn_s:g}")
     _refuse_repeated_paths(args.logs)
@@ -157,7 +167,14 @@ def run(args: argparse.Namespace) -> int:
                                          learn_s=args.learn_s, ref=args.ref, gnss=args.gnss, progress=_bar))
             else:
                 logs.append(read_log(source, ref=args.ref, gnss=args.gnss))
-    print_warnings(caught)
+    # the readers' warnings (sorted or repeated stamps, gaps, doubtful units; the same checks as `fit`), which
+    # each log keeps in its metadata: one line each here, and kept in imu_model.json and calibration.json
+    read_warnings = print_warnings(caught)
+    for item in logs:
+        for msg in getattr(item, "log", item).meta.get("warnings", []):
+            if msg not in read_warnings:
+                read_warnings.append(msg)
+                print(f"warning: {msg}", file=sys.stderr)
     for item in logs:
         log = getattr(item, "log", item)
         n = log.meta["streamed"]["n_samples"] if log.meta.get("streamed") else log.t.size
@@ -165,8 +182,11 @@ def run(args: argparse.Namespace) -> int:
               + (" (streamed)" if log.meta.get("streamed") else "")
               + (f"; speed from {log.meta['speed_from']}" if log.meta.get("speed_from") else ""), file=sys.stderr)
     res = calibrate(logs, detector=cfg, lambda0=args.lambda0, learn_from_s=args.learn_from, learn_s=args.learn_s,
-                    criterion=args.criterion, complete=args.complete, seed=args.seed, progress=_tqdm_wrap)
+                    criterion=args.criterion, complete=args.complete, seed=args.seed, progress=_tqdm_wrap,
+                    max_stops_per_min=args.max_stop_rate)
     print(res.summary())
+    if read_warnings:
+        res.model.source["warnings"] = read_warnings
     path = out / "imu_model.json"
     checks = {ax: (a.model, a.band) for ax, a in res.axes.items()}
     res.model.source["fit_check"] = {ax: a.band.to_dict() for ax, a in res.axes.items()}
@@ -205,6 +225,8 @@ def _write_outputs(res, out: Path, path: Path, forced: list[str]) -> list[Path]:
     with atomic_path(path) as tmp:
         res.model.save(tmp)
     summary = res.to_dict()
+    if res.model.source.get("warnings"):
+        summary["warnings"] = list(res.model.source["warnings"])
     if forced:
         summary["export_warnings"] = list(forced)
     atomic_write_text(out / "calibration.json", json.dumps(_json_safe(summary), indent=1))

@@ -3,7 +3,9 @@ threshold, segments, gate.
 
 ``kernels``: the numba kernel (one pass over a chunk, state carried between calls). ``detector``: the
 streaming :class:`StaticDetector` (the only detector implementation) and :func:`detect_static` (that detector
-fed a whole record in chunks). ``config``: :class:`DetectorConfig`. ``statistics``: Eq. 9 moving std, the
+fed a whole record in chunks); ``both_ways``: :func:`~imunoise.detect.both_ways.detect_static_both_ways`, a whole
+record detected forward and time-reversed (no window lag at either end of a stop).
+``config``: :class:`DetectorConfig`. ``statistics``: Eq. 9 moving std, the
 Eq. 10 threshold, the gate and :func:`learn_lambda0`. ``results``: segments and detections. ``metrics``:
 scoring a mask against the truth. Every public name is importable from ``imunoise.detect`` (and from
 ``imunoise.detect.detector``).
