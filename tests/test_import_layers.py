@@ -20,7 +20,7 @@ SRC = Path(os.environ.get("IMUNOISE_LAYERS_SRC", Path(__file__).resolve().parent
 LAYERS: list[tuple[str, ...]] = [
     ("imunoise._version", "imunoise.errors", "imunoise.units", "imunoise.imu", "imunoise.report"),
     ("imunoise.io",),
-    ("imunoise.detect",),
+    ("imunoise.detect", "imunoise.lines"),
     ("imunoise.wv", "imunoise.wv_stream", "imunoise.wv_log", "imunoise.ar1_math", "imunoise.process_base",
      "imunoise.process_ma1", "imunoise.process_white", "imunoise.process_bias", "imunoise.process_ar1",
      "imunoise.processes", "imunoise.state_space", "imunoise.model"),

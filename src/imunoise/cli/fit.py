@@ -110,6 +110,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="also write this export beside the model (repeatable); refused where a fit leaves its WV band (--force)",
     )
     add_force(p)
+    p.add_argument("--keep-lines", action="store_true",
+                   help="fit the data as read: do not remove the narrowband lines found in its spectrum (they are "
+                   "still reported)")
     p.add_argument("--sensor", choices=["gyro", "accel"], help="sensor: which one a single-axis fit is (for --export)")
     p.add_argument(
         "--horizon",
@@ -248,6 +251,7 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
         "unit": series.unit[axis],
         "seed": args.seed,
     }
+    found: list = []
     if isinstance(series, StreamedImu):
         fit, ranking = fit_axis_wv(series.wv[axis], n_samples=series.n_samples, **common)
         fit.extra["streamed"] = {"levels": len(series.wv[axis]), "max_scale_s": args.max_scale}
@@ -255,13 +259,16 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
         from imunoise.wv import wavelet_variance
         from imunoise.wv_stream import WVStream
 
-        x = series.data[axis]
+        x, found = _without_lines(args, series, axis)
         levels = WVStream(max_scale_s=args.max_scale, freq=series.freq).levels
         wv = wavelet_variance(x, levels=levels, robust=args.robust, freq=series.freq)
         fit, ranking = fit_axis_wv(wv, n_samples=x.size, values=x, **common)
     else:
-        fit, ranking = fit_axis(series.data[axis], freq=series.freq, robust=args.robust, **common)
+        x, found = _without_lines(args, series, axis)
+        fit, ranking = fit_axis(x, freq=series.freq, robust=args.robust, **common)
     extra = _base_extra(args, series, axis)
+    if not isinstance(series, StreamedImu):
+        extra["lines"] = {"removed": not args.keep_lines, "found": [ln.to_dict() for ln in found]}
     if ranking is not None:  # re-estimated as gmwm does, a richer candidate where it leaves its WV band
         from imunoise.fitting.quality import within_band
 
@@ -275,6 +282,19 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
         extra["selection"] = {"criterion": args.criterion, "n_candidates": len(ranking.fits)}
     fit.extra.update(extra)
     return fit
+
+
+def _without_lines(args: argparse.Namespace, series, axis: str):
+    """The axis's data with its narrowband lines suppressed (:mod:`imunoise.lines`; as read with
+    ``--keep-lines``), and the lines found; each is printed (stderr)."""
+    from imunoise.lines import lines_text, remove_lines
+
+    x = series.data[axis]
+    y, found = remove_lines(x, series.freq, unit=series.unit[axis])
+    for t in lines_text(axis, found):
+        print(t if not args.keep_lines else t.replace("removed before fitting", "kept (--keep-lines)"),
+              file=sys.stderr)
+    return (x if args.keep_lines else y), found
 
 
 def _run_single(args: argparse.Namespace, series, out: Path) -> int:

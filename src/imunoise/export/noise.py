@@ -143,6 +143,7 @@ def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "", *, horizon_s: f
         notes.append(f"{name}: drift (rate ramp {ramp:.4g} {fit.unit}/s) has no slot; matched from below by K")
     if fit.model.has("QN"):
         notes.append(f"{name}: QN folded into the white-noise density as per-sample variance 2Q^2")
+    notes += line_notes(fit, name)
     return AxisNoise(
         axis=axis,
         model=str(fit.model),
@@ -251,6 +252,16 @@ class SensorNoise:
             },
             "notes": list(self.notes),
         }
+
+
+def line_notes(fit: GMWMFit | Mapping[str, Any], name: str = "") -> list[str]:
+    """The export notes of an axis's narrowband lines (``fit.extra["lines"]``, :mod:`imunoise.lines`): every
+    format's header prints :attr:`AxisNoise.notes`, so every consumer's file carries them."""
+    from imunoise.lines import Line
+
+    rec = (_as_fit(fit).extra or {}).get("lines") or {}
+    done = "removed before fitting (not in N, K)" if rec.get("removed", True) else "kept in the fitted data"
+    return [f"{name or 'axis'}: narrowband {Line.from_dict(d).text()}; {done}" for d in rec.get("found", ())]
 
 
 def range_text(r: tuple[float, float] | None) -> str:
