@@ -66,3 +66,20 @@ def test_a_hump_is_one_line_and_round_trips_through_its_dict():
     z, again = remove_lines(x, F)
     assert find_lines(z, F) == [] and again[0].freq_hz == found[0].freq_hz
     assert remove_lines(white, F) == (white, [])
+
+
+def test_vibration_in_the_stops_is_named_pooled_over_them():
+    from imunoise.lines.detect import pooled_lines
+
+    rng = np.random.default_rng(3722)
+    stops = []
+    for k in range(6):  # 6 stops of 20-40 s, an engine at idle near 31 Hz with its own phase in each
+        n = int((20 + 4 * k) * F)
+        t = np.arange(n) / F
+        stops.append(0.02 * rng.standard_normal(n) + 0.03 * np.sin(2 * np.pi * 31.0 * t + k))
+    found = pooled_lines(stops, F, unit="m/s^2")
+    assert len(found) == 1 and abs(found[0].freq_hz - 31.0) < 0.4
+    assert found[0].share == pytest.approx(0.03**2 / 2 / (0.03**2 / 2 + 0.02**2), rel=0.15)
+    quiet = [0.02 * rng.standard_normal(int(30 * F)) for _ in range(6)]
+    assert pooled_lines(quiet, F) == []
+    assert pooled_lines([np.zeros(10)], F) == []

@@ -60,6 +60,7 @@ def pooled_fit(
     """
     from imunoise.allan import allan_variance, curve_to_dict
     from imunoise.fitting.quality import within_band
+    from imunoise.lines.detect import pooled_lines
     from imunoise.selection import select_model
     from imunoise.wv import WVAccumulator
 
@@ -74,6 +75,10 @@ def pooled_fit(
     fit.extra["data_span"] = {"n_samples": int(sum(x.size for x in segments)), "n_segments": len(segments)}
     fit.extra["selection"] = {"criterion": criterion, "n_candidates": len(ranking.fits), "selected": settled.selected}
     fit.extra["fit_check"] = settled.to_dict()
+    # reported, not removed: a stop's Welch resolution (0.39 Hz) cannot cut a line without the broadband
+    # noise around it; the export notes and the report name it
+    found = pooled_lines(list(segments), freq, unit=unit)
+    fit.extra["lines"] = {"removed": False, "found": [ln.to_dict() for ln in found]}
     return fit
 
 

@@ -234,7 +234,9 @@ class CalibrationResult:
         return float(max((s.duration for ls in self.logs for s in ls.stops), default=0.0))
 
     def summary(self) -> str:
-        """Stops, horizon and a table of N and K per axis (values, CIs, bounds)."""
+        """Stops, horizon and a table of N and K per axis (values, CIs, bounds), the stops' narrowband lines."""
+        from imunoise.lines import Line
+
         lines = [
             f"calibration from {len(self.logs)} log(s): {self.n_stops} stops, {self.static_s:.1f} s static "
             f"(longest {self.longest_stop_s:.1f} s) at {self.freq_hz:g} Hz; criterion {self.criterion}",
@@ -255,6 +257,10 @@ class CalibrationResult:
         for ax, a in self.axes.items():
             for u in a.undetermined:
                 lines.append(f"  {ax}: not determined: {u}")
+        for ax, fit in self.fits.items():
+            for d in ((fit.extra or {}).get("lines") or {}).get("found", ()):
+                lines.append(f"  {ax}: narrowband {Line.from_dict(d).text()} in the stops (vibration; kept in "
+                             "the fitted data, named in every export)")
         lines += ["", "fit against the data (export refused without --force where the fit leaves its WV band over "
                   "a range of scales):"]
         for ax, a in self.axes.items():

@@ -2,8 +2,8 @@
 
 The floor at frequency f is the median of the Welch PSD read at log-spaced frequencies over [f/2, 2f] (a
 window one octave each side, so a hump several hertz wide, like the ADIS16405 gyro_z's 17–22 Hz, holds well
-under half the window and does not lift its own floor). A line is a run of bins whose PSD is above :data:`RATIO` × floor, merged across gaps of
-up to :data:`GAP_BINS` bins, holding at least :data:`MIN_SHARE` of the axis's variance in excess power.
+under half the window and does not lift its own floor). A line is a run of bins whose PSD is above
+:data:`RATIO` × floor, merged across gaps of up to :data:`GAP_BINS` bins, holding at least :data:`MIN_SHARE` of the axis's variance in excess power.
 
 Why these numbers: with ``nperseg`` = :data:`SEGMENT_S` × f the Welch estimate of a 10⁶-sample record averages
 ≈ 490 segments (relative standard deviation ≈ 4.5 % per bin), and of a 20 s stop ≈ 4 (Hann, 50 % overlap): a
@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["GAP_BINS", "MIN_FREQ_BINS", "MIN_SHARE", "RATIO", "SEGMENT_S", "Line", "find_lines", "lines_text",
+__all__ = ["GAP_BINS", "MIN_FREQ_BINS", "MIN_SHARE", "RATIO", "SEGMENT_S", "STOP_SEGMENT_S", "Line", "find_lines",
+           "lines_in_psd", "lines_text", "pooled_lines",
            "psd_floor", "welch_psd"]
 
 RATIO = 1.5
@@ -147,3 +148,25 @@ def find_lines(x: np.ndarray, freq: float, *, unit: str = "", ratio: float = RAT
 def lines_text(axis: str, lines: list[Line]) -> list[str]:
     """One line of text per narrowband line of ``axis`` (for the summary, the report and the exports)."""
     return [f"{axis}: narrowband {ln.text()}; removed before fitting" for ln in lines]
+
+
+STOP_SEGMENT_S = 2.56
+"""Welch segment length [s] for the stops of a drive (256 samples at 100 Hz, 0.39 Hz resolution): a stop of
+20 s gives ≈ 14 half-overlapping segments, and every stop of a log adds its own."""
+
+
+def pooled_lines(segments: list[np.ndarray], freq: float, *, unit: str = "",
+                 segment_s: float = STOP_SEGMENT_S) -> list[Line]:
+    """The lines of an axis's stops: the Welch PSD of each stop (bias removed) averaged with weights its
+    sample count, against the pooled variance (the vibration of an engine at idle, :func:`lines_in_psd`).
+    Stops shorter than one segment are left out; no line when none is long enough."""
+    n = int(round(segment_s * freq))
+    used = [np.asarray(x, dtype=float) - np.mean(x) for x in segments if len(x) >= n]
+    if not used:
+        return []
+    w = np.array([x.size for x in used], dtype=float)
+    psds = [welch_psd(x, freq, segment_s) for x in used]
+    f = psds[0][0]
+    p = np.average(np.stack([q for _, q in psds]), axis=0, weights=w)
+    total = float(np.average([np.var(x) for x in used], weights=w))
+    return sorted(lines_in_psd(f, p, total, unit=unit), key=lambda ln: -ln.share)
