@@ -3,7 +3,8 @@
 The floor at frequency f is the median of the Welch PSD read at log-spaced frequencies over [f/2, 2f] (a
 window one octave each side, so a hump several hertz wide, like the ADIS16405 gyro_z's 17–22 Hz, holds well
 under half the window and does not lift its own floor). A line is a run of bins whose PSD is above
-:data:`RATIO` × floor, merged across gaps of up to :data:`GAP_BINS` bins, holding at least :data:`MIN_SHARE` of the axis's variance in excess power.
+:data:`RATIO` × floor, merged across gaps of up to :data:`GAP_BINS` bins, holding at least :data:`MIN_SHARE`
+of the axis's variance in excess power.
 
 Why these numbers: with ``nperseg`` = :data:`SEGMENT_S` × f the Welch estimate of a 10⁶-sample record averages
 ≈ 490 segments (relative standard deviation ≈ 4.5 % per bin), and of a 20 s stop ≈ 4 (Hann, 50 % overlap): a
