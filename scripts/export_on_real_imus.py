@@ -33,11 +33,10 @@ def adev(y: np.ndarray, freq: float, tau: float) -> float:
 
 
 def real(data: Path, fits: Path) -> None:
+    from imunoise.allan import allan_variance, read_allan
     from imunoise.export import axis_noise
     from imunoise.imu_model import ImuModel
     from imunoise.lines import remove_lines
-
-    from imunoise.allan import allan_variance, read_allan
 
     worst = {"gyro": 0.0, "accel": 0.0, "accel_clean": 0.0, "accel_ieee": 0.0}
     for k in range(1, 6):
