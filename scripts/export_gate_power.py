@@ -59,10 +59,10 @@ def main() -> None:
         for seed in range(a.seed, a.seed + a.count):
             ax, g = gate_of(stops(np.random.default_rng(seed), case), seed)
             refused += g.refused
-            worst.append(g.worst_ratio)
+            worst.append(g.best[2])
             print(f"{case} seed {seed}: {ax.model}: N {ax.N:.3e} K {ax.K:.3e}; {g.text()}")
-        print(f"== {case}: refused {refused} of {a.count} axes; worst factor median {np.median(worst):.3g}, "
-              f"max {np.max(worst):.3g}")
+        print(f"== {case}: refused {refused} of {a.count} axes; closest pair's worst factor median "
+              f"{np.median(worst):.3g}, min {np.min(worst):.3g}, max {np.max(worst):.3g}")
 
 
 if __name__ == "__main__":

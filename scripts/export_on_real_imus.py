@@ -62,10 +62,11 @@ def real(data: Path, fits: Path) -> None:
             found = model.axes[axis].get("extra", {}).get("lines", {}).get("found", [])
             lines = ", ".join(f"{ln['freq_hz']:.3g} Hz {100 * ln['share']:.2g} %" for ln in found) or "none"
             print(f"  {axis:8s} {a.model:14s} N {a.N:.4e}  AD(1 s) raw {raw:.4e} ({e_raw:+.1f} %)  "
-                  f"lines removed {clean:.4e} ({e_clean:+.1f} %)  IEEE -1/2 line {ieee:.4e} ({e_ieee:+.1f} %)  lines: {lines}")
+                  f"lines removed {clean:.4e} ({e_clean:+.1f} %)  IEEE -1/2 line {ieee:.4e} ({e_ieee:+.1f} %)  "
+                  f"lines: {lines}")
     print(f"worst |N/AD(1 s) - 1|: gyro {worst['gyro']:.1f} % (raw AD), accel {worst['accel']:.1f} % (raw AD), "
-          f"{worst['accel_clean']:.1f} % (AD of the line-free data), {worst['accel_ieee']:.1f} % (IEEE 952 white-noise line "
-          "of the line-free data, imunoise.allan.read_allan)")
+          f"{worst['accel_clean']:.1f} % (AD of the line-free data), {worst['accel_ieee']:.1f} % (IEEE 952 "
+          "white-noise line of the line-free data, imunoise.allan.read_allan)")
 
 
 def simulated(seed0: int, count: int) -> None:
