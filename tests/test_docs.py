@@ -164,7 +164,7 @@ STAGE = {
     "errors": 0, "units": 0, "report": 0, "_version": 0,
     "imu": 1,
     "io": 1,
-    "detect": 2,
+    "detect": 2, "lines": 2,
     **dict.fromkeys(["ar1_math", "process_base", "process_ma1", "process_white", "process_bias", "process_ar1",
                      "processes", "state_space", "model", "wv", "wv_stream", "wv_log", "estimator", "fitting",
                      "selection", "allan", "em", "em_kalman",

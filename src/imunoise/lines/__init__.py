@@ -7,6 +7,9 @@ timing source or an engine at idle, not a noise process of the sensor). No proce
 spectrum with a peak, so a fit to data holding one compromises across every scale; the export's white-noise
 density then misreads the data by the line's share (ADIS16405 gyro_z: 17–24 % above the Allan deviation at
 1 s). Suppressing the band before fitting leaves the broadband noise the exported (N, K) pair stands for.
+
+On the data path (IMU → detection → modelling → filter) it sits beside detection, before modelling: it takes
+SI arrays, imports only numpy and scipy, and hands the modelling line-free data and the lines to report.
 """
 
 from imunoise.lines.detect import Line, find_lines, lines_text
