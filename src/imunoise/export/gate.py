@@ -143,7 +143,7 @@ def pair_gate(wv: WaveletVariance, N: float, K: float, *, horizon_s: float | Non
                      f"{where}; no (N, K) pair comes within {TOLERANCE:g}× of the data (best {best:.3g}×)")
         else:
             cause = (f"no (N, K) pair comes within {TOLERANCE:g}× of the data's AV at {where} (best {best:.3g}×): "
-                     "motion or a process the pair cannot carry")
+                     "a process the pair cannot carry (bias instability, or motion in the record)")
     return PairGate(float(N), float(K), (float(T[sel][0]), float(T[sel][-1])), float(factor[j]), float(T[j]),
                     bool(r[j] > 1.0), infl, best > TOLERANCE, cause, data_reading(wv), (bN, bK, best))
 
