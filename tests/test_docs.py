@@ -165,7 +165,7 @@ STAGE = {
     "errors": 0, "units": 0, "report": 0, "_version": 0,
     "imu": 1,
     "io": 1,
-    "detect": 2,
+    "detect": 2, "lines": 2,
     "noise": 3, "export": 3,
     "nav": 4,
     "online": 5,

@@ -20,7 +20,7 @@ SRC = Path(os.environ.get("IMUNOISE_LAYERS_SRC", Path(__file__).resolve().parent
 LAYERS: list[tuple[str, ...]] = [
     ("imunoise._version", "imunoise.errors", "imunoise.units", "imunoise.imu", "imunoise.report"),
     ("imunoise.io",),
-    ("imunoise.detect",),
+    ("imunoise.detect", "imunoise.lines"),
     ("imunoise.noise", "imunoise.noise.wv", "imunoise.noise.wv_stream", "imunoise.noise.wv_log",
      "imunoise.noise.ar1_math", "imunoise.noise.process_base", "imunoise.noise.process_ma1",
      "imunoise.noise.process_white", "imunoise.noise.process_bias", "imunoise.noise.process_ar1",

@@ -59,6 +59,7 @@ def pooled_fit(
         With ``extra["data_allan"]`` (dense Allan curve of the stops), ``data_span``, ``selection`` and
         ``fit_check`` (the band check and what the retry gave).
     """
+    from imunoise.lines.detect import pooled_lines
     from imunoise.noise.allan import allan_variance, curve_to_dict
     from imunoise.noise.fitting.quality import within_band
     from imunoise.noise.selection import select_model
@@ -75,6 +76,10 @@ def pooled_fit(
     fit.extra["data_span"] = {"n_samples": int(sum(x.size for x in segments)), "n_segments": len(segments)}
     fit.extra["selection"] = {"criterion": criterion, "n_candidates": len(ranking.fits), "selected": settled.selected}
     fit.extra["fit_check"] = settled.to_dict()
+    # reported, not removed: a stop's Welch resolution (0.39 Hz) cannot cut a line without the broadband
+    # noise around it; the export notes and the report name it
+    found = pooled_lines(list(segments), freq, unit=unit)
+    fit.extra["lines"] = {"removed": False, "found": [ln.to_dict() for ln in found]}
     return fit
 
 

@@ -106,12 +106,13 @@ class AxisCalibration:
     band: Any = None
     pair_data: Any = None
     retry: str | None = None
+    gate: Any = None
 
     @property
     def refused(self) -> bool:
-        """The fit leaves its WV band over a range of scales (:class:`imunoise.noise.fitting.quality.BandCheck`):
-        an export is refused without ``--force``."""
-        return bool(self.band is not None and self.band.refused)
+        """The exported pair misses the data (:class:`imunoise.export.gate.PairGate`): an export is refused
+        without ``--force`` (the WV band check is a diagnostic)."""
+        return bool(self.gate is not None and self.gate.refused)
 
     @property
     def K_reported(self) -> float:
@@ -130,11 +131,13 @@ class AxisCalibration:
             "band": self.band.to_dict() if self.band is not None else None,
             "pair_vs_data": self.pair_data.to_dict() if self.pair_data is not None else None,
             "retry": self.retry, "export_refused": self.refused,
+            "export_gate": self.gate.to_dict() if self.gate is not None else None,
         }
 
 
 def axis_calibration(axis: str, fit: Any) -> AxisCalibration:
     from imunoise.export import axis_noise
+    from imunoise.export.gate import pair_gate
     from imunoise.noise.equivalent_noise import default_horizon_s
     from imunoise.noise.fitting.quality import band_check, pair_check
 
@@ -181,8 +184,11 @@ def axis_calibration(axis: str, fit: Any) -> AxisCalibration:
     band = band_check(fit.wv, fit.theoretical_wv)
     pair = pair_check(fit.wv, a.N, a.K, a.tau_range_s)
     retry = (fit.extra.get("fit_check") or {}).get("note")
+    gate = pair_gate(fit.wv, a.N, a.K, horizon_s=(a.tau_range_s or (None, h))[1],
+                     lines=list((fit.extra.get("lines") or {}).get("found", ())))
+    fit.extra["export_gate"] = gate.to_dict()
     return AxisCalibration(axis, fit.unit, str(fit.model), a.N, tuple(N_ci), a.K, status, k_fit, tuple(K_ci), kb, kb_at,
-                           tx, h, a.tau_range_s, a.worst_ratio, tuple(det), tuple(und), band, pair, retry)
+                           tx, h, a.tau_range_s, a.worst_ratio, tuple(det), tuple(und), band, pair, retry, gate)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -234,7 +240,9 @@ class CalibrationResult:
         return float(max((s.duration for ls in self.logs for s in ls.stops), default=0.0))
 
     def summary(self) -> str:
-        """Stops, horizon and a table of N and K per axis (values, CIs, bounds)."""
+        """Stops, horizon and a table of N and K per axis (values, CIs, bounds), the stops' narrowband lines."""
+        from imunoise.lines import Line
+
         lines = [
             f"calibration from {len(self.logs)} log(s): {self.n_stops} stops, {self.static_s:.1f} s static "
             f"(longest {self.longest_stop_s:.1f} s) at {self.freq_hz:g} Hz; criterion {self.criterion}",
@@ -255,13 +263,19 @@ class CalibrationResult:
         for ax, a in self.axes.items():
             for u in a.undetermined:
                 lines.append(f"  {ax}: not determined: {u}")
-        lines += ["", "fit against the data (export refused without --force where the fit leaves its WV band over "
-                  "a range of scales):"]
+        for ax, fit in self.fits.items():
+            for d in ((fit.extra or {}).get("lines") or {}).get("found", ()):
+                lines.append(f"  {ax}: narrowband {Line.from_dict(d).text()} in the stops (vibration; kept in "
+                             "the fitted data, named in every export)")
+        lines += ["", "exported pair against the data (export refused without --force where it misses the data's AV "
+                  "by more than 2x outside its band; the WV band check is a diagnostic):"]
         for ax, a in self.axes.items():
             if a.band is None:
                 continue
             tag = "REFUSED" if a.refused else "ok"
-            lines.append(f"  {ax:<9}{tag:<8}{a.model}: {a.band.text()}")
+            if a.gate is not None:
+                lines.append(f"  {ax:<9}{tag:<8}{a.gate.text()}")
+            lines.append(f"  {'':<17}{a.model}: {a.band.text()}")
             lines.append(f"  {'':<17}{a.pair_data.text()}; pair/model AV: worst {a.worst_ratio:.3g}×")
             if a.retry:
                 lines.append(f"  {'':<17}{a.retry}")

@@ -188,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
     if read_warnings:
         res.model.source["warnings"] = read_warnings
     path = out / "imu_model.json"
-    checks = {ax: (a.model, a.band) for ax, a in res.axes.items()}
+    checks = {ax: (a.model, a.gate) for ax, a in res.axes.items()}
     res.model.source["fit_check"] = {ax: a.band.to_dict() for ax, a in res.axes.items()}
     try:
         forced = refusal(checks, args.force, where=str(out / "report.html")) if args.export else []
@@ -196,6 +196,12 @@ def run(args: argparse.Namespace) -> int:
         _write_outputs(res, out, path, [])  # the model and the report say why; no export is written
         raise
     written = _write_outputs(res, out, path, forced)
+    if forced:  # the data's Allan reading in place of each refused pair (the model file keeps the fit)
+        from imunoise.cli.export_gate import force_readings
+        from imunoise.noise.imu_model import ImuModel
+
+        force_readings(res.fits, checks)
+        res.model = ImuModel.from_fits(res.fits, source=res.model.source)
     if args.export:
         from imunoise.cli.export import report
         from imunoise.export import model_sensors

@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from imunoise.cli.export_gate import add_force, band_checks, refusal, with_warnings
+from imunoise.cli.export_gate import add_force, pair_gates, refusal, with_warnings
 from imunoise.cli.options import add_topic
 
 EXAMPLES = """examples:
@@ -135,7 +135,7 @@ def load_for_export(path: str | Path):
 
 def gate(model, sensor: str | None, force: bool, where: str) -> list[str]:
     """The fit-quality gate of ``calibrate``/``fit --export`` applied again when a saved model is exported: the
-    fit of every exported axis is checked against its data's WV band (:func:`imunoise.cli.export_gate.refusal`),
+    exported pair of every axis is checked against its data (:func:`imunoise.cli.export_gate.pair_gates`),
     so a model that needed ``--force`` there needs it here too, and its warnings go into the file."""
     from imunoise.noise.imu_model import ImuModel
 
@@ -144,7 +144,7 @@ def gate(model, sensor: str | None, force: bool, where: str) -> list[str]:
         fits = {ax: model.fit(ax) for ax in axes}
     else:
         fits = {str(model.extra.get("column") or "axis"): model}
-    return refusal(band_checks(fits), force, where=where)
+    return refusal(pair_gates(fits), force, where=where)
 
 
 def report(sensors, file=None) -> None:

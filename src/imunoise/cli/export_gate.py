@@ -17,14 +17,52 @@ from typing import Any
 
 from imunoise.errors import FitError
 
-__all__ = ["add_force", "band_checks", "data_lines", "refusal", "with_warnings", "write_exports"]
+__all__ = ["add_force", "add_update_interval", "band_checks", "band_diagnostics", "data_lines", "force_readings",
+           "pair_gates", "refusal", "with_warnings", "write_exports"]
 
 
 def add_force(p: argparse.ArgumentParser) -> None:
-    """``--force``: export a fit that leaves its WV band, with the warning in the file."""
+    """``--force``: export past the pair gate (the data's own Allan reading is written), the warning in the file."""
     p.add_argument("--force", action="store_true",
-                   help="--export even where a fit leaves its 95%% WV band over a range of scales (>= 3 consecutive "
-                   "scales or >= 25%% of them): the warning is written into each file and its metadata")
+                   help="--export even where the exported (N, K) pair misses the data's Allan variance by more than "
+                   "2x outside its band: the data's own Allan reading is written instead, with the warning in the file")
+
+
+def add_update_interval(p: argparse.ArgumentParser) -> None:
+    """``--update-interval``: the consumer's filter interval, the shortest averaging time the gate checks."""
+    p.add_argument("--update-interval", type=float, metavar="S",
+                   help="--export: the consumer's update interval [s], the shortest averaging time the exported pair "
+                   "is checked on against the data (default 4 IMU periods)")
+
+
+def pair_gates(fits: Mapping[str, Any], *, horizon_s: float | None = None,
+               update_interval_s: float | None = None) -> dict[str, Any]:
+    """Per axis (model text, :class:`imunoise.export.gate.PairGate`) of the pair :func:`imunoise.export.axis_noise`
+    exports against the fit's data WV; the gate goes into ``fit.extra["export_gate"]`` (the model file and the
+    export notes). Lines found but kept in the data name the cause of a refusal."""
+    from imunoise.errors import ModelError
+    from imunoise.export import axis_noise
+    from imunoise.export.gate import pair_gate
+
+    if update_interval_s is not None and not update_interval_s > 0:
+        raise ModelError(f"--update-interval must be a positive time in seconds, got {update_interval_s}")
+    out = {}
+    for axis, fit in fits.items():
+        a = axis_noise(fit, axis, horizon_s=horizon_s)
+        rec = fit.extra.get("lines") or {}
+        kept = [] if rec.get("removed", True) else list(rec.get("found", ()))
+        g = pair_gate(fit.wv, a.N, a.K, horizon_s=horizon_s or (a.tau_range_s or (None, None))[1],
+                      update_interval_s=update_interval_s, lines=kept)
+        fit.extra["export_gate"] = g.to_dict()
+        out[axis] = (str(fit.model), g)
+    return out
+
+
+def force_readings(fits: Mapping[str, Any], gates: Mapping[str, Any]) -> None:
+    """``--force`` past a refusal: each refused axis exports the data's Allan reading (``extra["forced_pair"]``)."""
+    for axis, (_, g) in gates.items():
+        if g.refused:
+            fits[axis].extra["forced_pair"] = {"N": g.reading[0], "K": g.reading[1]}
 
 
 def band_checks(fits: Mapping[str, Any]) -> dict[str, Any]:
@@ -40,13 +78,14 @@ def band_checks(fits: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def refusal(checks: Mapping[str, Any], force: bool, *, where: str = "") -> list[str]:
-    """The warning lines of the axes whose fit leaves the band; raises :class:`FitError` (one line: the axes,
-    the scales, ``--force``) when there are some and ``force`` is not set.
+    """The warning lines of the refused axes; raises :class:`FitError` (one line: the axes, the cause,
+    ``--force``) when there are some and ``force`` is not set.
 
     Parameters
     ----------
     checks : mapping
-        Per axis (model text, BandCheck), from :func:`band_checks`.
+        Per axis (model text, check with ``refused`` and ``text()``): the pair gate of :func:`pair_gates`, or a
+        BandCheck of :func:`band_checks`.
     force : bool
         ``--force`` given.
     where : str
@@ -58,13 +97,17 @@ def refusal(checks: Mapping[str, Any], force: bool, *, where: str = "") -> list[
         One warning per refused axis (empty when every fit is inside its band).
     """
     bad = [(ax, m, b) for ax, (m, b) in checks.items() if b.refused]
-    lines = [f"{ax}: the {m} fit is {b.text()}; the exported noise does not follow the data there"
-             for ax, m, b in bad]
+    lines = [f"{ax}: the {m} fit: {b.text()}" for ax, m, b in bad]
     if bad and not force:
         what = "; ".join(f"{ax} ({m}) {b.text()}" for ax, m, b in bad)
         see = f" (see {where})" if where else ""
         raise FitError(f"export refused: {what}{see}; --force writes the export with this warning in the file")
     return lines
+
+
+def band_diagnostics(checks: Mapping[str, Any]) -> list[str]:
+    """The WV band check per axis as a diagnostic (the gate is on the pair, :func:`pair_gates`)."""
+    return [f"{ax}: {m} fit {b.text()} (diagnostic)" for ax, (m, b) in checks.items() if b.refused]
 
 
 def data_lines(fits: Mapping[str, Any], horizon_s: float | None = None) -> list[str]:

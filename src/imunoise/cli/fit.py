@@ -10,7 +10,16 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from imunoise.cli.export_gate import add_force, band_checks, refusal, write_exports
+from imunoise.cli.export_gate import (
+    add_force,
+    add_update_interval,
+    band_checks,
+    band_diagnostics,
+    force_readings,
+    pair_gates,
+    refusal,
+    write_exports,
+)
 from imunoise.cli.options import (
     add_columns,
     add_criterion,
@@ -111,6 +120,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="also write this export beside the model (repeatable); refused where a fit leaves its WV band (--force)",
     )
     add_force(p)
+    add_update_interval(p)
+    p.add_argument("--keep-lines", action="store_true",
+                   help="fit the data as read: do not remove the narrowband lines found in its spectrum (they are "
+                   "still reported)")
     p.add_argument("--sensor", choices=["gyro", "accel"], help="sensor: which one a single-axis fit is (for --export)")
     p.add_argument(
         "--horizon",
@@ -239,6 +252,7 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
         "unit": series.unit[axis],
         "seed": args.seed,
     }
+    found: list = []
     if isinstance(series, StreamedImu):
         fit, ranking = fit_axis_wv(series.wv[axis], n_samples=series.n_samples, **common)
         fit.extra["streamed"] = {"levels": len(series.wv[axis]), "max_scale_s": args.max_scale}
@@ -246,13 +260,16 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
         from imunoise.noise.wv import wavelet_variance
         from imunoise.noise.wv_stream import WVStream
 
-        x = series.data[axis]
+        x, found = _without_lines(args, series, axis)
         levels = WVStream(max_scale_s=args.max_scale, freq=series.freq).levels
         wv = wavelet_variance(x, levels=levels, robust=args.robust, freq=series.freq)
         fit, ranking = fit_axis_wv(wv, n_samples=x.size, values=x, **common)
     else:
-        fit, ranking = fit_axis(series.data[axis], freq=series.freq, robust=args.robust, **common)
+        x, found = _without_lines(args, series, axis)
+        fit, ranking = fit_axis(x, freq=series.freq, robust=args.robust, **common)
     extra = _base_extra(args, series, axis)
+    if not isinstance(series, StreamedImu):
+        extra["lines"] = {"removed": not args.keep_lines, "found": [ln.to_dict() for ln in found]}
     if ranking is not None:  # re-estimated as gmwm does, a richer candidate where it leaves its WV band
         from imunoise.noise.fitting.quality import within_band
 
@@ -268,6 +285,19 @@ def _fit_one(args: argparse.Namespace, series, axis: str, quiet: bool = False):
     return fit
 
 
+def _without_lines(args: argparse.Namespace, series, axis: str):
+    """The axis's data with its narrowband lines suppressed (:mod:`imunoise.lines`; as read with
+    ``--keep-lines``), and the lines found; each is printed (stderr)."""
+    from imunoise.lines import lines_text, remove_lines
+
+    x = series.data[axis]
+    y, found = remove_lines(x, series.freq, unit=series.unit[axis])
+    for t in lines_text(axis, found):
+        print(t if not args.keep_lines else t.replace("removed before fitting", "kept (--keep-lines)"),
+              file=sys.stderr)
+    return (x if args.keep_lines else y), found
+
+
 def _run_single(args: argparse.Namespace, series, out: Path) -> int:
     from imunoise.noise.plots import plot_wv_fit
 
@@ -277,6 +307,7 @@ def _run_single(args: argparse.Namespace, series, out: Path) -> int:
                          "need both sensors' keys; add --sensor gyro|accel to write that block alone, or --export json")
     fit = _fit_one(args, series, axis)
     print(fit.summary())
+    gates = _gates(args, {axis: fit})
     atomic_write_text(out / "model.json", json.dumps(fit.to_dict(), indent=1))
     with atomic_path(out / "wv.png") as tmp:
         plot_wv_fit(fit, tmp, title=f"{Path(args.data).name} [{axis}]: {fit.model}")
@@ -287,7 +318,7 @@ def _run_single(args: argparse.Namespace, series, out: Path) -> int:
         sensor = args.sensor or infer_sensor(fit)
         if sensor is None:
             raise ModelError("--export of a single axis needs --sensor gyro|accel (its unit and name do not say)")
-        forced = refusal(band_checks({axis: fit}), args.force, where=str(out / "wv.png"))
+        forced = _refusal(args, {axis: fit}, gates, str(out / "wv.png"))
         _export_report(fit, args, sensor)
         written += write_exports(fit, args.export, out, forced, fits={axis: fit}, sensor=sensor,
                                  source=str(out / "model.json"), horizon_s=args.horizon,
@@ -312,6 +343,7 @@ def _run_multi(args: argparse.Namespace, series, out: Path) -> int:
         print()
         with atomic_path(out / f"wv_{axis}.png") as tmp:
             plot_wv_fit(fit, tmp, title=f"{Path(args.data).name} [{axis}]: {fit.model}")
+    gates = _gates(args, fits)
     source = {"file": str(args.data), "freq_hz": series.freq}
     for k in ("topic", "frame_id", "frame", "format", "warnings", "units_from_file"):
         if series.meta.get(k):
@@ -323,11 +355,32 @@ def _run_multi(args: argparse.Namespace, series, out: Path) -> int:
     print(_continuous_table(model, args.horizon))
     written = [path]
     if args.export:
-        forced = refusal(band_checks(fits), args.force, where=str(out / "wv_<axis>.png"))
+        forced = _refusal(args, fits, gates, str(out / "wv_<axis>.png"))
+        if forced:  # the data's readings in place of the refused pairs (the model file keeps the fit)
+            model = ImuModel.from_fits(fits, source=source)
         _export_report(model, args, None)
         written += write_exports(model, args.export, out, forced, fits=fits, source=str(path), horizon_s=args.horizon)
     print(f"\nwrote {', '.join(str(w) for w in written)} and wv_<axis>.png", file=sys.stderr)
     return 0
+
+
+def _gates(args: argparse.Namespace, fits: dict) -> dict:
+    """The pair gate per axis (into each fit's extra, so the model file holds it), printed (stdout)."""
+    gates = pair_gates(fits, horizon_s=args.horizon, update_interval_s=args.update_interval)
+    for axis, (_, g) in gates.items():
+        print(f"{axis}: {'REFUSED ' if g.refused else ''}{g.text()}")
+    return gates
+
+
+def _refusal(args: argparse.Namespace, fits: dict, gates: dict, where: str) -> list[str]:
+    """The gate's refusal (:func:`refusal`), the WV band check as a diagnostic, and with ``--force`` the data's
+    reading in place of each refused pair."""
+    for line in band_diagnostics(band_checks(fits)):
+        print(f"band check: {line}", file=sys.stderr)
+    forced = refusal(gates, args.force, where=where)
+    if args.force:
+        force_readings(fits, gates)
+    return forced
 
 
 def _export_report(model, args: argparse.Namespace, sensor: str | None) -> None:

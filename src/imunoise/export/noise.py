@@ -136,6 +136,10 @@ def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "", *, horizon_s: f
     if (s2, g2) != (eq.sigma2, eq.gamma2):
         eq = eq.with_pair(s2, g2)
     N, K = eq.N, eq.K
+    if forced := (fit.extra or {}).get("forced_pair"):  # --force past the pair gate: the data's Allan reading
+        N, K = float(forced["N"]), float(forced["K"])
+        notes.append(f"{name}: exported with --force: the data's Allan reading N = {N:.4g}, K = {K:.4g} in place "
+                     "of the fitted pair, which the data refused")
     if not (math.isfinite(N) and math.isfinite(K) and N > 0 and K > 0):
         raise ModelError(f"{name}: the equivalent densities are not positive and finite (N={N}, K={K})")
     rw = [c.values[0] for c in fit.model.components if c.reading == "random_walk"]
@@ -144,6 +148,7 @@ def axis_noise(fit: GMWMFit | Mapping[str, Any], axis: str = "", *, horizon_s: f
         notes.append(f"{name}: drift (rate ramp {ramp:.4g} {fit.unit}/s) has no slot; matched from below by K")
     if fit.model.has("QN"):
         notes.append(f"{name}: QN folded into the white-noise density as per-sample variance 2Q^2")
+    notes += line_notes(fit, name)
     return AxisNoise(
         axis=axis,
         model=str(fit.model),
@@ -252,6 +257,25 @@ class SensorNoise:
             },
             "notes": list(self.notes),
         }
+
+
+def line_notes(fit: GMWMFit | Mapping[str, Any], name: str = "") -> list[str]:
+    """The export notes from ``fit.extra``: the axis's narrowband lines (``lines``, :mod:`imunoise.lines`) and
+    the gate on its pair (``export_gate``, :mod:`imunoise.export.gate`). Every format's header prints
+    :attr:`AxisNoise.notes`, so every consumer's file carries them."""
+    from imunoise.lines import Line
+
+    extra = _as_fit(fit).extra or {}
+    rec = extra.get("lines") or {}
+    done = "removed before fitting (not in N, K)" if rec.get("removed", True) else "kept in the fitted data"
+    out = [f"{name or 'axis'}: narrowband {Line.from_dict(d).text()}; {done}" for d in rec.get("found", ())]
+    if g := extra.get("export_gate"):
+        lo, hi = g["tau_range_s"]
+        out.append(f"{name or 'axis'}: pair vs data AV over T = {lo:.3g}-{hi:.3g} s: worst {g['worst_ratio']:.3g}x "
+                   f"{'above (conservative)' if g['pair_above_data'] else 'below (overconfident)'} at T = "
+                   f"{g['worst_at_s']:.3g} s; inflation bounding the data {g['inflation']:.3g}x"
+                   + (f"; REFUSED without --force: {g['cause']}" if g["refused"] else ""))
+    return out
 
 
 def range_text(r: tuple[float, float] | None) -> str:

@@ -104,14 +104,16 @@ def test_export_refused_in_one_line_or_forced_with_the_warning_in_the_file(ar1_w
     code = main([*base, "--out", str(out)])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2, err
-    assert err[-1].startswith("imunoise fit: error: export refused: gyro_x (WN) outside the 95 % WV band at τ = ")
+    assert err[-1].startswith("imunoise fit: error: export refused: gyro_x (WN) exported pair vs data AV over T = ")
+    assert "the data's own reading (what --force writes): N = " in err[-1]
     assert err[-1].endswith(f"(see {out / 'wv.png'}); --force writes the export with this warning in the file")
     assert not (out / "imu.yaml").exists() and not (out / "imu_noise.json").exists()
 
     out = tmp_path / "forced"
     assert main([*base, "--force", "--out", str(out)]) == 0
-    warning = "gyro_x: the WN fit is outside the 95 % WV band at τ = "
+    warning = "gyro_x: the WN fit: exported pair vs data AV over T = "
     assert warning in capsys.readouterr().err
+    assert "the data's Allan reading N = " in (out / "imu.yaml").read_text()  # what --force writes
     kalibr = (out / "imu.yaml").read_text().splitlines()
     assert kalibr[0].startswith(f"# WARNING (exported with --force): {warning}")
     ov = (out / "kalibr_imu_chain.yaml").read_text().splitlines()
@@ -139,9 +141,9 @@ def test_export_command_applies_the_gate_to_a_saved_model(ar1_wn, tmp_path, caps
     out = tmp_path / "imu.yaml"
     assert main(["export", str(model), "--to", "kalibr", "--sensor", "gyro", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err[-1].startswith("imunoise export: error: export refused: gyro_x (WN) outside the 95 % WV band at τ = ")
+    assert err[-1].startswith("imunoise export: error: export refused: gyro_x (WN) exported pair vs data AV over T = ")
     assert not out.exists()
     assert main(["export", str(model), "--to", "kalibr", "--sensor", "gyro", "--force", "--out", str(out)]) == 0
     first = out.read_text().splitlines()[0]
-    assert first.startswith("# WARNING (exported with --force): gyro_x: the WN fit is outside the 95 % WV band")
+    assert first.startswith("# WARNING (exported with --force): gyro_x: the WN fit: exported pair vs data AV over T = ")
     assert read_export(out)["gyroscope_noise_density"] > 0
