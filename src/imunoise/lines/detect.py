@@ -109,15 +109,43 @@ def _runs(mask: np.ndarray, gap: int) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
 
 
+MIN_AVERAGES = 8
+"""Welch segments a PSD must average before its peaks are read as lines: with fewer, a periodogram bin of white
+noise is an exponential variable and its largest of thousands stands tens of times above the floor (a 20 s
+white-noise record, one segment, showed six "lines" at 10-58x)."""
+
+FALSE_LINE_RATE = 0.01
+"""Chance that a broadband PSD shows a bin above the detection ratio anywhere (Bonferroni over its bins)."""
+
+
+def welch_averages(n_samples: int, segment: int) -> int:
+    """Number of half-overlapping Welch segments of ``segment`` samples in a record of ``n_samples``."""
+    if n_samples < segment or segment < 2:
+        return 0
+    return 1 + (n_samples - segment) // (segment // 2)
+
+
+def chance_ratio(n_averages: int, n_bins: int, rate: float = FALSE_LINE_RATE) -> float:
+    """The ratio PSD / running-median floor that broadband noise exceeds in any of ``n_bins`` bins with
+    probability ``rate``, for a PSD that averages ``n_averages`` segments (each bin χ² with 2K degrees of
+    freedom; the floor is a median, hence the median in the denominator)."""
+    from scipy.stats import chi2
+
+    dof = 2.0 * max(n_averages, 1)
+    return float(chi2.ppf(1.0 - rate / max(n_bins, 1), dof) / chi2.ppf(0.5, dof))
+
+
 def lines_in_psd(f: np.ndarray, p: np.ndarray, total_var: float, *, unit: str = "", ratio: float = RATIO,
-                 min_share: float = MIN_SHARE) -> list[Line]:
-    """The lines of a PSD (module docstring); ``total_var`` is the variance the shares are taken of."""
-    if f.size < 2 * MIN_FREQ_BINS or not total_var > 0:
+                 min_share: float = MIN_SHARE, n_averages: int = MIN_AVERAGES) -> list[Line]:
+    """The lines of a PSD (module docstring); ``total_var`` is the variance the shares are taken of and
+    ``n_averages`` the Welch segments the PSD averages (fewer than :data:`MIN_AVERAGES`: no line is read; the
+    detection ratio is at least the one broadband noise reaches by chance, :func:`chance_ratio`)."""
+    if f.size < 2 * MIN_FREQ_BINS or not total_var > 0 or n_averages < MIN_AVERAGES:
         return []
     df = float(f[1] - f[0])
     fl = psd_floor(f, p)
     r = np.divide(p, fl, out=np.ones_like(p), where=fl > 0)
-    above = r > ratio
+    above = r > max(ratio, chance_ratio(n_averages, f.size))
     above[:MIN_FREQ_BINS] = False
     excess = np.clip(p - fl, 0.0, None)
     out = []
@@ -142,7 +170,8 @@ def find_lines(x: np.ndarray, freq: float, *, unit: str = "", ratio: float = RAT
     """
     x = np.asarray(x, dtype=float)
     f, p = welch_psd(x, freq)
-    found = lines_in_psd(f, p, float(np.var(x)), unit=unit, ratio=ratio, min_share=min_share)
+    k = welch_averages(x.size, int(min(max(16, round(SEGMENT_S * freq)), x.size)))
+    found = lines_in_psd(f, p, float(np.var(x)), unit=unit, ratio=ratio, min_share=min_share, n_averages=k)
     return sorted(found, key=lambda ln: -ln.share)
 
 
@@ -170,4 +199,5 @@ def pooled_lines(segments: list[np.ndarray], freq: float, *, unit: str = "",
     f = psds[0][0]
     p = np.average(np.stack([q for _, q in psds]), axis=0, weights=w)
     total = float(np.average([np.var(x) for x in used], weights=w))
-    return sorted(lines_in_psd(f, p, total, unit=unit), key=lambda ln: -ln.share)
+    k = sum(welch_averages(x.size, n) for x in used)
+    return sorted(lines_in_psd(f, p, total, unit=unit, n_averages=k), key=lambda ln: -ln.share)
