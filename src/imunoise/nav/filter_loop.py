@@ -39,6 +39,7 @@ __all__ = [
     "FilterArrays", "ModelArrays", "Settings", "ImuInput", "Outputs", "new_outputs", "span_outputs", "innovation_nll",
     "flush",
     "gnss_position_update", "zupt_update", "nhc_due", "nhc_update", "fix_status", "stream_update", "predict_step",
+    "next_due",
     "run_steps", "C_NEXT", "C_SAMPLES", "C_NHC_REJECT", "SPAN_COLS", "next_event", "euler_rows",
 ]
 
@@ -204,11 +205,12 @@ def stream_update(f, m, s, st, i, tk):
 
 
 @njit(cache=True)
-def predict_step(f, m, s, nh, dth, dv, dt, gate, carry, std, none):
+def predict_step(f, m, s, nh, dth, dv, dt, gate, carry, std, rec):
     """The first half of one filter step: the strapdown with the sample's increments, the covariance every
     ``cov_every`` samples (or after a gap), then the non-holonomic constraint when due. ``carry``: as
-    :func:`run_steps`; ``std`` follows P. Returns ``(nhc applied, nis, used, dz, S, K)`` (``none``: the empty
-    arrays returned when no NHC was due)."""
+    :func:`run_steps`; ``std`` follows P. Returns ``(nhc applied, nis, used)``; ``rec`` = (dz, S, K) buffers
+    receive the NHC's innovation, its covariance and gain when they have its shape (the step filter's record;
+    the loop passes empty ones: no copy, and no array returned per sample)."""
     nav_step(f.nav, f.xm, f.acc, dth, dv, dt, m.hvec, m.axis_of, gate, m.sf_idx)
     carry[C_SAMPLES] += 1
     if f.acc[A_STEPS] >= s.cov_every or dt > 1.5 * s.dt_nom * s.cov_every:
@@ -218,8 +220,23 @@ def predict_step(f, m, s, nh, dth, dv, dt, gate, carry, std, none):
         nis, ok, dz, S, K = nhc_update(f, m, s, nh, carry[C_NHC_REJECT])
         carry[C_NHC_REJECT] = 0 if ok else carry[C_NHC_REJECT] + 1
         std_nav(f.P, std)
-        return True, nis, ok, dz, S, K
-    return False, 0.0, False, none[0], none[1], none[2]
+        if rec[0].shape[0] == dz.shape[0]:
+            rec[0][:] = dz
+            rec[1][:, :] = S
+            rec[2][:, :] = K
+        return True, nis, ok
+    return False, 0.0, False
+
+
+@njit(cache=True)
+def next_due(streams):
+    """The earliest time of a pending epoch over ``streams`` (inf when none)."""
+    t = np.inf
+    for st in streams:
+        i = st.state[S_NEXT]
+        if i < st.t.shape[0] and st.t[i] < t:
+            t = st.t[i]
+    return t
 
 
 C_NEXT, C_SAMPLES, C_NHC_REJECT = 0, 1, 2
@@ -241,13 +258,16 @@ def run_steps(imu, f, m, s, nh, streams, carry, out, row0, k_end):
     std = np.empty(N_NAV)
     std_nav(f.P, std)
     none = (np.empty(0), np.empty((0, 0)), np.empty((0, 0)))
+    t_due = next_due(streams)  # the streams are visited only at samples where one is due
     for k in range(carry[C_NEXT], k_end):
         predict_step(f, m, s, nh, imu.dth[k], imu.dv[k], t[k] - t[k - 1], imu.gate[k], carry, std, none)
-        for st in streams:
-            while st.state[S_NEXT] < st.t.shape[0] and st.t[st.state[S_NEXT]] <= t[k]:
-                stream_update(f, m, s, st, st.state[S_NEXT], t[k])
-                std_nav(f.P, std)
-                st.state[S_NEXT] += 1
+        if t[k] >= t_due:
+            for st in streams:
+                while st.state[S_NEXT] < st.t.shape[0] and st.t[st.state[S_NEXT]] <= t[k]:
+                    stream_update(f, m, s, st, st.state[S_NEXT], t[k])
+                    std_nav(f.P, std)
+                    st.state[S_NEXT] += 1
+            t_due = next_due(streams)
         if imu.zupt[k] and carry[C_SAMPLES] % s.zupt_every == 0:
             zupt_update(f, m, s, s.zupt_sigma, 0.0)
             std_nav(f.P, std)

@@ -115,6 +115,7 @@ class LooselyCoupledEKF:
         self._nhc_on = config.aid(NhcConfig) is not None
         self._nhc_reject = 0  # consecutive NHC rejections (the batch loop keeps the same count)
         self._parts: tuple | None = None
+        self._vel_reject = 0  # consecutive GNSS velocity rejections (the velocity gate forces one in after some)
 
     # -- named views and kernel arguments -------------------------------------------------------
     @property
@@ -153,8 +154,10 @@ class LooselyCoupledEKF:
 
     def velocity_stream(self, vel: GnssVelocity) -> Stream:
         """GNSS antenna velocity fixes (:func:`~imunoise.nav.measurements.gnss_velocity.as_gnss_velocity`)
-        through the χ² gate ``chi2_gate``."""
-        return make_stream("gnss_velocity", vel.t, vel.vel_ned, vel.sigma_ned, self.lever, chi2=self.config.chi2_gate)
+        through the χ² gate ``chi2_gate`` with the fixes' guards (floor ``vel.gate_abs``, forced in after
+        ``vel.max_reject`` consecutive rejections; :mod:`~imunoise.nav.measurements.gnss_velocity`)."""
+        return make_stream("gnss_velocity", vel.t, vel.vel_ned, vel.sigma_ned, self.lever, chi2=self.config.chi2_gate,
+                           max_reject=vel.max_reject, gate_abs=vel.gate_abs)
 
     def streams(self, *streams: Stream) -> StreamSet:
         """A :class:`~imunoise.nav.streams.StreamSet` of ``streams`` with this filter's lever arm."""
@@ -202,12 +205,13 @@ class LooselyCoupledEKF:
             dth, dvv = np.zeros(3), np.zeros(3)
         carry = np.array([0, self._k, self._nhc_reject], dtype=np.int64)
         model, settings = self.kernel_parts()
-        nhc_on, *upd = predict_step(self.arrays(), model, settings, self.nhc_settings(), dth, dvv, dt,
-                                    self.gate_open, carry, np.empty(N_NAV), _NONE)
+        rec = (np.empty(2), np.empty((2, 2)), np.empty((self.P.shape[0], 2))) if self._nhc_on else _NONE
+        nhc_on, nis, ok = predict_step(self.arrays(), model, settings, self.nhc_settings(), dth, dvv, dt,
+                                       self.gate_open, carry, np.empty(N_NAV), rec)
         self.t = float(t)
         self._k, self._nhc_reject = int(carry[C_SAMPLES]), int(carry[C_NHC_REJECT])
         if nhc_on:
-            self._record("nhc", self.t, (upd[0], upd[1], upd[2], upd[3], upd[4]))
+            self._record("nhc", self.t, (nis, ok, *rec))
 
     def prime(self, dtheta: np.ndarray, dv: np.ndarray) -> None:
         """Give the strapdown the increment before the first one (Δθ rad, Δv m/s) for its two-sample
@@ -278,14 +282,18 @@ class LooselyCoupledEKF:
         numpy.ndarray
             Boolean per GNSS position fix: whether it was used (rejected ones are logged).
         """
-        pos = streams.get("gnss_position")
+        pos, vel = streams.get("gnss_position"), streams.get("gnss_velocity")
         if pos is not None:
             pos.state[S_REJECT] = self._consecutive_reject
+        if vel is not None:
+            vel.state[S_REJECT] = self._vel_reject
         carry = self.run_steps(imu, streams, span_outputs(rows, pv), row0=1,
                                carry=np.array([1, self._k, self._nhc_reject], dtype=np.int64))
         self.t = float(imu.t[-1])
         self.gate_open = bool(imu.gate[-1])
         self._k, self._nhc_reject = int(carry[C_SAMPLES]), int(carry[C_NHC_REJECT])
+        if vel is not None:
+            self._vel_reject = int(vel.state[S_REJECT])
         if pos is None:
             return np.zeros(0, dtype=bool)
         self._consecutive_reject = int(pos.state[S_REJECT])
@@ -299,15 +307,19 @@ class LooselyCoupledEKF:
         """Log a GNSS fix the χ² gate rejected (here and for the online engine's kernel spans)."""
         log.info("GNSS fix at t=%.3f rejected (NIS %.1f > %.1f)", t, nis, self.config.chi2_gate)
 
-    def update_gnss_velocity(self, t: float, vel_ned: np.ndarray, sigma_ned: np.ndarray) -> bool:
+    def update_gnss_velocity(self, t: float, vel_ned: np.ndarray, sigma_ned: np.ndarray, **gate) -> bool:
         """GNSS antenna velocity fix (NED m/s, 1σ NED m/s) at time t ≤ the filter time
-        (:mod:`imunoise.nav.measurements.gnss_velocity`); returns whether the χ² gate let it in."""
-        fix = as_gnss_velocity([t], vel_ned, sigma_ned)
+        (:mod:`imunoise.nav.measurements.gnss_velocity`; ``gate``: its ``gate_abs``, ``max_reject``); returns
+        whether the χ² gate let it in (or forced it)."""
+        fix = as_gnss_velocity([t], vel_ned, sigma_ned, **gate)
         if fix.t.size == 0:
             log.warning("GNSS velocity at t=%.3f is not finite: ignored", t)
             return False
         st = self.velocity_stream(fix)
-        return self._record("gnss_velocity", t, stream_update(self.arrays(), *self.kernel_parts(), st, 0, self.t))
+        st.state[S_REJECT] = self._vel_reject
+        ok = self._record("gnss_velocity", t, stream_update(self.arrays(), *self.kernel_parts(), st, 0, self.t))
+        self._vel_reject = int(st.state[S_REJECT])
+        return ok
 
     def update(self, dz: np.ndarray, H: np.ndarray, R: np.ndarray, *, chi2: float = 0.0, force: bool = False,
                kind: str = "custom") -> bool:

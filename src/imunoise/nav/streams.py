@@ -81,6 +81,16 @@ def empty_stream(kind: str, lever) -> Stream:
     return make_stream(kind, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), lever)
 
 
+_EMPTY: dict[str, Stream] = {}
+
+
+def _empty(kind: str) -> Stream:
+    """One shared empty stream per kind (nothing in it is ever written: it has no epoch)."""
+    if kind not in _EMPTY:
+        _EMPTY[kind] = empty_stream(kind, np.zeros(3))
+    return _EMPTY[kind]
+
+
 @njit(cache=True)
 def measure(nav, n, last_dt, st, i, tk):
     """``(dz, H, R)`` of epoch ``i`` of stream ``st`` applied at filter time ``tk`` (``last_dt``: the last
@@ -109,7 +119,7 @@ class StreamSet:
 
     def kernel(self) -> tuple[Stream, ...]:
         """The engine's argument: one stream per registered kind, in :data:`KINDS` order."""
-        return tuple(self.streams.get(k) or empty_stream(k, self.lever) for k in KINDS)
+        return tuple(self.streams.get(k) or _empty(k) for k in KINDS)
 
     def start_after(self, t0: float) -> None:
         """Skip (status −1) every epoch at or before ``t0``: a batch run starts at the state of ``t0``."""
