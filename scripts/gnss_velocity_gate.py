@@ -22,7 +22,7 @@ GATES = {"plain chi2 (old)": {"gate_abs": 0.0, "max_reject": -1},
 
 
 def end_error(res, ref, t_end: float) -> float:
-    k = int(np.searchsorted(ref.t, t_end))
+    k = int(np.searchsorted(ref.t, t_end)) - 1  # the last reference epoch inside the window (as `nav` reports it)
     j = int(np.searchsorted(res.t, ref.t[k] - 1e-6))
     rl = ref.llh[k]
     rm, rn = radii(rl[0])
