@@ -32,3 +32,20 @@ def reference():
 def test_trajectories_equal_the_reference_to_the_bit(reference, case):
     got = REF.CASES[case]()
     assert got == reference[case]
+
+
+def test_the_step_sequence_exists_once():
+    """The strapdown step is called in one place (predict_step) and the per-sample loop over IMU samples with
+    measurement updates in one (run_steps): a second copy of the step sequence would add a call site."""
+    import re
+    from pathlib import Path
+
+    src = Path(__file__).resolve().parents[2] / "src" / "imunoise"
+    calls = [(p.relative_to(src).as_posix(), line.strip()) for p in src.rglob("*.py")
+             for line in p.read_text(encoding="utf-8").splitlines()
+             if re.search(r"\bnav_step\(", line) and not line.lstrip().startswith("def ")]
+    assert calls == [("nav/filter_loop.py", "nav_step(f.nav, f.xm, f.acc, dth, dv, dt, m.hvec, m.axis_of, gate, "
+                                            "m.sf_idx)")]
+    users = [p.relative_to(src).as_posix() for p in src.rglob("*.py")
+             if re.search(r"\bpredict_step\(", p.read_text(encoding="utf-8"))]
+    assert sorted(users) == ["nav/filter_loop.py", "nav/step_filter.py"]  # run_steps and propagate
