@@ -169,16 +169,15 @@ def run_member(p: dict, k: float, window_s: float, every_s: float, min_speed: fl
     indices of the fixes that open a window (default: chosen here, every ``every_s`` at ≥ ``min_speed``; give
     the first member's ``starts`` to the others so that every member is scored on the same spans, as the
     learner tests the speed once per round for all its shadows)."""
-    from imunoise.nav.filter_loop import FilterArrays, Fixes, ImuInput, Outputs, flush, gnss_position_update, run_batch
-    from imunoise.nav.noise_schedule import NoiseControl
+    from imunoise.nav.filter_loop import FilterArrays, gnss_position_update
+    from imunoise.nav.noise_schedule import NoiseControl, run_pieces
     from imunoise.nav.state import StateView
-    from imunoise.nav.step_filter import LooselyCoupledEKF, new_outputs, velocity_fixes
+    from imunoise.nav.step_filter import LooselyCoupledEKF, new_outputs
 
     sc, imu = p["sc"], p["imu"]
     ekf = LooselyCoupledEKF(sc.ekf_config(), p["models"], sc.init, imu_rate_hz=sc.rate)
     ekf.prime(imu.dth[0], imu.dv[0])
     base, settings = ekf.kernel_parts()
-    nh = ekf.nhc_settings()
     nc = NoiseControl(ekf.layout, base, ekf.dt_nom, bias_psd=p["folded"])
     m_static = nc.arrays()
     nc.set_noise_scale(p["W"] ** k, p["B"] ** k)
@@ -188,20 +187,12 @@ def run_member(p: dict, k: float, window_s: float, every_s: float, min_speed: fl
     flips = np.flatnonzero(moving[1:] != moving[:-1])  # a piece ends at sample c when moving[c + 1] differs
     out = new_outputs(n, store_cov=False, has_sf=False)
     lever = ekf.lever
-    no_fix = Fixes(np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), lever, np.zeros(0, dtype=np.int64), np.zeros(0))
-    no_vfix = velocity_fixes(None, lever)
+    no_fix = ekf.streams()
     floor = sc.ekf_config().gnss_sigma_floor
 
     def advance(f, a: int, b: int) -> None:
         cuts = flips[(flips > a) & (flips < b)]
-        for x, y in zip([a, *cuts], [*cuts, b]):
-            if y <= x:
-                continue
-            m = m_moving if moving[x + 1] else m_static
-            piece = ImuInput(*(v[x : y + 1] for v in imu))
-            run_batch(piece, f, m, settings, nh, no_fix, no_vfix,
-                      Outputs(*(v[x : y + 1] if v.shape[0] == n else v for v in out)))
-            flush(f, m, settings)
+        run_pieces(ekf, imu, f, no_fix, out, [a, *cuts, b], lambda x: m_moving if moving[x + 1] else m_static)
 
     def copy_of(f):
         return FilterArrays(*(v.copy() for v in f))

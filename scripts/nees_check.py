@@ -64,7 +64,7 @@ def law_epochs(sc, gnss, ref_i: dict, base=None):
     out = new_outputs(n, store_cov=True, has_sf=bool(np.all(ekf.layout.scale_index >= 0)))
     out.pos[0], out.vel[0], out.att[0] = sc.init.llh, sc.init.vel_ned, sc.init.euler
     out.cov[0] = ekf.P[:N_NAV, :N_NAV]
-    _run(lf, ekf.arrays(), _fixes(gnss, ekf.lever), out, 0, n - 1)
+    _run(lf, ekf.arrays(), _fixes(gnss, ekf), out, 0, n - 1)
     for k in range(n):
         j = ref_i.get(round(float(t[k]), 6))
         if j is not None:

@@ -14,7 +14,7 @@ from imunoise.experiments.common import simulate_scenario
 from imunoise.experiments.oracle_law import _fixes, law_filter, law_models
 from imunoise.nav.noise_schedule import run_pieces
 from imunoise.nav.state import N_NAV
-from imunoise.nav.step_filter import new_outputs, velocity_fixes
+from imunoise.nav.step_filter import new_outputs
 from imunoise.online import OnlineConfig
 
 GM_SIGMA, GM_TAU, STEP = 6e-4, 40.0, 7e-4
@@ -48,11 +48,9 @@ def drive(tmp_path_factory):
         return m
 
     n = lf.imu.t.size
-    empty = _fixes(sc.gnss, lf.ekf.lever, keep=lambda g: g < -1.0)
+    empty = _fixes(sc.gnss, lf.ekf, keep=lambda g: g < -1.0)
     bounds = [*map(int, lf.bounds), n - 1]
-    _, settings = lf.ekf.kernel_parts()
-    run_pieces(lf.imu, f, settings, lf.ekf.nhc_settings(), empty, velocity_fixes(None, lf.ekf.lever),
-               new_outputs(n, store_cov=False, has_sf=False), bounds, before)
+    run_pieces(lf.ekf, lf.imu, f, empty, new_outputs(n, store_cov=False, has_sf=False), bounds, before)
     log.append((n - 1, f.P.copy(), f.P.copy(), None))
     assert nm == f.P.shape[0] - N_NAV
     return sc, lf, log
@@ -131,10 +129,8 @@ def accel_drive():
         return lf.before_piece(f, k)
 
     n = lf.imu.t.size
-    _, settings = lf.ekf.kernel_parts()
-    run_pieces(lf.imu, f, settings, lf.ekf.nhc_settings(), _fixes(sc.gnss, lf.ekf.lever, keep=lambda g: g < -1.0),
-               velocity_fixes(None, lf.ekf.lever), new_outputs(n, store_cov=False, has_sf=False),
-               [*map(int, lf.bounds), n - 1], before)
+    run_pieces(lf.ekf, lf.imu, f, _fixes(sc.gnss, lf.ekf, keep=lambda g: g < -1.0),
+               new_outputs(n, store_cov=False, has_sf=False), [*map(int, lf.bounds), n - 1], before)
     ends.append((n - 1, f.P.copy()))
     return sc, lf, ends, P0
 

@@ -62,13 +62,13 @@ def test_run_in_chunks_equals_per_sample_pushes(scenario, monkeypatch, zupt):
     sc = scenario
     gnss = sc.gnss.without(sc.windows)
     calls = []
-    real = step_filter.run_span
+    real = step_filter.run_steps
 
     def counting(*args):
         calls.append(args[0].t.size - 1)
         return real(*args)
 
-    monkeypatch.setattr(step_filter, "run_span", counting)
+    monkeypatch.setattr(step_filter, "run_steps", counting)
     cfg = _config(sc, zupt=zupt, stop_chi2=7.8 if zupt else 0.0)  # with ZUPT also the guard's NIS test
     batch = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate).run(sc.imu, gnss)
     assert sum(calls) > 0.8 * sc.imu.t.size and len(calls) < sc.imu.t.size / 20

@@ -36,11 +36,12 @@ import numpy as np
 from imunoise.errors import ModelError
 from imunoise.imu import AXES
 from imunoise.nav.ekf import check_imu
-from imunoise.nav.filter_loop import FilterArrays, Fixes, ImuInput
+from imunoise.nav.filter_loop import FilterArrays, ImuInput
 from imunoise.nav.noise_schedule import NoiseControl, add_bias_variance, run_pieces
 from imunoise.nav.solution import NavSolution
 from imunoise.nav.state import N_NAV
-from imunoise.nav.step_filter import LooselyCoupledEKF, new_outputs, velocity_fixes
+from imunoise.nav.step_filter import LooselyCoupledEKF, new_outputs
+from imunoise.nav.streams import StreamSet
 
 __all__ = ["LawFilter", "evaluate_law", "law_filter", "law_models", "run_windows_law"]
 
@@ -191,16 +192,15 @@ def law_filter(sc, extra_bounds_t=(), base=None, *, models: list | None = None) 
                      np.array(bump), np.asarray(sched.step_var, dtype=float))
 
 
-def _fixes(gnss, lever: np.ndarray, keep=None) -> Fixes:
+def _fixes(gnss, ekf: LooselyCoupledEKF, keep=None) -> StreamSet:
+    """The finite GNSS fixes (sorted; those ``keep`` accepts) as the filter's measurement streams."""
     gt = np.asarray(gnss.t, dtype=float)
     llh, sig = np.asarray(gnss.llh, dtype=float), np.asarray(gnss.sigma_ned, dtype=float)
     ok = np.isfinite(gt) & np.all(np.isfinite(llh), axis=1) & np.all(np.isfinite(sig), axis=1)
     if keep is not None:
         ok &= keep(gt)
     order = np.argsort(gt[ok], kind="stable")
-    gt, llh, sig = gt[ok][order], llh[ok][order], sig[ok][order]
-    return Fixes(gt, np.ascontiguousarray(llh), np.ascontiguousarray(sig), lever,
-                 np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan))
+    return ekf.streams(ekf.position_stream(gt[ok][order], llh[ok][order], sig[ok][order]))
 
 
 def _solution(imu: ImuInput, out, a: int, b: int) -> NavSolution:
@@ -208,18 +208,15 @@ def _solution(imu: ImuInput, out, a: int, b: int) -> NavSolution:
                        out.err[a : b + 1, :3], out.err[a : b + 1, 3:], out.std[a : b + 1])
 
 
-def _run(lf: LawFilter, f: FilterArrays, fx: Fixes, out, a: int, b: int, off: int = 0) -> None:
+def _run(lf: LawFilter, f: FilterArrays, fx: StreamSet, out, a: int, b: int, off: int = 0) -> None:
     """Samples a → b of the drive on state ``f``; ``out`` rows are drive samples − ``off``."""
     ekf = lf.ekf
-    _, settings = ekf.kernel_parts()
     bounds = [a, *[int(x) for x in lf.bounds if a < x < b], b]
     if off:
         imu = ImuInput(*(x[off : b + 1] for x in lf.imu))
-        run_pieces(imu, f, settings, ekf.nhc_settings(), fx, velocity_fixes(None, ekf.lever), out,
-                   [x - off for x in bounds], lambda k: lf.before_piece(f, k + off))
+        run_pieces(ekf, imu, f, fx, out, [x - off for x in bounds], lambda k: lf.before_piece(f, k + off))
     else:
-        run_pieces(lf.imu, f, settings, ekf.nhc_settings(), fx, velocity_fixes(None, ekf.lever), out, bounds,
-                   lambda k: lf.before_piece(f, k))
+        run_pieces(ekf, lf.imu, f, fx, out, bounds, lambda k: lf.before_piece(f, k))
 
 
 def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models: list | None = None) -> dict[str, Any]:
@@ -238,7 +235,7 @@ def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models:
     out.pos[0], out.vel[0], out.att[0] = sc.init.llh, sc.init.vel_ned, sc.init.euler
     out.err[0] = ekf.sensor_errors()
     out.std[0] = np.sqrt(np.diag(ekf.P)[:N_NAV])
-    fx = _fixes(gnss, ekf.lever)
+    fx = _fixes(gnss, ekf)
     f = ekf.arrays()
     res_w: list[dict | None] = [None] * len(windows)
     k = 0
@@ -253,7 +250,7 @@ def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models:
             res_w[j] = {"drift": None, "rms": None, "drift_v": None}
             continue
         fb = FilterArrays(*(x.copy() for x in f))
-        bfx = _fixes(gnss, ekf.lever, keep=lambda g, s=s, L=length: (g < s) | (g >= s + L))
+        bfx = _fixes(gnss, ekf, keep=lambda g, s=s, L=length: (g < s) | (g >= s + L))
         bout = new_outputs(e - w + 1, store_cov=False, has_sf=has_sf)
         _run(lf, fb, bfx, bout, w, e, off=w)
         sol = _solution(ImuInput(*(x[w:] for x in lf.imu)), bout, 1, e - w)
@@ -284,7 +281,7 @@ def _drive_run(sc, gnss, base=None) -> tuple[NavSolution, float]:
     out.err[0] = ekf.sensor_errors()
     out.std[0] = np.sqrt(np.diag(ekf.P)[:N_NAV])
     t0 = time.perf_counter()
-    _run(lf, ekf.arrays(), _fixes(gnss, ekf.lever), out, 0, n - 1)
+    _run(lf, ekf.arrays(), _fixes(gnss, ekf), out, 0, n - 1)
     return _solution(lf.imu, out, 0, n - 1), time.perf_counter() - t0
 
 

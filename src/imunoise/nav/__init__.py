@@ -8,8 +8,9 @@ It imports only the model algebra (:mod:`imunoise.noise.model`, :mod:`imunoise.n
 
 Layout: :mod:`~imunoise.nav.state` names the filter's arrays; :mod:`~imunoise.nav.measurements` holds one
 module per measurement (GNSS position and velocity, ZUPT/ZARU, non-holonomic constraints), each a (dz, H, R)
-function; :mod:`~imunoise.nav.filter_loop` the update functions and the batch loop that
-:func:`~imunoise.nav.ekf.run_ekf` and :class:`~imunoise.nav.step_filter.LooselyCoupledEKF` share.
+function; :mod:`~imunoise.nav.streams` carries the measurements of a run as typed streams;
+:mod:`~imunoise.nav.filter_loop` is the filter engine, the one step sequence that :func:`~imunoise.nav.ekf.run_ekf`,
+:class:`~imunoise.nav.step_filter.LooselyCoupledEKF`, the online engine and the noise schedule share.
 """
 
 from imunoise.nav.align import coarse_align

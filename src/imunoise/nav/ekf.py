@@ -52,11 +52,11 @@ import numpy as np
 from imunoise.errors import DataError
 from imunoise.nav.defaults import EkfConfig, normalize_axis_models
 from imunoise.nav.error_states import AXES, ModelLayout
-from imunoise.nav.filter_loop import FilterArrays, Fixes, ImuInput, Outputs, VelocityFixes, run_batch
+from imunoise.nav.filter_loop import FilterArrays, ImuInput, Outputs, run_steps
 from imunoise.nav.measurements.gnss_velocity import GnssVelocity
 from imunoise.nav.solution import NavSolution
 from imunoise.nav.state import NAV, InitialState
-from imunoise.nav.step_filter import Innovation, LooselyCoupledEKF, new_outputs, velocity_fixes
+from imunoise.nav.step_filter import Innovation, LooselyCoupledEKF, new_outputs
 
 log = logging.getLogger(__name__)
 
@@ -280,18 +280,24 @@ def run_ekf(
     out.cov[0] = ekf.view.P_nav
     if has_sf:
         out.sf[0] = ekf.xm[L.scale_index]
-    fixes = Fixes(gt, gllh, gsig, ekf.lever, np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan))
+    fixes = ekf.position_stream(gt, gllh, gsig)
+    streams = ekf.streams(fixes)
+    if gnss_vel is not None:
+        streams.add(ekf.velocity_stream(gnss_vel))
+    streams.start_after(t[0])
     imu_in = ImuInput(t, dth, dv, gate_arr, zupt_arr)
-    vfixes = velocity_fixes(gnss_vel, ekf.lever)
     model, settings = ekf.kernel_parts()
     nhc = ekf.nhc_settings()
-    if not run_batch.signatures:
+    if not run_steps.signatures:
         # load (or compile) the kernel on a 2-sample copy so elapsed_s measures the filter only
-        run_batch(ImuInput(*(a[:2].copy() for a in imu_in)), FilterArrays(*(a.copy() for a in ekf.arrays())),
-                  model, settings, nhc, Fixes(*(a.copy() for a in fixes)), VelocityFixes(*(a.copy() for a in vfixes)),
-                  Outputs(*(a[:2].copy() for a in out)))
+        warm = tuple(st._replace(status=st.status.copy(), nis=st.nis.copy(), state=st.state.copy())
+                     for st in streams.kernel())
+        run_steps(ImuInput(*(a[:2].copy() for a in imu_in)), FilterArrays(*(a.copy() for a in ekf.arrays())),
+                  model, settings, nhc, warm, np.array([1, 0, 0], dtype=np.int64),
+                  Outputs(*(a[:2].copy() for a in out)), 0, 2)
     t0 = time.perf_counter()
-    run_batch(imu_in, ekf.arrays(), model, settings, nhc, fixes, vfixes, out)
+    run_steps(imu_in, ekf.arrays(), model, settings, nhc, streams.kernel(), np.array([1, 0, 0], dtype=np.int64), out,
+              0, n)
     elapsed = time.perf_counter() - t0
     g_status = fixes.status
     n_rej = int(np.sum(g_status == 0))
@@ -312,7 +318,7 @@ def run_ekf(
         list(L.labels),
         out.cov if store_cov else None,
         out.sf if has_sf else None,
-        vfixes.status if gnss_vel is not None else None,
+        streams.get("gnss_velocity").status if gnss_vel is not None else None,
     )
     for name in ("llh", "vel_ned", "euler"):
         if not np.all(np.isfinite(getattr(res, name))):

@@ -1,7 +1,7 @@
 """The filter's numba kernels (docs/guide/theory.rst, 'Navigation filter'): strapdown step with compensation, covariance
 propagation and the one
 Joseph update with χ² gate (:func:`kf_update`) every measurement goes through (:mod:`imunoise.nav.measurements`).
-The batch loop is :func:`imunoise.nav.filter_loop.run_batch`. The equations are in :mod:`imunoise.nav.ekf`;
+The step sequence is :func:`imunoise.nav.filter_loop.run_steps`. The equations are in :mod:`imunoise.nav.ekf`;
 here they are plain loops over small arrays, kept apart from the stateful filter as KF-GINS keeps its
 mechanization apart from its engine. Array layouts: :mod:`imunoise.nav.state`.
 

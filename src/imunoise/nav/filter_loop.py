@@ -1,18 +1,22 @@
-"""One filter step, two drivers (docs/guide/theory.rst, 'Navigation filter'; issue 23): the update functions every path
-calls, and the batch loop.
+"""The filter engine (issue 23, 31): one step sequence for every path into the filter, and its update functions.
 
-:class:`~imunoise.nav.ekf.LooselyCoupledEKF` (the step filter, one call per IMU sample or fix) and
-:func:`run_batch` (the numba loop behind :func:`~imunoise.nav.ekf.run_ekf` and
-:meth:`~imunoise.nav.ekf.LooselyCoupledEKF.rehearse`) apply a measurement through the same functions here
-(:func:`gnss_position_update`, :func:`zupt_update`, ...), each: propagate the covariance to the current epoch,
-build (dz, H, R) with the measurement's function (:mod:`imunoise.nav.measurements`), and run the one
-:func:`~imunoise.nav.ekf_kernels.kf_update`. So a batch run and the step filter fed sample by sample give the
-same trajectory to the bit (``tests/nav/test_nav_filter_step.py``).
+:func:`run_steps` is the step sequence: per IMU sample the strapdown and covariance propagation with the
+non-holonomic constraint (:func:`predict_step`), the due epochs of every measurement stream
+(:mod:`imunoise.nav.streams`: GNSS position, GNSS velocity, ...) through :func:`stream_update`, the zero-velocity
+update, the outputs. It runs from the sample in its ``carry`` to a given stop, so one kernel serves the batch
+run (:func:`~imunoise.nav.ekf.run_ekf`), the online engine's spans between events
+(:meth:`~imunoise.nav.ekf.LooselyCoupledEKF.run_span`), rehearsals, the noise-schedule pieces
+(:mod:`imunoise.nav.noise_schedule`) and, through :func:`predict_step`, the step filter's single
+:meth:`~imunoise.nav.ekf.LooselyCoupledEKF.propagate`. Each update propagates the covariance to the current
+epoch, builds (dz, H, R) with the measurement's function (:mod:`imunoise.nav.measurements`) and runs the one
+:func:`~imunoise.nav.ekf_kernels.kf_update`, so a batch run and the step filter fed sample by sample give the
+same trajectory to the bit (``tests/nav/test_nav_filter_step.py``, ``tests/nav/test_engine_reference.py``).
 
 The kernel takes small typed tuples (numba reads a ``NamedTuple`` of arrays as one argument) built in one
 place, :meth:`LooselyCoupledEKF.kernel_parts`: :class:`FilterArrays` (the state, changed in place),
-:class:`ModelArrays` (the error-model layout), :class:`Settings` (gates and σ), :class:`ImuInput`,
-:class:`Fixes` and :class:`Outputs`.
+:class:`ModelArrays` (the error-model layout), :class:`Settings` (gates and σ), :class:`ImuInput`, the streams
+and :class:`Outputs`. Callers outside ``nav`` use the filter's methods instead (``run_span``, ``rehearse``,
+``update``, :func:`~imunoise.nav.noise_schedule.run_pieces`).
 """
 
 from __future__ import annotations
@@ -25,16 +29,18 @@ from numba import njit
 from imunoise.nav.earth import dcm_to_euler
 from imunoise.nav.ekf_kernels import kf_update, nav_step, propagate_cov, sensor_errors_of, std_nav
 from imunoise.nav.measurements.gnss_position import gnss_position
-from imunoise.nav.measurements.gnss_velocity import gnss_velocity
 from imunoise.nav.measurements.nhc import nhc, nhc_gate
 from imunoise.nav.measurements.zupt import zupt
 from imunoise.nav.mechanization import quat_to_dcm
 from imunoise.nav.state import A_LAST_DT, A_STEPS, I_POS, I_Q, I_VEL, N_NAV, X_VEL
+from imunoise.nav.streams import C_CHI2, C_GATE_ABS, C_MAX_REJECT, S_NEXT, S_REJECT, measure
 
 __all__ = [
-    "FilterArrays", "ModelArrays", "Settings", "ImuInput", "Fixes", "VelocityFixes", "Outputs", "innovation_nll",
-    "flush", "gnss_position_update", "gnss_velocity_update", "zupt_update", "nhc_due", "nhc_update", "fix_status",
-    "run_batch", "run_span", "SPAN_COLS", "next_event", "euler_rows",
+    "FilterArrays", "ModelArrays", "Settings", "ImuInput", "Outputs", "new_outputs", "span_outputs", "innovation_nll",
+    "flush",
+    "gnss_position_update", "zupt_update", "nhc_due", "nhc_update", "fix_status", "stream_update", "predict_step",
+    "next_due",
+    "run_steps", "C_NEXT", "C_SAMPLES", "C_NHC_REJECT", "SPAN_COLS", "next_event", "euler_rows",
 ]
 
 
@@ -84,35 +90,16 @@ class ImuInput(NamedTuple):
     zupt: np.ndarray
 
 
-class Fixes(NamedTuple):
-    """GNSS position fixes (sorted): times, llh (rad, rad, m), 1σ NED (m), the lever arm (body FRD, m); the
-    loop writes ``status`` (1 used, 0 rejected, 2 forced, −1 outside the run) and ``nis`` (the gate's), and the
-    batch loop ``nll`` when it has a row per fix (default: none): the one-step innovation −log density
-    ½(νᵀS⁻¹ν + log det S + 3 log 2π), S = HPHᵀ + R before the update (:func:`innovation_nll`)."""
-
-    t: np.ndarray
-    llh: np.ndarray
-    sigma: np.ndarray
-    lever: np.ndarray
-    status: np.ndarray
-    nis: np.ndarray
-    nll: np.ndarray = np.zeros(0)  # not written (0 rows) unless the caller asks for it
-
-
-class VelocityFixes(NamedTuple):
-    """GNSS antenna velocity fixes (sorted): times, NED velocity (m/s), 1σ NED (m/s), the lever arm (body FRD,
-    m); the loop writes ``status`` (1 used, 0 rejected, −1 outside the run) and ``nis``."""
-
-    t: np.ndarray
-    vel: np.ndarray
-    sigma: np.ndarray
-    lever: np.ndarray
-    status: np.ndarray
-    nis: np.ndarray
+SPAN_COLS = 1 + 3 + 3 + 4 + 6 + N_NAV
+"""Columns of a span row (:class:`Outputs` ``rows``): t, llh, NED velocity, quaternion, sensor errors (6),
+1σ of δr, δv, φ (9)."""
 
 
 class Outputs(NamedTuple):
-    """Per IMU sample (rows); ``cov`` and ``sf`` have one row when not kept."""
+    """What the engine writes per IMU sample; each array is written only when it has one row per output sample
+    (else it is a placeholder and skipped): position, velocity, Euler angles, sensor errors, 1σ of δr, δv, φ,
+    the 9×9 navigation covariance, scale factors, span rows (:data:`SPAN_COLS` layout: the online engine's
+    stored epoch) and the velocity covariance (the stop guard's input)."""
 
     pos: np.ndarray
     vel: np.ndarray
@@ -121,6 +108,20 @@ class Outputs(NamedTuple):
     std: np.ndarray
     cov: np.ndarray
     sf: np.ndarray
+    rows: np.ndarray = np.zeros((0, SPAN_COLS))
+    pv: np.ndarray = np.zeros((0, 3, 3))
+
+
+def new_outputs(n: int, *, store_cov: bool, has_sf: bool) -> Outputs:
+    """Empty per-sample outputs of :func:`run_steps` for ``n`` samples."""
+    return Outputs(np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 6)), np.empty((n, N_NAV)),
+                   np.zeros((n if store_cov else 1, N_NAV, N_NAV)), np.zeros((n if has_sf else 1, 6)))
+
+
+def span_outputs(rows: np.ndarray, pv: np.ndarray) -> Outputs:
+    """Outputs that keep only the span rows and the velocity covariance (the online engine's chunks)."""
+    return Outputs(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 6)), np.zeros((0, N_NAV)),
+                   np.zeros((0, N_NAV, N_NAV)), np.zeros((0, 6)), rows, pv)
 
 
 @njit(cache=True)
@@ -136,15 +137,6 @@ def gnss_position_update(f, m, s, z_llh, sigma, lever, dt_back, force):
     flush(f, m, s)
     dz, H, R = gnss_position(f.nav, f.P.shape[0], z_llh, lever, dt_back, sigma)
     nis, ok, S, K = kf_update(f.P, f.nav, f.xm, dz, H, R, s.chi2, force, s.gate_abs)
-    return nis, ok, dz, S, K
-
-
-@njit(cache=True)
-def gnss_velocity_update(f, m, s, z_vel, sigma, lever):
-    """A GNSS antenna velocity (:mod:`imunoise.nav.measurements.gnss_velocity`); ``(nis, used, dz, S, K)``."""
-    flush(f, m, s)
-    dz, H, R = gnss_velocity(f.nav, f.P.shape[0], z_vel, lever, f.acc[A_LAST_DT], sigma)
-    nis, ok, S, K = kf_update(f.P, f.nav, f.xm, dz, H, R, s.chi2, False, 0.0)
     return nis, ok, dz, S, K
 
 
@@ -192,72 +184,118 @@ def fix_status(ok, force, chi2, nis):
     return 2 if force and chi2 > 0.0 and nis > chi2 else 1
 
 
+@njit(cache=True)
+def stream_update(f, m, s, st, i, tk):
+    """Epoch ``i`` of stream ``st`` (:mod:`imunoise.nav.streams`) at filter time ``tk``: propagate P to now, build
+    (dz, H, R) (:func:`~imunoise.nav.streams.measure`), the one update with the stream's gate (forced in after
+    ``cfg[C_MAX_REJECT]`` consecutive rejections); writes the epoch's status, NIS (and NLL) and the stream's
+    counters; returns ``(nis, used, dz, S, K)``."""
+    flush(f, m, s)
+    dz, H, R = measure(f.nav, f.P.shape[0], f.acc[A_LAST_DT], st, i, tk)
+    chi2 = st.cfg[C_CHI2]
+    mr = st.cfg[C_MAX_REJECT]
+    force = mr >= 0.0 and st.state[S_REJECT] >= mr
+    nis, ok, S, K = kf_update(f.P, f.nav, f.xm, dz, H, R, chi2, force, st.cfg[C_GATE_ABS])
+    st.nis[i] = nis
+    if st.nll.shape[0] == st.t.shape[0]:
+        st.nll[i] = innovation_nll(dz, S)
+    st.status[i] = fix_status(ok, force, chi2, nis)
+    st.state[S_REJECT] = 0 if ok else st.state[S_REJECT] + 1
+    return nis, ok, dz, S, K
+
+
+@njit(cache=True)
+def predict_step(f, m, s, nh, dth, dv, dt, gate, carry, std, rec):
+    """The first half of one filter step: the strapdown with the sample's increments, the covariance every
+    ``cov_every`` samples (or after a gap), then the non-holonomic constraint when due. ``carry``: as
+    :func:`run_steps`; ``std`` follows P. Returns ``(nhc applied, nis, used)``; ``rec`` = (dz, S, K) buffers
+    receive the NHC's innovation, its covariance and gain when they have its shape (the step filter's record;
+    the loop passes empty ones: no copy, and no array returned per sample)."""
+    nav_step(f.nav, f.xm, f.acc, dth, dv, dt, m.hvec, m.axis_of, gate, m.sf_idx)
+    carry[C_SAMPLES] += 1
+    if f.acc[A_STEPS] >= s.cov_every or dt > 1.5 * s.dt_nom * s.cov_every:
+        flush(f, m, s)
+        std_nav(f.P, std)
+    if nhc_due(f, nh, carry[C_SAMPLES]):
+        nis, ok, dz, S, K = nhc_update(f, m, s, nh, carry[C_NHC_REJECT])
+        carry[C_NHC_REJECT] = 0 if ok else carry[C_NHC_REJECT] + 1
+        std_nav(f.P, std)
+        if rec[0].shape[0] == dz.shape[0]:
+            rec[0][:] = dz
+            rec[1][:, :] = S
+            rec[2][:, :] = K
+        return True, nis, ok
+    return False, 0.0, False
+
+
+@njit(cache=True)
+def next_due(streams):
+    """The earliest time of a pending epoch over ``streams`` (inf when none)."""
+    t = np.inf
+    for st in streams:
+        i = st.state[S_NEXT]
+        if i < st.t.shape[0] and st.t[i] < t:
+            t = st.t[i]
+    return t
+
+
+C_NEXT, C_SAMPLES, C_NHC_REJECT = 0, 1, 2
+"""``carry`` of :func:`run_steps` (int64): next sample index of ``imu``, samples propagated so far (the NHC and
+ZUPT phase), consecutive NHC rejections."""
+
+
 @njit(cache=True, nogil=True)  # nogil: rehearsals run in a worker thread beside the filter
-def run_batch(imu, f, m, s, nh, fx, vfx, out):
-    """Batch loop: mechanization + covariance propagation (+ NHC, :class:`~imunoise.nav.measurements.nhc.NhcSettings`
-    ``nh``) + GNSS position ``fx`` and velocity ``vfx`` (and optional ZUPT) updates."""
+def run_steps(imu, f, m, s, nh, streams, carry, out, row0, k_end):
+    """The filter's one step sequence, over samples ``carry[C_NEXT]`` … ``k_end − 1`` of ``imu`` (stopping there:
+    the caller's next event). Per sample k: :func:`predict_step` (strapdown, covariance, NHC), then every epoch
+    of every stream (:mod:`imunoise.nav.streams`) with t ≤ t[k], in stream order, through
+    :func:`stream_update`, then the zero-velocity update where ``imu.zupt[k]`` (every ``s.zupt_every``
+    samples), then the outputs of row k − ``row0`` (:class:`Outputs`). Batch runs, the online engine's spans,
+    rehearsals, noise-schedule pieces and the step filter's :meth:`~imunoise.nav.ekf.LooselyCoupledEKF.propagate`
+    all go through it (the last through :func:`predict_step` alone)."""
     t = imu.t
-    nimu = t.shape[0]
-    gt = fx.t
-    ng = gt.shape[0]
-    gi = 0
-    while gi < ng and gt[gi] <= t[0]:
-        fx.status[gi] = -1
-        gi += 1
-    vi = 0
-    while vi < vfx.t.shape[0] and vfx.t[vi] <= t[0]:
-        vi += 1
-    n_reject = 0
-    nhc_reject = 0
+    n_out = t.shape[0] - row0
     std = np.empty(N_NAV)
     std_nav(f.P, std)
-    for k in range(1, nimu):
-        dt = t[k] - t[k - 1]
-        nav_step(f.nav, f.xm, f.acc, imu.dth[k], imu.dv[k], dt, m.hvec, m.axis_of, imu.gate[k], m.sf_idx)
-        if f.acc[A_STEPS] >= s.cov_every or dt > 1.5 * s.dt_nom * s.cov_every:
-            flush(f, m, s)
-            std_nav(f.P, std)
-        if nhc_due(f, nh, k):
-            ok = nhc_update(f, m, s, nh, nhc_reject)[1]
-            nhc_reject = 0 if ok else nhc_reject + 1
-            std_nav(f.P, std)
-        while gi < ng and gt[gi] <= t[k]:
-            force = n_reject >= s.max_reject
-            nis, ok, dz, S, _ = gnss_position_update(f, m, s, fx.llh[gi], fx.sigma[gi], fx.lever, t[k] - gt[gi], force)
-            fx.nis[gi] = nis
-            if fx.nll.shape[0] == ng:
-                fx.nll[gi] = innovation_nll(dz, S)
-            fx.status[gi] = fix_status(ok, force, s.chi2, nis)
-            n_reject = 0 if ok else n_reject + 1
-            std_nav(f.P, std)
-            gi += 1
-        while vi < vfx.t.shape[0] and vfx.t[vi] <= t[k]:
-            nis, ok, _, _, _ = gnss_velocity_update(f, m, s, vfx.vel[vi], vfx.sigma[vi], vfx.lever)
-            vfx.nis[vi] = nis
-            vfx.status[vi] = 1 if ok else 0
-            std_nav(f.P, std)
-            vi += 1
-        if imu.zupt[k] and k % s.zupt_every == 0:
+    none = (np.empty(0), np.empty((0, 0)), np.empty((0, 0)))
+    t_due = next_due(streams)  # the streams are visited only at samples where one is due
+    for k in range(carry[C_NEXT], k_end):
+        predict_step(f, m, s, nh, imu.dth[k], imu.dv[k], t[k] - t[k - 1], imu.gate[k], carry, std, none)
+        if t[k] >= t_due:
+            for st in streams:
+                while st.state[S_NEXT] < st.t.shape[0] and st.t[st.state[S_NEXT]] <= t[k]:
+                    stream_update(f, m, s, st, st.state[S_NEXT], t[k])
+                    std_nav(f.P, std)
+                    st.state[S_NEXT] += 1
+            t_due = next_due(streams)
+        if imu.zupt[k] and carry[C_SAMPLES] % s.zupt_every == 0:
             zupt_update(f, m, s, s.zupt_sigma, 0.0)
             std_nav(f.P, std)
-        for i in range(3):
-            out.pos[k, i] = f.nav[I_POS + i]
-            out.vel[k, i] = f.nav[I_VEL + i]
-        out.att[k] = dcm_to_euler(quat_to_dcm(f.nav[I_Q : I_Q + 4]))
-        out.err[k] = sensor_errors_of(f.xm, m.hvec, m.axis_of)
-        out.std[k] = std
-        if out.cov.shape[0] == nimu:
-            out.cov[k] = f.P[0:N_NAV, 0:N_NAV]
-        if out.sf.shape[0] == nimu:
+        r = k - row0
+        if out.pos.shape[0] == n_out:
+            for i in range(3):
+                out.pos[r, i] = f.nav[I_POS + i]
+                out.vel[r, i] = f.nav[I_VEL + i]
+            out.att[r] = dcm_to_euler(quat_to_dcm(f.nav[I_Q : I_Q + 4]))
+            out.err[r] = sensor_errors_of(f.xm, m.hvec, m.axis_of)
+            out.std[r] = std
+        if out.cov.shape[0] == n_out:
+            out.cov[r] = f.P[0:N_NAV, 0:N_NAV]
+        if out.sf.shape[0] == n_out:
             for a in range(6):
-                out.sf[k, a] = f.xm[m.sf_idx[a]]
-    while gi < ng:
-        fx.status[gi] = -1
-        gi += 1
-
-
-SPAN_COLS = 1 + 3 + 3 + 4 + 6 + N_NAV
-"""Columns of a :func:`run_span` row: t, llh, NED velocity, quaternion, sensor errors (6), 1σ of δr, δv, φ (9)."""
+                out.sf[r, a] = f.xm[m.sf_idx[a]]
+        if out.rows.shape[0] == n_out:
+            w = out.rows[r]
+            w[0] = t[k]
+            for i in range(10):
+                w[1 + i] = f.nav[I_POS + i]
+            w[11:17] = sensor_errors_of(f.xm, m.hvec, m.axis_of)
+            w[17:26] = std
+        if out.pv.shape[0] == n_out:
+            for i in range(3):
+                for j in range(3):
+                    out.pv[r, i, j] = f.P[X_VEL + i, X_VEL + j]
+    carry[C_NEXT] = k_end
 
 
 def next_event(k: int, stop: int, sources) -> int:
@@ -270,55 +308,6 @@ def next_event(k: int, stop: int, sources) -> int:
         if i < src.shape[0] and src[i] < e:
             e = int(src[i])
     return max(e, k)
-
-
-@njit(cache=True)
-def run_span(imu, f, m, s, nh, fx, carry, rows, pv):
-    """The step filter's sample loop over one span between events, in one call (the online engine's chunks).
-
-    Sample k ≥ 1 of ``imu`` is one :meth:`~imunoise.nav.ekf.LooselyCoupledEKF.propagate` (with the gate
-    ``imu.gate[k]``; NHC counted from ``carry[0]``) followed by :meth:`update_gnss` of every fix of ``fx`` with
-    t ≤ t[k] (σ as given: the caller applies the NaN and floor policy), in the step filter's order and
-    through the same update functions, so the span equals the per-sample calls to the bit. Row 0 of ``imu`` is
-    the filter's current epoch. ``carry`` (int64): samples so far, consecutive GNSS rejections, consecutive NHC
-    rejections (read and written). Writes ``fx.status``/``fx.nis``, per sample ``rows[k − 1]`` (:data:`SPAN_COLS`
-    layout: the online engine's stored epoch) and, when ``pv`` has a row per sample, the velocity covariance
-    (the stop guard's input)."""
-    t = imu.t
-    nimu = t.shape[0]
-    gi = 0
-    ng = fx.t.shape[0]
-    std = np.empty(N_NAV)
-    std_nav(f.P, std)
-    for k in range(1, nimu):
-        dt = t[k] - t[k - 1]
-        nav_step(f.nav, f.xm, f.acc, imu.dth[k], imu.dv[k], dt, m.hvec, m.axis_of, imu.gate[k], m.sf_idx)
-        carry[0] += 1
-        if f.acc[A_STEPS] >= s.cov_every or dt > 1.5 * s.dt_nom * s.cov_every:
-            flush(f, m, s)
-            std_nav(f.P, std)
-        if nhc_due(f, nh, carry[0]):
-            ok = nhc_update(f, m, s, nh, carry[2])[1]
-            carry[2] = 0 if ok else carry[2] + 1
-            std_nav(f.P, std)
-        while gi < ng and fx.t[gi] <= t[k]:
-            force = carry[1] >= s.max_reject
-            nis, ok, _, _, _ = gnss_position_update(f, m, s, fx.llh[gi], fx.sigma[gi], fx.lever, t[k] - fx.t[gi], force)
-            fx.nis[gi] = nis
-            fx.status[gi] = fix_status(ok, force, s.chi2, nis)
-            carry[1] = 0 if ok else carry[1] + 1
-            std_nav(f.P, std)
-            gi += 1
-        r = rows[k - 1]
-        r[0] = t[k]
-        for i in range(10):
-            r[1 + i] = f.nav[I_POS + i]
-        r[11:17] = sensor_errors_of(f.xm, m.hvec, m.axis_of)
-        r[17:26] = std
-        if pv.shape[0] == nimu - 1:
-            for i in range(3):
-                for j in range(3):
-                    pv[k - 1, i, j] = f.P[X_VEL + i, X_VEL + j]
 
 
 @njit(cache=True)

@@ -19,7 +19,7 @@ A random walk the model lacks (the warm-up's closest random walk, :func:`imunois
 warmup_random_walk`) is added unscaled to the bias state: Q^(k)[b, b] += q·k·Δt (exact: the bias column of
 Φ^i is e_b, a DR ramp feeds the bias, not the reverse).
 
-:func:`run_pieces` runs the batch kernel (:func:`~imunoise.nav.filter_loop.run_batch`) piece by piece between
+:func:`run_pieces` runs the filter engine (:func:`~imunoise.nav.filter_loop.run_steps`) piece by piece between
 the points where the noise changes, flushing the covariance at every piece's end so that the accumulated
 increments are propagated with the noise of their own piece. A piece restarts the kernel's counters (the
 consecutive-rejection count of the χ² gate, the ZUPT/NHC sample phase); the oracle uses neither ZUPT nor NHC.
@@ -32,10 +32,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from imunoise.nav.error_states import KIND_SCALE, ModelLayout
-from imunoise.nav.filter_loop import FilterArrays, Fixes, ImuInput, ModelArrays, Outputs, flush, run_batch
+from imunoise.nav.filter_loop import FilterArrays, ImuInput, ModelArrays, Outputs, flush, run_steps
 from imunoise.nav.state import N_NAV
+from imunoise.nav.streams import StreamSet
 
-__all__ = ["NoiseControl", "add_bias_variance", "run_pieces", "slice_fixes"]
+__all__ = ["NoiseControl", "add_bias_variance", "run_pieces"]
 
 
 class NoiseControl:
@@ -110,32 +111,27 @@ def add_bias_variance(P: np.ndarray, bias_index: np.ndarray, var: Sequence[float
         P[N_NAV + bias_index[a], N_NAV + bias_index[a]] += v
 
 
-def slice_fixes(fx: Fixes, lo: float, hi: float) -> Fixes:
-    """The fixes with lo < t ≤ hi as views (the kernel's status/NIS land in ``fx``)."""
-    i, j = np.searchsorted(fx.t, [lo, hi], side="right")
-    return Fixes(fx.t[i:j], fx.llh[i:j], fx.sigma[i:j], fx.lever, fx.status[i:j], fx.nis[i:j])
-
-
 def _slice_out(out: Outputs, a: int, b: int, n: int) -> Outputs:
     return Outputs(*(x[a : b + 1] if x.shape[0] == n else x for x in out))
 
 
-def run_pieces(imu: ImuInput, f: FilterArrays, s, nh, fx: Fixes, vfx, out: Outputs, bounds: Sequence[int],
+def run_pieces(ekf, imu: ImuInput, f: FilterArrays, streams: StreamSet, out: Outputs, bounds: Sequence[int],
                before_piece) -> None:
-    """Run samples bounds[0] → bounds[-1] of ``imu`` as pieces [bounds[i], bounds[i+1]] through the batch kernel.
+    """Run samples bounds[0] → bounds[-1] of ``imu`` as pieces [bounds[i], bounds[i+1]] through the filter engine
+    with the settings of the filter ``ekf`` (:class:`~imunoise.nav.ekf.LooselyCoupledEKF`) on the state ``f``.
 
-    ``before_piece(i0)`` is called before the piece starting at sample i0 and returns its :class:`ModelArrays`
-    (it may change ``f.P``, e.g. :func:`add_bias_variance`); the covariance is flushed with those arrays at the
-    piece's end. Fixes with t[i0] < t ≤ t[i1] are applied in the piece (``fx``, ``vfx`` whole arrays)."""
+    ``before_piece(i0)``, the noise-schedule hook, is called before the piece starting at sample i0 and returns
+    its :class:`ModelArrays` (it may change ``f.P``, e.g. :func:`add_bias_variance`); the covariance is flushed
+    with those arrays at the piece's end. The epochs of ``streams`` with t[i0] < t ≤ t[i1] are applied in the
+    piece (their status and NIS land in ``streams``)."""
     n = imu.t.shape[0]
+    _, s = ekf.kernel_parts()
+    nh = ekf.nhc_settings()
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b <= a:
             continue
         m = before_piece(a)
-        lo, hi = imu.t[a], imu.t[b]
         piece = ImuInput(*(x[a : b + 1] for x in imu))
-        vi, vj = np.searchsorted(vfx.t, [lo, hi], side="right")
-        vpiece = type(vfx)(vfx.t[vi:vj], vfx.vel[vi:vj], vfx.sigma[vi:vj], vfx.lever, vfx.status[vi:vj],
-                           vfx.nis[vi:vj])
-        run_batch(piece, f, m, s, nh, slice_fixes(fx, lo, hi), vpiece, _slice_out(out, a, b, n))
+        run_steps(piece, f, m, s, nh, streams.slice(imu.t[a], imu.t[b]).kernel(), np.array([1, 0, 0], dtype=np.int64),
+                  _slice_out(out, a, b, n), 0, b - a + 1)
         flush(f, m, s)

@@ -13,33 +13,36 @@ import numpy as np
 
 from imunoise.errors import DataError
 from imunoise.nav.defaults import EkfConfig, default_axis_models, normalize_axis_models
-from imunoise.nav.ekf_kernels import kf_update, nav_step, propagate_cov, sensor_errors_of
+from imunoise.nav.ekf_kernels import kf_update, sensor_errors_of
 from imunoise.nav.error_states import ModelLayout, initial_covariance, scale_spec, swap_map
 from imunoise.nav.filter_loop import (
+    C_NHC_REJECT,
+    C_SAMPLES,
     FilterArrays,
-    Fixes,
     ImuInput,
     ModelArrays,
     Outputs,
     Settings,
-    VelocityFixes,
-    gnss_position_update,
-    gnss_velocity_update,
-    nhc_due,
-    nhc_update,
-    run_batch,
-    run_span,
+    flush,
+    new_outputs,
+    predict_step,
+    run_steps,
+    span_outputs,
+    stream_update,
     zupt_update,
 )
 from imunoise.nav.measurements.gnss_velocity import GnssVelocity, as_gnss_velocity
 from imunoise.nav.measurements.nhc import NHC_OFF, NhcConfig, NhcSettings
 from imunoise.nav.measurements.zupt import zaru
 from imunoise.nav.mechanization import make_nav, nav_euler
-from imunoise.nav.state import A_LAST_DT, A_STEPS, ACC_LEN, I_DTH, I_DV, I_PREV, N_NAV, InitialState, StateView
+from imunoise.nav.rehearsal import rehearse
+from imunoise.nav.state import A_LAST_DT, ACC_LEN, I_DTH, I_DV, I_PREV, N_NAV, InitialState, StateView
+from imunoise.nav.streams import S_REJECT, Stream, StreamSet, make_stream
 
 log = logging.getLogger("imunoise.nav.ekf")  # the filter's one logger name
+_NONE = (np.empty(0), np.empty((0, 0)), np.empty((0, 0)))  # predict_step's "no NHC" arrays
 
-__all__ = ["LooselyCoupledEKF", "Innovation", "new_outputs", "velocity_fixes"]
+__all__ = ["LooselyCoupledEKF", "Innovation", "new_outputs"]
 
 
 class Innovation(NamedTuple):
@@ -54,19 +57,6 @@ class Innovation(NamedTuple):
     K: np.ndarray
     nis: float
     used: bool
-
-
-def velocity_fixes(vel: GnssVelocity | None, lever: np.ndarray) -> VelocityFixes:
-    """The kernel's velocity fixes (none: empty arrays)."""
-    vel = vel if vel is not None else as_gnss_velocity(np.zeros(0), np.zeros((0, 3)), np.ones(3))
-    return VelocityFixes(vel.t, vel.vel_ned, vel.sigma_ned, lever, np.full(vel.t.size, -1, dtype=np.int64),
-                         np.full(vel.t.size, np.nan))
-
-
-def new_outputs(n: int, *, store_cov: bool, has_sf: bool) -> Outputs:
-    """Empty per-sample outputs of :func:`~imunoise.nav.filter_loop.run_batch` for ``n`` samples."""
-    return Outputs(np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 6)), np.empty((n, N_NAV)),
-                   np.zeros((n if store_cov else 1, N_NAV, N_NAV)), np.zeros((n if has_sf else 1, 6)))
 
 
 class LooselyCoupledEKF:
@@ -124,6 +114,8 @@ class LooselyCoupledEKF:
         self._k = 0  # samples propagated (the NHC schedule counts them as the batch loop does)
         self._nhc_on = config.aid(NhcConfig) is not None
         self._nhc_reject = 0  # consecutive NHC rejections (the batch loop keeps the same count)
+        self._parts: tuple | None = None
+        self._vel_reject = 0  # consecutive GNSS velocity rejections (the velocity gate forces one in after some)
 
     # -- named views and kernel arguments -------------------------------------------------------
     @property
@@ -141,12 +133,51 @@ class LooselyCoupledEKF:
         return NHC_OFF if c is None else c.kernel()
 
     def kernel_parts(self) -> tuple[ModelArrays, Settings]:
-        """The model layout and settings every kernel call takes, built in this one place."""
+        """The model layout and settings every kernel call takes, built in this one place (kept until the
+        layout changes: :meth:`swap_model`)."""
         L, c = self.layout, self.config
-        model = ModelArrays(L.phi_pow, L.q_pow, L.hvec, L.axis_of, L.wpsd, self.wpsd_fb, L.scale_index)
-        settings = Settings(float(c.gate_q_scale), float(self.dt_nom), int(c.cov_every), float(c.chi2_gate),
-                            int(c.gate_max_reject), float(c.gate_abs_m), int(c.zupt_every), float(c.zupt_sigma))
-        return model, settings
+        if self._parts is None or self._parts[0] is not L:
+            model = ModelArrays(L.phi_pow, L.q_pow, L.hvec, L.axis_of, L.wpsd, self.wpsd_fb, L.scale_index)
+            settings = Settings(float(c.gate_q_scale), float(self.dt_nom), int(c.cov_every), float(c.chi2_gate),
+                                int(c.gate_max_reject), float(c.gate_abs_m), int(c.zupt_every), float(c.zupt_sigma))
+            self._parts = (L, model, settings)
+        return self._parts[1], self._parts[2]
+
+    # -- measurement streams ------------------------------------------------------------------------
+    def position_stream(self, t, llh, sigma, *, with_nll: bool = False) -> Stream:
+        """GNSS antenna position fixes (sorted; σ as given) with the filter's gate: χ² ``chi2_gate`` with the
+        ``gate_abs_m`` floor, forced in after ``gate_max_reject`` consecutive rejections."""
+        c = self.config
+        return make_stream("gnss_position", t, np.asarray(llh, dtype=float).reshape(-1, 3),
+                           np.asarray(sigma, dtype=float).reshape(-1, 3), self.lever, chi2=c.chi2_gate,
+                           max_reject=c.gate_max_reject, gate_abs=c.gate_abs_m, with_nll=with_nll)
+
+    def velocity_stream(self, vel: GnssVelocity) -> Stream:
+        """GNSS antenna velocity fixes (:func:`~imunoise.nav.measurements.gnss_velocity.as_gnss_velocity`)
+        through the χ² gate ``chi2_gate`` with the fixes' guards (floor ``vel.gate_abs``, forced in after
+        ``vel.max_reject`` consecutive rejections; :mod:`~imunoise.nav.measurements.gnss_velocity`)."""
+        return make_stream("gnss_velocity", vel.t, vel.vel_ned, vel.sigma_ned, self.lever, chi2=self.config.chi2_gate,
+                           max_reject=vel.max_reject, gate_abs=vel.gate_abs)
+
+    def streams(self, *streams: Stream) -> StreamSet:
+        """A :class:`~imunoise.nav.streams.StreamSet` of ``streams`` with this filter's lever arm."""
+        out = StreamSet(self.lever)
+        for st in streams:
+            out.add(st)
+        return out
+
+    def run_steps(self, imu: ImuInput, streams: StreamSet, out: Outputs, *, row0: int = 0, stop: int | None = None,
+                  model: ModelArrays | None = None, carry: np.ndarray | None = None) -> np.ndarray:
+        """Samples 1 … ``stop`` − 1 of ``imu`` (row 0: the filter's epoch) through the engine
+        (:func:`~imunoise.nav.filter_loop.run_steps`) on this filter's arrays, with fresh counters unless
+        ``carry`` is given; ``model`` replaces the model arrays (a noise schedule's,
+        :mod:`imunoise.nav.noise_schedule`). Returns the carry. The filter's clock and counters are the
+        caller's to set (:meth:`run_span` does)."""
+        m, s = self.kernel_parts()
+        c = np.array([1, 0, 0], dtype=np.int64) if carry is None else carry
+        run_steps(imu, self.arrays(), m if model is None else model, s, self.nhc_settings(), streams.kernel(), c, out,
+                  row0, imu.t.shape[0] if stop is None else stop)
+        return c
 
     def _record(self, kind: str, t: float, out: tuple) -> bool:
         nis, ok, dz, S, K = out
@@ -172,17 +203,15 @@ class LooselyCoupledEKF:
         if not (np.all(np.isfinite(dth)) and np.all(np.isfinite(dvv))):
             log.warning("non-finite IMU sample at t=%.3f skipped (propagated as zero motion)", t)
             dth, dvv = np.zeros(3), np.zeros(3)
-        L = self.layout
-        nav_step(self.nav, self.xm, self.acc, dth, dvv, dt, L.hvec, L.axis_of, self.gate_open, L.scale_index)
+        carry = np.array([0, self._k, self._nhc_reject], dtype=np.int64)
+        model, settings = self.kernel_parts()
+        rec = (np.empty(2), np.empty((2, 2)), np.empty((self.P.shape[0], 2))) if self._nhc_on else _NONE
+        nhc_on, nis, ok = predict_step(self.arrays(), model, settings, self.nhc_settings(), dth, dvv, dt,
+                                       self.gate_open, carry, np.empty(N_NAV), rec)
         self.t = float(t)
-        self._k += 1
-        if self.acc[A_STEPS] >= self.config.cov_every or dt > 1.5 * self.dt_nom * self.config.cov_every:
-            self.flush()
-        if self._nhc_on:  # the batch loop's order: NHC after the propagation, before the fixes
-            f, nh = self.arrays(), self.nhc_settings()
-            if nhc_due(f, nh, self._k):
-                ok = self._record("nhc", self.t, nhc_update(f, *self.kernel_parts(), nh, self._nhc_reject))
-                self._nhc_reject = 0 if ok else self._nhc_reject + 1
+        self._k, self._nhc_reject = int(carry[C_SAMPLES]), int(carry[C_NHC_REJECT])
+        if nhc_on:
+            self._record("nhc", self.t, (nis, ok, *rec))
 
     def prime(self, dtheta: np.ndarray, dv: np.ndarray) -> None:
         """Give the strapdown the increment before the first one (Δθ rad, Δv m/s) for its two-sample
@@ -197,22 +226,7 @@ class LooselyCoupledEKF:
     def flush(self) -> None:
         """Propagate the covariance (and the model-state estimates) over the increments accumulated since
         the last propagation, so P refers to the current epoch. Updates and swaps call it themselves."""
-        L = self.layout
-        propagate_cov(
-            self.P,
-            self.nav,
-            self.xm,
-            self.acc,
-            L.phi_pow,
-            L.q_pow,
-            L.hvec,
-            L.axis_of,
-            L.wpsd,
-            self.wpsd_fb,
-            self.config.gate_q_scale,
-            self.dt_nom,
-            L.scale_index,
-        )
+        flush(self.arrays(), *self.kernel_parts())
 
     def set_gate(self, open_: bool) -> None:
         """Angular-rate gate (docs/guide/theory.rst, 'Static detection'): open = conservative model noise."""
@@ -244,54 +258,83 @@ class LooselyCoupledEKF:
         bad = ~np.isfinite(sig)
         sig[bad] = self.config.gnss_sigma_nan
         sig = np.maximum(sig, self.config.gnss_sigma_floor)
-        force = self._consecutive_reject >= self.config.gate_max_reject
-        out = gnss_position_update(self.arrays(), *self.kernel_parts(), llh, sig, self.lever, self.t - float(t), force)
+        st = self.position_stream([float(t)], llh, sig)
+        st.state[S_REJECT] = self._consecutive_reject
+        out = stream_update(self.arrays(), *self.kernel_parts(), st, 0, self.t)
         nis, ok, dz, S, _ = out
         self._record("gnss_position", t, out)
         self.last_innovation = (float(t), dz.copy(), S, bool(ok))
-        if ok:
-            self._consecutive_reject = 0
-        else:
-            self._consecutive_reject += 1
+        self._consecutive_reject = int(st.state[S_REJECT])
+        if not ok:
             self.n_rejected += 1
             self.log_rejected(t, nis)
         return bool(ok)
 
-    def run_span(self, imu: ImuInput, fixes: Fixes, rows: np.ndarray, pv: np.ndarray) -> np.ndarray:
-        """Samples ``imu.t[1:]`` through the batch kernel's step sequence (:func:`imunoise.nav.filter_loop.run_span`:
-        propagation, NHC and GNSS fixes through the same update functions as :meth:`propagate` and
-        :meth:`update_gnss`), with the filter's clock, gate, sample and rejection counters following the span.
+    def run_span(self, imu: ImuInput, streams: StreamSet, rows: np.ndarray, pv: np.ndarray) -> np.ndarray:
+        """Samples ``imu.t[1:]`` through the engine's step sequence (:func:`imunoise.nav.filter_loop.run_steps`:
+        the propagation, NHC and measurement streams of :meth:`propagate`, :meth:`update_gnss` and
+        :meth:`update_gnss_velocity`), with the filter's clock, gate, sample and rejection counters following
+        the span. Writes ``rows[k − 1]`` per sample (:data:`~imunoise.nav.filter_loop.SPAN_COLS` layout) and,
+        when ``pv`` has a row per sample, the velocity covariance.
 
         Returns
         -------
         numpy.ndarray
-            Boolean per fix: whether it was used (the kernel writes ``fixes.status``; rejected ones are logged).
+            Boolean per GNSS position fix: whether it was used (rejected ones are logged).
         """
-        carry = np.array([self._k, self._consecutive_reject, self._nhc_reject], dtype=np.int64)
-        model, settings = self.kernel_parts()
-        run_span(imu, self.arrays(), model, settings, self.nhc_settings(), fixes, carry, rows, pv)
+        pos, vel = streams.get("gnss_position"), streams.get("gnss_velocity")
+        if pos is not None:
+            pos.state[S_REJECT] = self._consecutive_reject
+        if vel is not None:
+            vel.state[S_REJECT] = self._vel_reject
+        carry = self.run_steps(imu, streams, span_outputs(rows, pv), row0=1,
+                               carry=np.array([1, self._k, self._nhc_reject], dtype=np.int64))
         self.t = float(imu.t[-1])
         self.gate_open = bool(imu.gate[-1])
-        self._k, self._consecutive_reject, self._nhc_reject = int(carry[0]), int(carry[1]), int(carry[2])
-        used = fixes.status > 0
+        self._k, self._nhc_reject = int(carry[C_SAMPLES]), int(carry[C_NHC_REJECT])
+        if vel is not None:
+            self._vel_reject = int(vel.state[S_REJECT])
+        if pos is None:
+            return np.zeros(0, dtype=bool)
+        self._consecutive_reject = int(pos.state[S_REJECT])
+        used = pos.status > 0
         for k in np.flatnonzero(~used):
             self.n_rejected += 1
-            self.log_rejected(float(fixes.t[k]), float(fixes.nis[k]))
+            self.log_rejected(float(pos.t[k]), float(pos.nis[k]))
         return used
 
     def log_rejected(self, t: float, nis: float) -> None:
         """Log a GNSS fix the χ² gate rejected (here and for the online engine's kernel spans)."""
         log.info("GNSS fix at t=%.3f rejected (NIS %.1f > %.1f)", t, nis, self.config.chi2_gate)
 
-    def update_gnss_velocity(self, t: float, vel_ned: np.ndarray, sigma_ned: np.ndarray) -> bool:
+    def update_gnss_velocity(self, t: float, vel_ned: np.ndarray, sigma_ned: np.ndarray, **gate) -> bool:
         """GNSS antenna velocity fix (NED m/s, 1σ NED m/s) at time t ≤ the filter time
-        (:mod:`imunoise.nav.measurements.gnss_velocity`); returns whether the χ² gate let it in."""
-        fix = as_gnss_velocity([t], vel_ned, sigma_ned)
+        (:mod:`imunoise.nav.measurements.gnss_velocity`; ``gate``: its ``gate_abs``, ``max_reject``); returns
+        whether the χ² gate let it in (or forced it)."""
+        fix = as_gnss_velocity([t], vel_ned, sigma_ned, **gate)
         if fix.t.size == 0:
             log.warning("GNSS velocity at t=%.3f is not finite: ignored", t)
             return False
-        out = gnss_velocity_update(self.arrays(), *self.kernel_parts(), fix.vel_ned[0], fix.sigma_ned[0], self.lever)
-        return self._record("gnss_velocity", t, out)
+        st = self.velocity_stream(fix)
+        st.state[S_REJECT] = self._vel_reject
+        ok = self._record("gnss_velocity", t, stream_update(self.arrays(), *self.kernel_parts(), st, 0, self.t))
+        self._vel_reject = int(st.state[S_REJECT])
+        return ok
+
+    def update(self, dz: np.ndarray, H: np.ndarray, R: np.ndarray, *, chi2: float = 0.0, force: bool = False,
+               kind: str = "custom") -> bool:
+        """A measurement given as filterpy's ``KalmanFilter.update`` takes it, in innovation form: ``dz`` = ẑ − z
+        (m,), ``H`` (m, n) with dz ≈ H δx over the error state (layout: :mod:`imunoise.nav.state`, model states
+        after ``N_NAV``), ``R`` (m, m). P is first propagated to the filter time; the update is the filter's one
+        Joseph update with closed-loop feedback, skipped when its NIS exceeds ``chi2`` (> 0) unless ``force``.
+        ``last_update`` keeps y, S, K. Returns whether it was applied."""
+        n = self.P.shape[0]
+        dz = np.ascontiguousarray(dz, dtype=float).reshape(-1)
+        H = np.ascontiguousarray(H, dtype=float).reshape(dz.size, n)
+        R = np.ascontiguousarray(R, dtype=float).reshape(dz.size, dz.size)
+        self.flush()
+        nis, ok, S, K = kf_update(self.P, self.nav, self.xm, dz, H, R, float(chi2), bool(force), 0.0)
+        return self._record(kind, self.t, (nis, ok, dz, S, K))
 
     def zupt_update(self, sigma_v: float, chi2: float = 0.0) -> bool:
         """Zero-velocity update: v^n = 0 with 1σ ``sigma_v`` (m/s) (:mod:`imunoise.nav.measurements.zupt`).
@@ -368,59 +411,10 @@ class LooselyCoupledEKF:
 
     # -- what-if runs -------------------------------------------------------------------------------
     def rehearse(self, t: np.ndarray, dtheta: np.ndarray, dv: np.ndarray, gnss_t: np.ndarray, gnss_llh: np.ndarray,
-                 gnss_sigma: np.ndarray, *, gate: np.ndarray | None = None, with_nis: bool = False,
-                 with_std: bool = False, in_place: bool = False, with_nll: bool = False) -> tuple:
-        """Run a copy of the filter on from its current state (the filter itself is not changed, unless
-        ``in_place``): the batch kernel of :func:`~imunoise.nav.ekf.run_ekf` over IMU samples ``t[1:]`` (``t[0]``
-        must be the filter time) with the fixes ``gnss_*`` (sorted; σ as given). Used to rehearse a GNSS outage on data
-        already seen and to run shadow filters (:mod:`imunoise.online.motion_noise`); the result equals
-        :meth:`propagate`/:meth:`update_gnss` called sample by sample.
-
-        Parameters
-        ----------
-        t : numpy.ndarray
-            Sample times [s], ``t[0]`` = the filter time, increasing.
-        dtheta, dv : numpy.ndarray
-            (n, 3) increments [rad, m/s]; row k covers (t[k−1], t[k]] (row 0 is not used).
-        gnss_t, gnss_llh, gnss_sigma : numpy.ndarray
-            Fixes to apply (times [s], (m, 3) lat/lon rad, h m, (m, 3) 1σ NED m); may be empty.
-        gate : numpy.ndarray, optional
-            Angular-rate gate per sample (default closed).
-        with_nis, with_nll, with_std : bool
-            Also return the NIS, then the innovation NLL (:class:`Fixes`), of every fix (NaN where not reached),
-            then the 1σ of δr, δv, φ at every sample, (n, 9) (NED m, m/s, rad).
-        in_place : bool
-            Advance this filter itself to ``t[-1]`` (``last_innovation`` is not updated).
-
-        Returns
-        -------
-        tuple of numpy.ndarray
-            ``(llh, euler)`` of the IMU point at every sample, (n, 3) each, followed by ``nis`` with
-            ``with_nis``, ``nll`` with ``with_nll`` and ``std`` with ``with_std``.
-        """
-        t = np.ascontiguousarray(t, dtype=float)
-        if t.size < 2 or abs(t[0] - self.t) > 1e-9 or np.any(np.diff(t) <= 0):
-            raise DataError(f"rehearse: t must start at the filter time {self.t:.3f} s and increase")
-        self.flush()
-        n = t.size
-        sv = self.view
-        out = new_outputs(n, store_cov=False, has_sf=False)
-        out.pos[0], out.vel[0], out.att[0] = sv.llh, sv.vel, nav_euler(self.nav)
-        out.std[0] = sv.std_nav
-        gt = np.ascontiguousarray(gnss_t, dtype=float)
-        gsig = np.maximum(np.ascontiguousarray(gnss_sigma, dtype=float).reshape(-1, 3), self.config.gnss_sigma_floor)
-        fixes = Fixes(gt, np.ascontiguousarray(gnss_llh, dtype=float).reshape(-1, 3), gsig, self.lever,
-                      np.full(gt.size, -1, dtype=np.int64), np.full(gt.size, np.nan),
-                      np.full(gt.size if with_nll else 0, np.nan))
-        imu = ImuInput(t, np.ascontiguousarray(dtheta, dtype=float), np.ascontiguousarray(dv, dtype=float),
-                       np.zeros(n, dtype=np.bool_) if gate is None else np.ascontiguousarray(gate, dtype=np.bool_),
-                       np.zeros(n, dtype=np.bool_))
-        f = self.arrays() if in_place else FilterArrays(*(a.copy() for a in self.arrays()))
-        run_batch(imu, f, *self.kernel_parts(), self.nhc_settings(), fixes, velocity_fixes(None, self.lever), out)
-        if in_place:
-            self.t = float(t[-1])
-        extra = [a for a, w in ((fixes.nis, with_nis), (fixes.nll, with_nll), (out.std, with_std)) if w]
-        return (out.pos, out.att, *extra)
+                 gnss_sigma: np.ndarray, **kw) -> tuple:
+        """Run a copy of the filter on from its current state over samples ``t[1:]`` with the fixes ``gnss_*``
+        (:func:`imunoise.nav.rehearsal.rehearse`, which documents the options and the result)."""
+        return rehearse(self, t, dtheta, dv, gnss_t, gnss_llh, gnss_sigma, **kw)
 
     # -- output -----------------------------------------------------------------------------------
     def sensor_errors(self) -> np.ndarray:

@@ -15,7 +15,7 @@ per-sample Python path (:meth:`OnlineNavigator.step_sample`):
   its next rehearsal round is due; while the learned model has a departure step, every start from a stop;
 * the change points of any extra event source (:meth:`OnlineNavigator.add_event_source`: e.g. a noise schedule).
 
-Everything between two events runs in one :func:`~imunoise.nav.filter_loop.run_span` call, which is the
+Everything between two events runs in one :meth:`~imunoise.nav.ekf.LooselyCoupledEKF.run_span` call, which is the
 step filter's propagate / GNSS update sequence through the same functions, and the per-sample bookkeeping
 (raw samples for the segments, static flags, gate log and events, the stop guard's navigation rows, stored
 epochs) is done on arrays. Where the next event lies is decided in one place,
@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import DataError
-from imunoise.nav.filter_loop import SPAN_COLS, Fixes, ImuInput, next_event
+from imunoise.nav.filter_loop import SPAN_COLS, ImuInput, next_event
 from imunoise.online.stream_checks import fixes_pass
 
 __all__ = ["chunked", "push_chunk", "replay", "run_chunk", "run_record"]
@@ -338,8 +338,7 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
     sig = np.array([f[2] for f in fl], dtype=float).reshape(-1, 3)
     sig = np.where(np.isfinite(sig), sig, ec.gnss_sigma_nan)
     sig = np.maximum(sig, ec.gnss_sigma_floor)
-    fixes = Fixes(ft, np.array([f[1] for f in fl], dtype=float).reshape(-1, 3), sig, ekf.lever,
-                  np.full(ft.size, -1, dtype=np.int64), np.full(ft.size, np.nan))
+    fixes = ekf.streams(ekf.position_stream(ft, np.array([f[1] for f in fl], dtype=float).reshape(-1, 3), sig))
     tin = np.concatenate([[ekf.t], ts])
     gin = np.concatenate([[ekf.gate_open], gate])
     imu = ImuInput(tin, np.concatenate([np.zeros((1, 3)), dth]), np.concatenate([np.zeros((1, 3)), dv]), gin,
@@ -347,7 +346,7 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
     rows = np.empty((m, SPAN_COLS))
     guard = cfg.stop_guard == "nav" and bool(rec.any())
     pv = np.empty((m if guard else 1, 3, 3))
-    used = ekf.run_span(imu, fixes, rows, pv)
+    used = ekf.run_span(imu, fixes, rows, pv)  # fixes: the filter's measurement streams
     # the sample each fix was applied at (the first with t ≥ the fix time)
     at = np.searchsorted(ts, ft, side="left")
     t_aided = np.full(m, st.t_aided)

@@ -4,8 +4,8 @@ data path (IMU → detection → modelling → filter); one filter step, pluggab
 A measurement is a pair of plain numba functions: one builds the innovation, its Jacobian and noise for the
 current state, ``dz, H, R = <name>(nav, n, ...)`` (δz = ẑ − z with the error convention δx = x̂ − x of
 :mod:`imunoise.nav.ekf`, so ``dz ≈ H δx``), and an optional gate that says whether it applies now. Both the
-batch kernel (:func:`imunoise.nav.filter_loop.run_batch`) and the step filter
-(:class:`~imunoise.nav.ekf.LooselyCoupledEKF`) call these functions and the one update
+filter engine (:func:`imunoise.nav.filter_loop.run_steps`, through :func:`imunoise.nav.streams.measure`) and
+the step filter (:class:`~imunoise.nav.ekf.LooselyCoupledEKF`) call these functions and the one update
 :func:`imunoise.nav.ekf_kernels.kf_update` (Joseph form, χ² gate; it returns the innovation covariance S and
 the gain K as filterpy's ``KalmanFilter.update`` keeps them).
 
@@ -16,7 +16,8 @@ the gain K as filterpy's ``KalmanFilter.update`` keeps them).
 :mod:`.gnss_velocity`     antenna velocity (v + C_b^n (ω × l))
 ========================  ==========================================================================
 
-Adding one (an odometer, say): a module here with its ``dz, H, R`` function (and gate), a call in the batch
-loop and a step method on the filter; ``tests/nav/test_nav_measurements.py`` checks every H against a numerical
+Adding one (an odometer, say): a module here with its ``dz, H, R`` function (and gate), its kind in
+:mod:`imunoise.nav.streams` (a name in ``KINDS`` and a branch in ``measure``); every path into the filter then
+takes it as a stream; ``tests/nav/test_nav_measurements.py`` checks every H against a numerical
 Jacobian.
 """
