@@ -1,0 +1,153 @@
+"""The third bad-input round: interrupted runs of every command, replayed recordings in the wrong units, law
+files out of range.
+
+Ctrl-C is sent deterministically: ``IMUNOISE_TEST_SIGINT=POINT`` makes the run send itself a real SIGINT at a
+named step (:func:`imunoise.io.interrupt.interrupt_point`): ``publish`` (every output staged, none published
+yet), the name of a file just written, or ``experiment-progress`` (a Monte Carlo job done, the others running
+in worker processes). The run must end with one line and exit code 130 and leave ``--out`` exactly as it was.
+"""
+
+from __future__ import annotations
+
+import gzip
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from imunoise.cli import main
+from imunoise.io.interrupt import TEST_ENV
+from imunoise.sim.drive import DriveConfig, simulate_drive
+
+REPO = Path(__file__).resolve().parents[2]
+DRIVE = REPO / "data" / "drive_0708"
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory) -> dict[str, Path]:
+    """A static gyro table (rad/s, 100 Hz) and 45 s of drive_0708 (34.5 s still, then driving)."""
+    d = tmp_path_factory.mktemp("in")
+    x = 1e-3 * np.random.default_rng(0).standard_normal(3000)
+    np.savetxt(d / "ok.csv", x, header="gyro_x", comments="")
+    with gzip.open(DRIVE / "imu_body_inc.txt.gz", "rt") as fh:
+        (d / "imu.txt").write_text("".join(next(fh) for _ in range(4500)))
+    (d / "gnss.txt").write_text("".join((DRIVE / "gnss_rtk.txt").read_text().splitlines(keepends=True)[:400]))
+    cfg = DriveConfig(duration_s=200.0, n_stops=1, stop_range_s=(25.0, 30.0), static_s=40.0, outages=[(100.0, 15.0)],
+                      seed=3900)
+    simulate_drive(cfg, "mems", seed=3900).write(d / "sim")  # stops enough to calibrate from
+    return {p.name: p for p in d.iterdir()}
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` (hidden ones too) with its bytes."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def earlier_out(folder: Path) -> dict[str, bytes]:
+    """An --out that already holds a user's file and the outputs of an earlier run."""
+    folder.mkdir()
+    (folder / "keep.txt").write_text("mine\n")
+    (folder / "model.json").write_text('{"earlier": true}\n')
+    (folder / "metrics.json").write_text('{"earlier": true}\n')
+    return snapshot(folder)
+
+
+def commands(i: dict[str, Path]) -> dict[str, list]:
+    nav_in = ["--imu", i["imu.txt"], "--gnss", i["gnss.txt"]]
+    return {
+        "fit": ["fit", i["ok.csv"], "--freq", 100, "--model", "WN"],
+        "select": ["select", i["ok.csv"], "--freq", 100],
+        "allan": ["allan", i["ok.csv"], "--freq", 100],
+        "em": ["em", i["ok.csv"], "--freq", 100, "--model", "WN", "--max-iter", 3],
+        "compare": ["compare", i["ok.csv"], "--freq", 100, "--em-max-iter", 3],
+        "detect": ["detect", "--imu", i["imu.txt"]],
+        "calibrate": ["calibrate", i["sim"]],
+        "nav": ["nav", *nav_in, "--no-plots"],
+        "online": ["online", *nav_in],
+        "simulate": ["simulate", "--duration", 160, "--stops", 1, "--static-start", 30],
+        "demo": ["demo", "--static", "--duration", 120],
+    }
+
+
+@pytest.mark.parametrize(
+    ("cmd", "point"),
+    [("fit", "publish"), ("fit", "wv.png"), ("select", "publish"), ("allan", "publish"), ("em", "publish"),
+     ("compare", "publish"), ("detect", "summary.json"), ("calibrate", "calibration.json"), ("nav", "publish"),
+     ("online", "publish"), ("simulate", "publish"), ("demo", "publish")],
+)
+def test_interrupted_command_leaves_out_as_it_was(cmd, point, inputs, tmp_path, capsys, monkeypatch):
+    out = tmp_path / "o"
+    before = earlier_out(out)
+    monkeypatch.setenv(TEST_ENV, point)
+    code = main([str(a) for a in [*commands(inputs)[cmd], "--out", out]])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 130
+    assert err[-1] == f"imunoise {cmd}: interrupted (Ctrl-C)"
+    assert snapshot(out) == before  # nothing added, replaced or removed; no staging folder left
+
+
+def test_interrupted_calibrate_keeps_the_earlier_calibration_whole(inputs, tmp_path, capsys, monkeypatch):
+    """The reported case: a model without calibration.json / report. A complete earlier calibration in --out
+    stays complete and unchanged when the next one is interrupted between its model and its calibration.json."""
+    out = tmp_path / "c"
+    argv = [str(a) for a in [*commands(inputs)["calibrate"], "--out", out]]
+    assert main(argv) == 0
+    first = snapshot(out)
+    assert {"imu_model.json", "calibration.json", "report.html"} <= set(first)
+    monkeypatch.setenv(TEST_ENV, "calibration.json")
+    assert main(argv) == 130
+    assert snapshot(out) == first
+    capsys.readouterr()
+
+
+def run_module(argv: list, env: dict[str, str], **kw) -> subprocess.CompletedProcess:
+    """`python -m imunoise ...` as a user runs it (the command-line path: SIGINT remembered, workers forked)."""
+    return subprocess.run([sys.executable, "-m", "imunoise", *map(str, argv)], capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(REPO / "src"), **env}, timeout=900, **kw)
+
+
+def test_a_swallowed_interrupt_still_ends_with_130_and_publishes_nothing(inputs, tmp_path):
+    """The llvmlite case: the KeyboardInterrupt is raised and swallowed inside a callback, the run goes on; it
+    must not finish with exit 0 and publish its outputs."""
+    out = tmp_path / "o"
+    before = earlier_out(out)
+    r = run_module([*commands(inputs)["fit"], "--out", out], {TEST_ENV: "wv.png:swallowed"})
+    assert r.returncode == 130, r.stderr
+    assert r.stderr.strip().splitlines()[-1] == "imunoise fit: interrupted (Ctrl-C)"
+    assert "Traceback" not in r.stderr
+    assert snapshot(out) == before
+
+
+@pytest.mark.slow
+def test_interrupted_monte_carlo_with_workers(tmp_path):
+    """Ctrl-C reaches the whole process group (the parent and its two workers) after the first job: one line,
+    exit 130, no worker traceback, --out unchanged."""
+    out = tmp_path / "mc"
+    before = earlier_out(out)
+    r = run_module(["experiment", "online", "--sim", "--seeds", 3, "--workers", 2, "--duration", 260, "--stops", 1,
+                    "--outages", 1, "--methods", "plain", "--out", out],
+                   {TEST_ENV: "experiment-progress:group"}, start_new_session=True)
+    assert r.returncode == 130, r.stderr
+    assert r.stderr.strip().splitlines()[-1] == "imunoise experiment: interrupted (Ctrl-C)"
+    assert "Traceback" not in r.stderr and "KeyboardInterrupt" not in r.stderr
+    assert snapshot(out) == before
+
+
+def test_a_reused_fit_out_keeps_no_file_of_the_earlier_fit(tmp_path, capsys):
+    """Second round, still open: a three-axis fit, then a one-axis fit into the same --out; the per-axis plots
+    and imu_model.json of the first must not be read as part of the second."""
+    rng = np.random.default_rng(3)
+    three = tmp_path / "three.csv"
+    np.savetxt(three, 1e-3 * rng.standard_normal((3000, 3)), delimiter=",", header="gyro_x,gyro_y,gyro_z",
+               comments="")
+    out = tmp_path / "fit"
+    (out).mkdir()
+    (out / "notes.txt").write_text("mine\n")
+    assert main(["fit", str(three), "--freq", "100", "--model", "WN", "--columns", "gyro_x,gyro_y,gyro_z", "--out", str(out)]) == 0
+    assert {"imu_model.json", "wv_gyro_x.png", "wv_gyro_z.png"} <= set(snapshot(out))
+    assert main(["fit", str(three), "--freq", "100", "--model", "WN", "--column", "gyro_y", "--out", str(out)]) == 0
+    assert set(snapshot(out)) == {"model.json", "wv.png", "notes.txt"}
+    capsys.readouterr()
