@@ -144,9 +144,10 @@ def test_a_reused_fit_out_keeps_no_file_of_the_earlier_fit(tmp_path, capsys):
     np.savetxt(three, 1e-3 * rng.standard_normal((3000, 3)), delimiter=",", header="gyro_x,gyro_y,gyro_z",
                comments="")
     out = tmp_path / "fit"
-    (out).mkdir()
+    out.mkdir()
     (out / "notes.txt").write_text("mine\n")
-    assert main(["fit", str(three), "--freq", "100", "--model", "WN", "--columns", "gyro_x,gyro_y,gyro_z", "--out", str(out)]) == 0
+    columns = ["--columns", "gyro_x,gyro_y,gyro_z"]
+    assert main(["fit", str(three), "--freq", "100", "--model", "WN", *columns, "--out", str(out)]) == 0
     assert {"imu_model.json", "wv_gyro_x.png", "wv_gyro_z.png"} <= set(snapshot(out))
     assert main(["fit", str(three), "--freq", "100", "--model", "WN", "--column", "gyro_y", "--out", str(out)]) == 0
     assert set(snapshot(out)) == {"model.json", "wv.png", "notes.txt"}
