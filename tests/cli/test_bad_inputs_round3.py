@@ -152,3 +152,103 @@ def test_a_reused_fit_out_keeps_no_file_of_the_earlier_fit(tmp_path, capsys):
     assert main(["fit", str(three), "--freq", "100", "--model", "WN", "--column", "gyro_y", "--out", str(out)]) == 0
     assert set(snapshot(out)) == {"model.json", "wv.png", "notes.txt"}
     capsys.readouterr()
+
+
+# ----------------------------------------------------------------------------------------------
+# replayed recordings (--imu-noise) and motion-law files
+# ----------------------------------------------------------------------------------------------
+COLS = np.array(["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"])
+
+
+def recording(path: Path, units: list[str], scale=(1.0,) * 6, **keys) -> str:
+    """A static recording like the shared ADIS16405 logs (deg/s and g), its columns multiplied by ``scale``."""
+    rng = np.random.default_rng(3901)
+    data = rng.normal(0.0, 1.0, (20_000, 6)) * [0.35, 0.37, 0.43, 0.004, 0.003, 0.004] + [0.4, -0.4, -0.3, 0.0,
+                                                                                          0.0, -1.0]
+    np.savez(path, **{"data": data * np.asarray(scale), "columns": COLS, "units": np.array(units),
+                      "freq_hz": np.float64(100.0), **keys})
+    return str(path)
+
+
+def test_the_adis_like_recording_is_read(tmp_path):
+    from imunoise.sim.replay import load_recording
+
+    rec = load_recording(recording(tmp_path / "ok.npz", ["deg/s"] * 3 + ["g"] * 3))
+    assert rec.errors.std(axis=0)[0] == pytest.approx(np.radians(0.35), rel=0.03)
+
+
+@pytest.mark.parametrize(
+    ("units", "scale", "says"),
+    [(["rad/s"] * 3 + ["g"] * 3, (1.0,) * 6, "look like deg/s"),  # deg/s labelled rad/s: 57× the noise
+     (["deg/s"] * 3 + ["m/s^2"] * 3, (1.0,) * 6, "look like g"),  # g labelled m/s²: 9.8× too little
+     (["deg/s"] * 3 + ["g"] * 3, (1.0,) * 3 + (9.80665,) * 3, "look like m/s² labelled g")],
+)
+def test_recording_in_other_units_than_stated_is_refused(units, scale, says, tmp_path):
+    from imunoise.errors import DataError
+    from imunoise.sim.replay import load_recording
+
+    path = recording(tmp_path / "rec.npz", units, scale)
+    with pytest.raises(DataError, match=says) as e:
+        load_recording(path)
+    assert str(e.value).startswith(f"--imu-noise {path}: key 'units'") and "\n" not in str(e.value)
+
+
+def test_recording_in_the_wrong_unit_is_one_line_on_the_command_line(tmp_path, capsys):
+    path = recording(tmp_path / "degs.npz", ["rad/s"] * 3 + ["g"] * 3)
+    code = main(["experiment", "online", "--sim", "--imu-noise", path, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "look like deg/s" in err[0] and path in err[0]
+
+
+def test_malformed_recordings_are_one_line(tmp_path):
+    from imunoise.errors import DataError
+    from imunoise.sim.replay import load_recording
+
+    units = ["deg/s"] * 3 + ["g"] * 3
+    cases = {
+        "freq_array": (recording(tmp_path / "fa.npz", units, freq_hz=np.array([100.0, 100.0])), "key 'freq_hz'"),
+        "pickled": (recording(tmp_path / "pk.npz", units, columns=np.array(list(COLS), dtype=object)),
+                    "key 'columns' is a pickled"),
+    }
+    full = Path(recording(tmp_path / "full.npz", units)).read_bytes()
+    (tmp_path / "trunc.npz").write_bytes(full[: len(full) // 2])
+    cases["truncated"] = (str(tmp_path / "trunc.npz"), "cannot read it as .npz")
+    (tmp_path / "cut.npz").write_bytes(full[:-200])  # the archive's index cut
+    cases["cut"] = (str(tmp_path / "cut.npz"), "cannot read it as .npz")
+    for name, (path, says) in cases.items():
+        with pytest.raises(DataError) as e:
+            load_recording(path)
+        msg = str(e.value)
+        assert msg.startswith(f"--imu-noise {path}: ") and says in msg and "\n" not in msg, (name, msg)
+
+
+def test_law_values_beyond_plausible_ranges_are_refused():
+    from imunoise.errors import ModelError
+    from imunoise.sim.law_files import law_from_dict
+
+    with pytest.raises(ModelError, match=r"key 'white.speed' has 1e\+06 for gyro_x, outside the plausible range"):
+        law_from_dict({"white": {"speed": [1e6] * 6}}, "motion law x.json")
+    with pytest.raises(ModelError, match="key .moving_gm.sigma. has 10 m/s²"):
+        law_from_dict({"moving_gm": {"sigma": [0, 0, 0, 0.1, 0.1, 10.0], "tau_s": [100.0] * 6}}, "law")
+    with pytest.raises(ModelError, match="key 'departure_step' has 0.5 rad/s"):
+        law_from_dict({"departure_step": [0.5, 0, 0, 0, 0, 0]}, "law")
+    ok = law_from_dict({"white": {"speed": [6.0] * 6}, "moving_gm": {"sigma": [1e-3] * 3 + [0.05] * 3,
+                                                                      "tau_s": [60.0] * 6}}, "law")
+    assert ok.white_speed == (6.0,) * 6 and ok.moving_gm_sigma[3] == 0.05
+
+
+def test_a_term_with_its_time_constant_but_no_size_is_refused(tmp_path, capsys):
+    """`moving_gm` with tau_s and no sigma was silently a law without the term."""
+    import json
+
+    law = tmp_path / "gm.json"
+    law.write_text(json.dumps({"moving_gm": {"tau_s": [60.0] * 6}}))
+    code = main(["experiment", "online", "--sim", "--motion-noise", str(law), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert str(law) in err[0] and "key 'moving_gm.sigma' is needed with 'moving_gm.tau_s'" in err[0]
+    from imunoise.errors import ModelError
+    from imunoise.sim.law_files import law_from_dict
+
+    with pytest.raises(ModelError, match="key 'warmup.amplitude' is needed with 'warmup.tau_s'"):
+        law_from_dict({"warmup": {"tau_s": 100.0}}, "law")
