@@ -126,7 +126,13 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:
         if interrupted(exc):
             return _interrupted(args.command)
-        raise
+        from imunoise.cli.kernel_cache import no_cache_message
+
+        msg = no_cache_message(exc)
+        if msg is None:
+            raise
+        print(f"imunoise {args.command}: error: {msg}", file=sys.stderr)
+        return 2
 
 
 def _interrupted(command: str) -> int:

@@ -21,7 +21,6 @@ from imunoise.cli.options import (
     print_warnings,
 )
 from imunoise.errors import DataError, ImunoiseError, ModelError
-from imunoise.export.formats import DEFAULT_FILENAMES
 from imunoise.io.atomic import atomic_path, atomic_savefig, atomic_write_text, staged_run
 
 EXAMPLES = """examples:
@@ -172,12 +171,12 @@ def run(args: argparse.Namespace) -> int:
     try:
         forced = refusal(checks, args.force, where=str(final / "report.html")) if args.export else []
     except ImunoiseError:
-        with staged_run(final, OUTPUTS) as out:
+        with staged_run(final, calibrate_outputs()) as out:
             _write_outputs(res, out, out / "imu_model.json", [])  # the model and the report say why; no export
         raise
     # every file of the calibration appears at once when it is complete (Ctrl-C leaves --out as it was); the
     # files an earlier calibration left there (more logs' detection plots, an export not asked again) go then
-    with staged_run(final, OUTPUTS) as out:
+    with staged_run(final, calibrate_outputs()) as out:
         written = _write_outputs(res, out, out / "imu_model.json", forced)
         if args.export:
             from imunoise.cli.export import report
@@ -190,9 +189,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-OUTPUTS = ("imu_model.json", "calibration.json", "report.html", "report.md", "detection_*.png", "wv_*.png",
-           *sorted(set(DEFAULT_FILENAMES.values())))
-"""Every file `imunoise calibrate` writes into --out (a rerun removes the ones it did not write again)."""
+def calibrate_outputs() -> tuple[str, ...]:
+    """Every file `imunoise calibrate` writes into --out (a rerun removes the ones it did not write again)."""
+    from imunoise.export import DEFAULT_FILENAMES
+
+    return ("imu_model.json", "calibration.json", "report.html", "report.md", "detection_*.png", "wv_*.png",
+            *sorted(set(DEFAULT_FILENAMES.values())))
 
 
 def _refuse_repeated_paths(logs: list[str]) -> None:

@@ -180,8 +180,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from imunoise.cli.kernel_cache import CompileRecorder, silence
+    from imunoise.cli.kernel_cache import CompileRecorder, cache_dir_problem, silence
+    from imunoise.errors import DataError
 
+    problem = cache_dir_problem()
+    if problem:  # before any work: numba would write elsewhere and the warm-up would look successful
+        raise DataError(problem)
     silence()
 
     print("imunoise warm-up: compiling (or loading) the kernels of every command; with an empty cache "
