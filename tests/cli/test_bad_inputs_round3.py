@@ -252,3 +252,59 @@ def test_a_term_with_its_time_constant_but_no_size_is_refused(tmp_path, capsys):
 
     with pytest.raises(ModelError, match="key 'warmup.amplitude' is needed with 'warmup.tau_s'"):
         law_from_dict({"warmup": {"tau_s": 100.0}}, "law")
+
+
+# ----------------------------------------------------------------------------------------------
+# second round, still open: transposed arrays and huge sparse inputs
+# ----------------------------------------------------------------------------------------------
+def test_a_transposed_npy_is_named_as_such(tmp_path, capsys):
+    x = 1e-3 * np.random.default_rng(3902).standard_normal((20_000, 6))
+    np.save(tmp_path / "t.npy", x.T)
+    code = main(["fit", str(tmp_path / "t.npy"), "--freq", "100", "--model", "WN", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert "t.npy: the array has shape (6, 20000)" in err[0] and "save it transposed" in err[0]
+    assert "constant" not in err[0] and "samples; need" not in err[0]
+
+
+@pytest.mark.parametrize("what", ["fit", "nav"])
+def test_a_sparse_gigabyte_is_refused_from_its_head(what, tmp_path, capsys, monkeypatch):
+    """1 GiB of NULs (a sparse file: no disk used): refused in one line after reading its first bytes, not the
+    whole gigabyte (the reader is handed at most the sniffed head: counted here)."""
+    import builtins
+
+    big = tmp_path / "big.txt"
+    with open(big, "wb") as fh:
+        fh.truncate(1 << 30)
+    largest = [0]
+    real_open = builtins.open
+
+    class Counting:
+        def __init__(self, fh):
+            self.fh = fh
+
+        def read(self, n=-1):
+            data = self.fh.read(n)
+            largest[0] = max(largest[0], len(data))
+            return data
+
+        def __getattr__(self, name):
+            return getattr(self.fh, name)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.fh.close()
+
+    def counting_open(file, mode="r", *a, **k):
+        fh = real_open(file, mode, *a, **k)
+        return Counting(fh) if str(file) == str(big) and "b" in mode else fh
+
+    monkeypatch.setattr(builtins, "open", counting_open)
+    argv = (["fit", str(big), "--freq", "100", "--model", "WN"] if what == "fit"
+            else ["nav", "--imu", str(big), "--gnss", str(DRIVE / "gnss_rtk.txt")])
+    code = main([*argv, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "big.txt is not a text file" in err[0]
+    assert 0 < largest[0] <= 1 << 20  # read through open(), never the gigabyte
