@@ -308,3 +308,38 @@ def test_a_sparse_gigabyte_is_refused_from_its_head(what, tmp_path, capsys, monk
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "big.txt is not a text file" in err[0]
     assert 0 < largest[0] <= 1 << 20  # read through open(), never the gigabyte
+
+
+# ----------------------------------------------------------------------------------------------
+# numba's kernel cache: a NUMBA_CACHE_DIR that cannot be written, no writable cache at all
+# ----------------------------------------------------------------------------------------------
+def test_warm_up_refuses_a_cache_dir_it_cannot_write(tmp_path, capsys, monkeypatch):
+    """numba would silently cache elsewhere and the warm-up report success: one line before any work."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(blocker / "cache"))  # under a file: cannot be created
+    code = main(["warm-up"])
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and captured.out == ""  # nothing run
+    assert err[0].startswith(f"imunoise warm-up: error: NUMBA_CACHE_DIR={blocker / 'cache'}: cannot write")
+    assert "point NUMBA_CACHE_DIR to a writable folder" in err[0]
+
+
+NO_LOCATOR = """
+import sys
+import numba.core.caching as caching
+caching.CacheImpl._locator_classes = []  # as on a read-only install without a writable home
+from imunoise.cli import main
+sys.argv = ["imunoise", *sys.argv[1:]]
+sys.exit(main())
+"""
+
+
+def test_no_writable_kernel_cache_is_one_line(inputs, tmp_path):
+    r = subprocess.run([sys.executable, "-c", NO_LOCATOR, "allan", str(inputs["ok.csv"]), "--freq", "100", "--out",
+                        str(tmp_path / "o")], capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "PYTHONPATH": str(REPO / "src")})
+    err = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(err) == 1, r.stderr
+    assert "no writable place for its kernel cache" in err[0] and "set NUMBA_CACHE_DIR" in err[0]

@@ -99,6 +99,9 @@ def _navigation(tmp: Path) -> None:
 def _online(tmp: Path) -> None:
     d = _drive(tmp)
     _cli("online", "--data", d, "--out", tmp / "online")
+    # with ZUPT/ZARU at the stops (the demo's gmwm_zupt): the step filter's ZARU kernel, which `nav --zupt`
+    # (ZUPT only) does not call; left cold, two demo workers compiled it at once
+    _cli("online", "--data", d, "--zupt", "--out", tmp / "online_zupt")
 
 
 def _calibrate(tmp: Path) -> None:
