@@ -343,3 +343,20 @@ def test_no_writable_kernel_cache_is_one_line(inputs, tmp_path):
     err = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(err) == 1, r.stderr
     assert "no writable place for its kernel cache" in err[0] and "set NUMBA_CACHE_DIR" in err[0]
+
+
+@pytest.mark.parametrize("header", ["sow;gx;gy;gz;ax;ay;az", "sow,gx,gy,gz,ax,ay,az"])
+def test_decimal_commas_in_an_imu_file_are_named(header, tmp_path):
+    """Second round, still open: a spreadsheet export (1,25;3,5) was 'non-numeric' or blamed on the header."""
+    from imunoise.errors import DataError
+    from imunoise.io.kfgins import read_imu
+
+    x = 1e-3 * np.random.default_rng(3904).standard_normal((50, 6))
+    rows = [";".join([f"{i * 0.01:.2f}", *(f"{v:.6e}" for v in r)]).replace(".", ",") for i, r in enumerate(x)]
+    path = tmp_path / "comma.csv"
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    with pytest.raises(DataError) as e:
+        read_imu(path)
+    msg = str(e.value)
+    assert msg.startswith(f"IMU file {path}, line 2: decimal commas") and "export it with '.' decimals" in msg
+    assert "header" not in msg
