@@ -80,6 +80,9 @@ def interrupted(exc: BaseException) -> bool:
 def main(argv: list[str] | None = None) -> int:
     command_line = argv is None and gc.isenabled()  # the process ends with this command (module docstring)
     if command_line:
+        from imunoise.io.interrupt import install_interrupt_memory
+
+        install_interrupt_memory()  # a Ctrl-C swallowed anywhere still ends the run with 130; workers ignore it
         atexit.register(gc.freeze)
         gc.disable()  # until the imports below are done: module objects, not garbage
     words = sys.argv[1:] if argv is None else argv
@@ -96,7 +99,10 @@ def main(argv: list[str] | None = None) -> int:
         gc.freeze()  # what the imports made lives to the end: later collections skip it
         gc.enable()
     try:
-        return int(args.func(args) or 0)
+        code = int(args.func(args) or 0)
+        from imunoise.io.interrupt import interrupt_received
+
+        return _interrupted(args.command) if interrupt_received() else code
     except KeyboardInterrupt:
         return _interrupted(args.command)
     except ImunoiseError as exc:
@@ -120,7 +126,13 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:
         if interrupted(exc):
             return _interrupted(args.command)
-        raise
+        from imunoise.cli.kernel_cache import no_cache_message
+
+        msg = no_cache_message(exc)
+        if msg is None:
+            raise
+        print(f"imunoise {args.command}: error: {msg}", file=sys.stderr)
+        return 2
 
 
 def _interrupted(command: str) -> int:

@@ -58,11 +58,11 @@ def reading_table(fit, unit: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from imunoise.io.atomic import atomic_path, atomic_write_text
+    from imunoise.io.atomic import atomic_path, atomic_write_text, staged_run
     from imunoise.noise.allan import allan_fit, curve_from_fit, plot_allan, read_allan
 
     series = load_series(args)
-    out = out_dir(args, "allan")
+    final = out_dir(args, "allan")
     fit = allan_fit(series.values, freq=args.freq, unit=series.unit, grid=args.grid)
     fit.extra.update(source_extra(args, series))
     print(f"Allan-variance reading of {Path(args.data).name} [{series.name}] at {args.freq:g} Hz")
@@ -70,18 +70,24 @@ def run(args: argparse.Namespace) -> int:
     print()
     print(fit.summary())
     av = curve_from_fit(fit)
-    with atomic_path(out / "allan.png") as tmp:
-        plot_allan(
-            av,
-            tmp,
-            reading=read_allan(av),
-            models=[(f"AV model: {fit.model}", fit.model)],
-            unit=series.unit,
-            title=f"{Path(args.data).name} [{series.name}]: Allan deviation",
-        )
-    rows = [f"tau_s,avar_{series.unit}2,adev_{series.unit},dof\n"]
-    rows += [f"{t:.10g},{v:.10g},{math.sqrt(v):.10g},{d:.6g}\n" for t, v, d in zip(av.tau, av.avar, av.dof)]
-    atomic_write_text(out / "allan.csv", "".join(rows))
-    atomic_write_text(out / "model.json", json.dumps(fit.to_dict(), indent=1))
-    print(f"\nwrote {out / 'model.json'}, {out / 'allan.png'} and {out / 'allan.csv'}", file=sys.stderr)
+    # all three files appear together when the run completes (Ctrl-C leaves --out as it was)
+    with staged_run(final, OUTPUTS) as out:
+        with atomic_path(out / "allan.png") as tmp:
+            plot_allan(
+                av,
+                tmp,
+                reading=read_allan(av),
+                models=[(f"AV model: {fit.model}", fit.model)],
+                unit=series.unit,
+                title=f"{Path(args.data).name} [{series.name}]: Allan deviation",
+            )
+        rows = [f"tau_s,avar_{series.unit}2,adev_{series.unit},dof\n"]
+        rows += [f"{t:.10g},{v:.10g},{math.sqrt(v):.10g},{d:.6g}\n" for t, v, d in zip(av.tau, av.avar, av.dof)]
+        atomic_write_text(out / "allan.csv", "".join(rows))
+        atomic_write_text(out / "model.json", json.dumps(fit.to_dict(), indent=1))
+    print(f"\nwrote {final / 'model.json'}, {final / 'allan.png'} and {final / 'allan.csv'}", file=sys.stderr)
     return 0
+
+
+OUTPUTS = ("model.json", "allan.png", "allan.csv")
+"""Every file `imunoise allan` writes into --out (a rerun removes the ones it did not write again)."""

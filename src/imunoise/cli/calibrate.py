@@ -22,7 +22,7 @@ from imunoise.cli.options import (
     print_warnings,
 )
 from imunoise.errors import DataError, ImunoiseError, ModelError
-from imunoise.io.atomic import atomic_path, atomic_savefig, atomic_write_text
+from imunoise.io.atomic import atomic_path, atomic_savefig, atomic_write_text, staged_run
 
 EXAMPLES = """examples:
   imunoise calibrate data/drive_0708 --export kalibr --out calib/            # dataset folder (IMU + reference)
@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
     if args.learn_s is not None and not args.learn_s > 0:
         raise ModelError(f"--learn-s must be a positive number of seconds, got {args.learn_s:g}")
     _refuse_repeated_paths(args.logs)
-    out = prepare_out_dir(args.out or f"{Path(args.logs[0]).name.split('.')[0]}_calib")
+    final = prepare_out_dir(args.out or f"{Path(args.logs[0]).name.split('.')[0]}_calib")
     cfg = DetectorConfig(window=args.window, min_duration_s=args.min_duration, margin_s=args.margin)
     columns = parse_column_map(args.columns) if args.columns else None
     logs = []
@@ -187,29 +187,41 @@ def run(args: argparse.Namespace) -> int:
     print(res.summary())
     if read_warnings:
         res.model.source["warnings"] = read_warnings
-    path = out / "imu_model.json"
     checks = {ax: (a.model, a.gate) for ax, a in res.axes.items()}
     res.model.source["fit_check"] = {ax: a.band.to_dict() for ax, a in res.axes.items()}
     try:
-        forced = refusal(checks, args.force, where=str(out / "report.html")) if args.export else []
+        forced = refusal(checks, args.force, where=str(final / "report.html")) if args.export else []
     except ImunoiseError:
-        _write_outputs(res, out, path, [])  # the model and the report say why; no export is written
+        with staged_run(final, calibrate_outputs()) as out:
+            _write_outputs(res, out, out / "imu_model.json", [])  # the model and the report say why; no export
         raise
-    written = _write_outputs(res, out, path, forced)
-    if forced:  # the data's Allan reading in place of each refused pair (the model file keeps the fit)
-        from imunoise.cli.export_gate import force_readings
-        from imunoise.noise.imu_model import ImuModel
+    # every file of the calibration appears at once when it is complete (Ctrl-C leaves --out as it was); the
+    # files an earlier calibration left there (more logs' detection plots, an export not asked again) go then
+    with staged_run(final, calibrate_outputs()) as out:
+        written = _write_outputs(res, out, out / "imu_model.json", forced)
+        if forced:  # the data's Allan reading in place of each refused pair (the model file keeps the fit)
+            from imunoise.cli.export_gate import force_readings
+            from imunoise.noise.imu_model import ImuModel
 
-        force_readings(res.fits, checks)
-        res.model = ImuModel.from_fits(res.fits, source=res.model.source)
-    if args.export:
-        from imunoise.cli.export import report
-        from imunoise.export import model_sensors
+            force_readings(res.fits, checks)
+            res.model = ImuModel.from_fits(res.fits, source=res.model.source)
+        if args.export:
+            from imunoise.cli.export import report
+            from imunoise.export import model_sensors
 
-        report(model_sensors(res.model, None, "max", None, None).values())
-        written[2:2] = write_exports(res.model, args.export, out, forced, source=str(path))
+            report(model_sensors(res.model, None, "max", None, None).values())
+            written[2:2] = write_exports(res.model, args.export, out, forced, source=str(final / "imu_model.json"))
+        written = [final / w.relative_to(out) for w in written]
     print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
     return 0
+
+
+def calibrate_outputs() -> tuple[str, ...]:
+    """Every file `imunoise calibrate` writes into --out (a rerun removes the ones it did not write again)."""
+    from imunoise.export import DEFAULT_FILENAMES
+
+    return ("imu_model.json", "calibration.json", "report.html", "report.md", "detection_*.png", "wv_*.png",
+            *sorted(set(DEFAULT_FILENAMES.values())))
 
 
 def _refuse_repeated_paths(logs: list[str]) -> None:

@@ -108,12 +108,12 @@ def parameter_table(fits: dict[str, Any], unit: str) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from imunoise.io.atomic import atomic_path, atomic_write_text
+    from imunoise.io.atomic import atomic_path, atomic_write_text, staged_run
     from imunoise.noise.allan import curve_from_fit, plot_allan, read_allan
     from imunoise.noise.plots import METHOD_COLORS, plot_wv_fits
 
     series = load_series(args)
-    out = out_dir(args, "compare")
+    final = out_dir(args, "compare")
     fits = compare_fits(series.values, args.freq, series.unit, args.criterion, args.em_model, args.em_max_iter)
     title = f"{Path(args.data).name} [{series.name}]"
     rows = parameter_table(fits, series.unit)
@@ -123,32 +123,34 @@ def run(args: argparse.Namespace) -> int:
         print(f"\nEM not run: {fits['em_error']}")
     labels = [(k, fits[k]) for k in ("gmwm", "av", "em") if fits.get(k) is not None]
     wv = fits["gmwm"].wv
-    with atomic_path(out / "compare_wv.png") as tmp:
-        plot_wv_fits(
-            wv,
-            [(f"{k.upper()}: {f.model} (GOF {f.objective:.3g})", f.theoretical_wv) for k, f in labels],
-            tmp,
-            unit=series.unit,
-            title=f"{title}: GMWM vs AV vs EM",
-            colors=[METHOD_COLORS[k] for k, _ in labels],
+    # the four files appear together when the run completes (Ctrl-C leaves --out as it was)
+    with staged_run(final, ("compare_wv.png", "compare_allan.png", "compare.md", "compare.json")) as out:
+        with atomic_path(out / "compare_wv.png") as tmp:
+            plot_wv_fits(
+                wv,
+                [(f"{k.upper()}: {f.model} (GOF {f.objective:.3g})", f.theoretical_wv) for k, f in labels],
+                tmp,
+                unit=series.unit,
+                title=f"{title}: GMWM vs AV vs EM",
+                colors=[METHOD_COLORS[k] for k, _ in labels],
+            )
+        av = curve_from_fit(fits["av"])
+        with atomic_path(out / "compare_allan.png") as tmp:
+            plot_allan(
+                av,
+                tmp,
+                reading=read_allan(av),
+                models=[(f"{k.upper()}: {f.model}", f.model) for k, f in labels],
+                unit=series.unit,
+                title=f"{title}: Allan deviation",
+                colors=[METHOD_COLORS[k] for k, _ in labels],
+            )
+        atomic_write_text(out / "compare.md", "\n".join(rows) + "\n")
+        for _, f in labels:
+            f.extra.update(source_extra(args, series))
+        atomic_write_text(
+            out / "compare.json",
+            json.dumps({k: f.to_dict() for k, f in labels} | {"em_error": fits["em_error"]}, indent=1, default=str),
         )
-    av = curve_from_fit(fits["av"])
-    with atomic_path(out / "compare_allan.png") as tmp:
-        plot_allan(
-            av,
-            tmp,
-            reading=read_allan(av),
-            models=[(f"{k.upper()}: {f.model}", f.model) for k, f in labels],
-            unit=series.unit,
-            title=f"{title}: Allan deviation",
-            colors=[METHOD_COLORS[k] for k, _ in labels],
-        )
-    atomic_write_text(out / "compare.md", "\n".join(rows) + "\n")
-    for _, f in labels:
-        f.extra.update(source_extra(args, series))
-    atomic_write_text(
-        out / "compare.json",
-        json.dumps({k: f.to_dict() for k, f in labels} | {"em_error": fits["em_error"]}, indent=1, default=str),
-    )
-    print(f"\nwrote {out / 'compare_wv.png'}, {out / 'compare_allan.png'}, compare.md/json", file=sys.stderr)
+    print(f"\nwrote {final / 'compare_wv.png'}, {final / 'compare_allan.png'}, compare.md/json", file=sys.stderr)
     return 0

@@ -62,15 +62,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from imunoise.cli.options import prepare_out_dir
+    from imunoise.io.atomic import staged_run
 
-    prepare_out_dir(args.out)  # an unusable --out fails before the work
-    if args.static:
-        return run_static_demo(Path(args.out), duration_s=args.duration, seed=args.seed)
-    return run_online_demo(Path(args.out), data=args.data, workers=args.workers)
+    final = prepare_out_dir(args.out)  # an unusable --out fails before the work
+    # the report and its files appear at once when the demo completes (Ctrl-C leaves --out as it was)
+    with staged_run(final, ()) as out:
+        if args.static:
+            return run_static_demo(out, duration_s=args.duration, seed=args.seed, shown=final)
+        return run_online_demo(out, data=args.data, workers=args.workers, shown=final)
 
 
 def run_online_demo(out: Path, *, data: str | None = None, workers: int = 2, evidence: dict | None = None,
-                    methods: tuple[str, ...] | None = None) -> int:
+                    methods: tuple[str, ...] | None = None, shown: Path | None = None) -> int:
     """The online experiment on the shipped real drive: the powered dense-window comparison
     (:data:`DEMO_EVIDENCE`, or ``evidence``) as the headline, then the paper-style five-window view with the
     demo's ``methods``; prints both and writes one report."""
@@ -120,7 +123,7 @@ def run_online_demo(out: Path, *, data: str | None = None, workers: int = 2, evi
     if t.get("identification_s") is not None:
         print(f"structure identification {t['identification_s']:.2f} s (6 axes), refits "
               + ", ".join(f"{x * 1e3:.0f} ms" for x in t.get("refit_s", [])))
-    print(f"\nreport: {html.resolve()}  ({time.perf_counter() - t_start:.1f} s)")
+    print(f"\nreport: {((shown or out) / html.name).resolve()}  ({time.perf_counter() - t_start:.1f} s)")
     return 0
 
 
@@ -131,7 +134,8 @@ def _print_table(heads: list[str], rows: list[list[str]]) -> None:
         print("  ".join(str(c).ljust(w[i]) for i, c in enumerate(r)))
 
 
-def run_static_demo(out: Path, *, duration_s: float = 3600.0, seed: int = 7, freq: float = 100.0) -> int:
+def run_static_demo(out: Path, *, duration_s: float = 3600.0, seed: int = 7, freq: float = 100.0,
+                    shown: Path | None = None) -> int:
     """Simulate a static 6-axis recording with known models, fit each axis by GMWM, report."""
     import numpy as np
     from tqdm import tqdm
@@ -191,7 +195,7 @@ def run_static_demo(out: Path, *, duration_s: float = 3600.0, seed: int = 7, fre
     html_path, _ = report.write(out)
     elapsed = time.perf_counter() - t_start
     print(report.markdown().split("\n## ")[0].split("\n### ")[0])
-    print(f"\nreport: {html_path.resolve()}  ({elapsed:.1f} s)")
+    print(f"\nreport: {((shown or out) / html_path.name).resolve()}  ({elapsed:.1f} s)")
     return 0
 
 

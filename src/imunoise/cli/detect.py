@@ -20,7 +20,7 @@ from imunoise.cli.options import (
     prepare_out_dir,
 )
 from imunoise.errors import DataError, ModelError
-from imunoise.io.atomic import atomic_savefig, atomic_write_text
+from imunoise.io.atomic import atomic_savefig, atomic_write_text, staged_run
 
 EXAMPLES = """examples:
   imunoise detect --data data/drive_0708 --learn-from 10 --out out/detect
@@ -158,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
         raise DataError("give --imu FILE or --data DIR")
     if args.lambda0 is not None and not (np.isfinite(args.lambda0) and args.lambda0 > 0):
         raise ModelError(f"--lambda0 must be a positive threshold in m/s², got {args.lambda0:g}")
-    out = prepare_out_dir(args.out)  # before the work: an unusable --out fails fast
+    final = prepare_out_dir(args.out)  # before the work: an unusable --out fails fast
     imu = read_imu(imu_path, time_offset=float(offset or 0.0))
     gyro, accel = imu.rates()
     t = imu.t
@@ -193,45 +193,47 @@ def run(args: argparse.Namespace) -> int:
         )
     for msg in warn:
         print(f"warning: {msg}", file=sys.stderr)
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["t0", "t1", "duration_s", "i0", "i1"])
-    for s in det.segments:
-        w.writerow([f"{s.t0:.6f}", f"{s.t1:.6f}", f"{s.duration:.3f}", s.i0, s.i1])
-    atomic_write_text(out / "segments.csv", buf.getvalue())
+    # the three files appear together when the run completes (Ctrl-C leaves --out as it was)
+    with staged_run(final, ("segments.csv", "detection.png", "summary.json")) as out:
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["t0", "t1", "duration_s", "i0", "i1"])
+        for s in det.segments:
+            w.writerow([f"{s.t0:.6f}", f"{s.t1:.6f}", f"{s.duration:.3f}", s.i0, s.i1])
+        atomic_write_text(out / "segments.csv", buf.getvalue())
 
-    summary: dict = {
-        "imu": str(imu_path),
-        "n_samples": int(t.size),
-        "duration_s": float(t[-1] - t[0]),
-        "lambda0_m_s2": float(lambda0),
-        "lambda0_source": lambda0_source,
-        "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
-        "n_segments": len(det.segments),
-        "static_time_s": det.static_time_s,
-        "gate_open_fraction": float(det.gate_open.mean()),
-        "segments": [{"t0": s.t0, "t1": s.t1, "duration_s": s.duration} for s in det.segments],
-        "warnings": warn,
-    }
-    speed = t_ref = None
-    if ref is not None:
-        t_ref = ref.t
-        speed = np.linalg.norm(ref.vel_ned, axis=1)
-        inside = (t >= t_ref[0]) & (t <= t_ref[-1])
-        if not inside.any():
-            raise DataError(
-                f"reference {ref_path} does not overlap the IMU time span; check the time stamps / offset"
-            )
-        truth = static_truth_from_speed(t, t_ref, speed, args.speed_threshold)
-        summary["reference"] = {
-            "file": str(ref_path),
-            "speed_threshold_m_s": args.speed_threshold,
-            "epochs_scored": int(inside.sum()),
-            "segments": static_metrics(det.static[inside], truth[inside]),
-            "raw": static_metrics(det.static_raw[inside], truth[inside]),
+        summary: dict = {
+            "imu": str(imu_path),
+            "n_samples": int(t.size),
+            "duration_s": float(t[-1] - t[0]),
+            "lambda0_m_s2": float(lambda0),
+            "lambda0_source": lambda0_source,
+            "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
+            "n_segments": len(det.segments),
+            "static_time_s": det.static_time_s,
+            "gate_open_fraction": float(det.gate_open.mean()),
+            "segments": [{"t0": s.t0, "t1": s.t1, "duration_s": s.duration} for s in det.segments],
+            "warnings": warn,
         }
-    _plot(det, t_ref, speed, out / "detection.png", args.speed_threshold, float(t[0]))
-    atomic_write_text(out / "summary.json", json.dumps(_json_safe(summary), indent=2))
+        speed = t_ref = None
+        if ref is not None:
+            t_ref = ref.t
+            speed = np.linalg.norm(ref.vel_ned, axis=1)
+            inside = (t >= t_ref[0]) & (t <= t_ref[-1])
+            if not inside.any():
+                raise DataError(
+                    f"reference {ref_path} does not overlap the IMU time span; check the time stamps / offset"
+                )
+            truth = static_truth_from_speed(t, t_ref, speed, args.speed_threshold)
+            summary["reference"] = {
+                "file": str(ref_path),
+                "speed_threshold_m_s": args.speed_threshold,
+                "epochs_scored": int(inside.sum()),
+                "segments": static_metrics(det.static[inside], truth[inside]),
+                "raw": static_metrics(det.static_raw[inside], truth[inside]),
+            }
+        _plot(det, t_ref, speed, out / "detection.png", args.speed_threshold, float(t[0]))
+        atomic_write_text(out / "summary.json", json.dumps(_json_safe(summary), indent=2))
 
     print(f"IMU {imu_path}: {t.size} samples, {t[-1] - t[0]:.1f} s at {imu.rate_hz:.1f} Hz")
     print(f"λ0 = {lambda0:.4g} m/s² ({lambda0_source}); window {config.window} samples; "
@@ -249,5 +251,5 @@ def run(args: argparse.Namespace) -> int:
                 f"precision {m['precision']:.4f}, recall {m['recall']:.4f}, F1 {m['f1']:.4f} "
                 f"({m['n_pred']} predicted, {m['n_true']} true epochs)"
             )
-    print(f"wrote {out / 'segments.csv'}, {out / 'detection.png'}, {out / 'summary.json'}")
+    print(f"wrote {final / 'segments.csv'}, {final / 'detection.png'}, {final / 'summary.json'}")
     return 0

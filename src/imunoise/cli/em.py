@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     import math
 
     from imunoise.errors import ModelError
-    from imunoise.io.atomic import atomic_path, atomic_write_text
+    from imunoise.io.atomic import atomic_path, atomic_write_text, staged_run
     from imunoise.noise.em import em_fit
     from imunoise.noise.plots import plot_wv_fit
 
@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError(f"--tol must be a finite relative change > 0 (default 1e-8), got {args.tol}")
     init = load_init(args.init)  # before the data: a bad --init fails fast
     series = load_series(args)
-    out = out_dir(args, "em")
+    final = out_dir(args, "em")
     fit = em_fit(
         args.model,
         series.values,
@@ -86,8 +86,9 @@ def run(args: argparse.Namespace) -> int:
         f"\n  EM: {ex['iterations']} iterations, converged = {ex['converged']}{flags}, "
         f"log-likelihood = {ex['loglik']:.10g}, time = {ex['time_s']:.2f} s"
     )
-    atomic_write_text(out / "model.json", json.dumps(fit.to_dict(), indent=1))
-    with atomic_path(out / "wv.png") as tmp:
-        plot_wv_fit(fit, tmp, title=f"{Path(args.data).name} [{series.name}]: EM {fit.model}")
-    print(f"\nwrote {out / 'model.json'} and {out / 'wv.png'}", file=sys.stderr)
+    with staged_run(final, ("model.json", "wv.png")) as out:  # published together when complete
+        atomic_write_text(out / "model.json", json.dumps(fit.to_dict(), indent=1))
+        with atomic_path(out / "wv.png") as tmp:
+            plot_wv_fit(fit, tmp, title=f"{Path(args.data).name} [{series.name}]: EM {fit.model}")
+    print(f"\nwrote {final / 'model.json'} and {final / 'wv.png'}", file=sys.stderr)
     return 0

@@ -7,6 +7,7 @@ import argparse
 import logging
 import sys
 import time
+from pathlib import Path
 
 from imunoise.cli.options import (
     add_deprecated_alias,
@@ -143,19 +144,19 @@ def _progress(total: int, desc: str, unit: str = "job"):
     integer adds n units, any other argument (a seed, a method name) one."""
     from tqdm import tqdm
 
+    from imunoise.io.interrupt import interrupt_point
+
     bar = tqdm(total=total, desc=desc, unit=unit, disable=not sys.stderr.isatty())
 
     def step(n=None) -> None:
         bar.update(n if isinstance(n, int) and not isinstance(n, bool) else 1)
+        interrupt_point("experiment-progress")
 
     return bar, step
 
 
 def run(args: argparse.Namespace) -> int:
-    from imunoise.experiments import denial, online_exp
-    from imunoise.experiments.common import repo_data_dir
-    from imunoise.experiments.report import headline_rows, write_denial_real, write_online_real, write_sim
-    from imunoise.report import fmt
+    from imunoise.io.atomic import staged_run
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     from imunoise.cli.options import prepare_out_dir
@@ -179,12 +180,25 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler and not (evidence and args.sim):
         raise ModelError("--scheduler runs the dense-window evidence on the simulator (--sim --outages dense:L:S); "
                          "drop it, or use --workers")
-    out = prepare_out_dir(args.out)
+    final = prepare_out_dir(args.out)
+    # the report, its tables, plots and results.json appear at once when the run completes: an interrupted or
+    # failed run leaves --out as it was (files of another kind already there are left alone)
+    with staged_run(final, ()) as out:
+        return _run_in(args, out, final, form, outages, evidence)
+
+
+def _run_in(args: argparse.Namespace, out: Path, final: Path, form, outages, evidence: bool) -> int:
+    """The experiment, its files written into ``out`` (the staging folder of ``final``)."""
+    from imunoise.experiments import denial, online_exp
+    from imunoise.experiments.common import repo_data_dir
+    from imunoise.experiments.report import headline_rows, write_denial_real, write_online_real, write_sim
+    from imunoise.report import fmt
+
     t0 = time.perf_counter()
     if evidence:
         if args.which != "online":
             raise ModelError("--outages dense:..., --gnss-regime, --pairs and --nhc belong to the online experiment")
-        return _run_evidence(args, out, outages, t0)
+        return _run_evidence(args, out, outages, t0, final)
     methods = select_methods(args.which, args.sim, args.methods)
     if args.imu_noise:
         from imunoise.experiments.common import replay_methods
@@ -238,7 +252,7 @@ def run(args: argparse.Namespace) -> int:
             res["seed_role"] = args.seed_role
             html = write_online_real(res, sc, out)
     print_headline(headline_rows(res), fmt)
-    print(f"\nreport: {html.resolve()}  ({time.perf_counter() - t0:.1f} s)")
+    print(f"\nreport: {(final / html.relative_to(out)).resolve()}  ({time.perf_counter() - t0:.1f} s)")
     return 0
 
 
@@ -289,7 +303,7 @@ def print_headline(rows, fmt) -> None:
         print("  ".join(c.ljust(w[i]) for i, c in enumerate(t)))
 
 
-def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
+def _run_evidence(args: argparse.Namespace, out, spec, t0: float, final: Path) -> int:
     """The dense-window evidence (``imunoise.experiments.dense``) with its paired table."""
     from imunoise.experiments import dense
     from imunoise.experiments.common import repo_data_dir
@@ -351,5 +365,5 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float) -> int:
     print("  ".join(h.ljust(w[i]) for i, h in enumerate(heads)))
     for t in table:
         print("  ".join(c.ljust(w[i]) for i, c in enumerate(t)))
-    print(f"\nreport: {html.resolve()}  ({time.perf_counter() - t0:.1f} s)")
+    print(f"\nreport: {(final / html.relative_to(out)).resolve()}  ({time.perf_counter() - t0:.1f} s)")
     return 0

@@ -36,8 +36,8 @@ from imunoise.cli.options import (
     out_dir,
     print_warnings,
 )
-from imunoise.errors import DataError, ModelError
-from imunoise.io.atomic import atomic_path, atomic_write_text
+from imunoise.errors import DataError, FitError, ModelError
+from imunoise.io.atomic import atomic_path, atomic_write_text, staged_run
 
 STREAM_ABOVE = 2e7
 """Samples (file rows or bag messages) above which `fit` streams the input: 2e7 rows of 7 float64 columns are
@@ -170,10 +170,27 @@ def run(args: argparse.Namespace) -> int:
         )
     if series.report is not None or bag:
         print(series.describe(), file=sys.stderr)
-    out = out_dir(args, "fit")
-    if multi:
-        return _run_multi(args, series, out)
-    return _run_single(args, series, out)
+    final = out_dir(args, "fit")
+    # every file of this fit appears at once when it completes (Ctrl-C leaves --out as it was), and the files
+    # an earlier fit left there (another axis set's plots, an export not asked for again) are removed then
+    refused: list[FitError] = []  # an export refused by the fit check: the model and its plots are still written
+    with staged_run(final, fit_outputs()) as out:
+        if multi:
+            written = _run_multi(args, series, out, final, refused)
+        else:
+            written = _run_single(args, series, out, final, refused)
+    if refused:
+        raise refused[0]
+    print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
+    return 0
+
+
+def fit_outputs() -> tuple[str, ...]:
+    """Every file `imunoise fit` can write into --out (glob patterns): a rerun removes the ones it did not
+    write again, so that no file of an earlier fit is read as part of this one."""
+    from imunoise.export import DEFAULT_FILENAMES
+
+    return ("model.json", "wv.png", "imu_model.json", "wv_*.png", *sorted(set(DEFAULT_FILENAMES.values())))
 
 
 def _streamed(args: argparse.Namespace, source: Any):
@@ -298,7 +315,8 @@ def _without_lines(args: argparse.Namespace, series, axis: str):
     return (x if args.keep_lines else y), found
 
 
-def _run_single(args: argparse.Namespace, series, out: Path) -> int:
+def _run_single(args: argparse.Namespace, series, out: Path, final: Path, refused: list) -> list[Path]:
+    """One axis: files written into ``out`` (the staging folder); the paths named are those under ``final``."""
     from imunoise.noise.plots import plot_wv_fit
 
     axis = series.axes[0]
@@ -318,16 +336,20 @@ def _run_single(args: argparse.Namespace, series, out: Path) -> int:
         sensor = args.sensor or infer_sensor(fit)
         if sensor is None:
             raise ModelError("--export of a single axis needs --sensor gyro|accel (its unit and name do not say)")
-        forced = _refusal(args, {axis: fit}, gates, str(out / "wv.png"))
+        try:
+            forced = _refusal(args, {axis: fit}, gates, str(final / "wv.png"))
+        except FitError as exc:
+            refused.append(exc)
+            return written
         _export_report(fit, args, sensor)
         written += write_exports(fit, args.export, out, forced, fits={axis: fit}, sensor=sensor,
-                                 source=str(out / "model.json"), horizon_s=args.horizon,
+                                 source=str(final / "model.json"), horizon_s=args.horizon,
                                  partial=args.sensor is not None)
-    print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
-    return 0
+    return [final / w.relative_to(out) for w in written]
 
 
-def _run_multi(args: argparse.Namespace, series, out: Path) -> int:
+def _run_multi(args: argparse.Namespace, series, out: Path, final: Path, refused: list) -> list[Path]:
+    """Several axes: files written into ``out`` (the staging folder); the paths named are those under ``final``."""
     from tqdm import tqdm
 
     from imunoise.noise.imu_model import ImuModel
@@ -355,13 +377,17 @@ def _run_multi(args: argparse.Namespace, series, out: Path) -> int:
     print(_continuous_table(model, args.horizon))
     written = [path]
     if args.export:
-        forced = _refusal(args, fits, gates, str(out / "wv_<axis>.png"))
+        try:
+            forced = _refusal(args, fits, gates, str(final / "wv_<axis>.png"))
+        except FitError as exc:
+            refused.append(exc)
+            return written
         if forced:  # the data's readings in place of the refused pairs (the model file keeps the fit)
             model = ImuModel.from_fits(fits, source=source)
         _export_report(model, args, None)
-        written += write_exports(model, args.export, out, forced, fits=fits, source=str(path), horizon_s=args.horizon)
-    print(f"\nwrote {', '.join(str(w) for w in written)} and wv_<axis>.png", file=sys.stderr)
-    return 0
+        written += write_exports(model, args.export, out, forced, fits=fits, source=str(final / path.name),
+                                 horizon_s=args.horizon)
+    return [final / w.relative_to(out) for w in written] + [final / "wv_<axis>.png"]
 
 
 def _gates(args: argparse.Namespace, fits: dict) -> dict:

@@ -15,12 +15,15 @@ that run kernels).
 
 from __future__ import annotations
 
+import os
 import sys
+import tempfile
 import threading
 import time
 from typing import Any
 
-__all__ = ["COMPILE_ESTIMATE_S", "announce_cold_cache", "silence", "CompileRecorder", "NOTICE"]
+__all__ = ["COMPILE_ESTIMATE_S", "announce_cold_cache", "silence", "CompileRecorder", "NOTICE", "cache_dir_problem",
+           "no_cache_message"]
 
 # CPU seconds a command spends compiling with an empty cache, rounded up from `imunoise warm-up --timings`
 # (compile CPU per kernel) and benchmarks/bench_first_run.py (`nav` with an empty cache) on a 2-core machine
@@ -79,6 +82,37 @@ def announce_cold_cache(command: str, stream: Any = None) -> bool:
 
     event.register("numba:compile", _Notice())
     return True
+
+
+def cache_dir_problem() -> str | None:
+    """The one-line problem with ``NUMBA_CACHE_DIR`` when it is set but no cache can be written there, else None.
+
+    numba tries the folder it is given and, when it cannot write there, silently falls back to the next place it
+    knows (``__pycache__`` beside the installed modules, then the user's cache): a warm-up would report success
+    and leave the folder the later runs read empty. The same test as numba's (create the folder, then a
+    temporary file in it).
+    """
+    path = os.environ.get("NUMBA_CACHE_DIR")
+    if not path:
+        return None
+    try:
+        os.makedirs(path, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()
+    except OSError as exc:
+        return (f"NUMBA_CACHE_DIR={path}: cannot write the kernel cache there ({exc.strerror or exc}); numba would "
+                "put it elsewhere: make the folder writable or point NUMBA_CACHE_DIR to a writable folder")
+    return None
+
+
+def no_cache_message(exc: BaseException) -> str | None:
+    """One line for numba's "cannot cache function ...: no locator available" (no writable place for the kernel
+    cache at all: a read-only install, no writable home), None for any other exception."""
+    if isinstance(exc, RuntimeError) and "cannot cache function" in str(exc) and "no locator" in str(exc):
+        where = os.environ.get("NUMBA_CACHE_DIR")
+        now = f" (NUMBA_CACHE_DIR={where} is not writable either)" if where else ""
+        return ("numba finds no writable place for its kernel cache (the installed package's __pycache__ and the "
+                f"user's cache folder are read-only{now}); set NUMBA_CACHE_DIR to a writable folder")
+    return None
 
 
 def silence() -> None:

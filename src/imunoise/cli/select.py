@@ -19,7 +19,7 @@ from imunoise.cli.options import (
     source_extra,
 )
 from imunoise.errors import ModelError
-from imunoise.io.atomic import atomic_path, atomic_write_text
+from imunoise.io.atomic import atomic_path, atomic_write_text, staged_run
 
 EXAMPLES = """examples:
   imunoise select gyro_x.csv --freq 100 --units deg/s --out sel_gx/
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     if args.limit < 0:
         raise ModelError(f"--limit must be ≥ 0 (0 = every row), got {args.limit}")
     series = load_series(args)
-    out = out_dir(args, "select")
+    final = out_dir(args, "select")
     n_cand = len(candidates(args.complete))
     ranking = select_model(
         series.values,
@@ -100,17 +100,20 @@ def run(args: argparse.Namespace) -> int:
     best.extra.update(source_extra(args, series))
     print()
     print(best.summary())
-    with atomic_path(out / "ranking.csv") as tmp:
-        ranking.to_csv(str(tmp))
-    atomic_write_text(out / "model.json", json.dumps(best.to_dict(), indent=1))
-    curves = [(f"#{i + 1} {f.model} (GOF {f.objective:.3g})", f.theoretical_wv) for i, f in enumerate(ranking.top_fits)]
-    with atomic_path(out / "wv_top.png") as tmp:
-        plot_wv_fits(
-            best.wv,
-            curves,
-            tmp,
-            unit=series.unit,
-            title=f"{Path(args.data).name} [{series.name}]: top {len(curves)} by {args.criterion.upper()}",
-        )
-    print(f"\nwrote {out / 'ranking.csv'}, {out / 'model.json'} and {out / 'wv_top.png'}", file=sys.stderr)
+    # the three files appear together when the run completes (Ctrl-C leaves --out as it was)
+    with staged_run(final, ("ranking.csv", "model.json", "wv_top.png")) as out:
+        with atomic_path(out / "ranking.csv") as tmp:
+            ranking.to_csv(str(tmp))
+        atomic_write_text(out / "model.json", json.dumps(best.to_dict(), indent=1))
+        curves = [(f"#{i + 1} {f.model} (GOF {f.objective:.3g})", f.theoretical_wv)
+                  for i, f in enumerate(ranking.top_fits)]
+        with atomic_path(out / "wv_top.png") as tmp:
+            plot_wv_fits(
+                best.wv,
+                curves,
+                tmp,
+                unit=series.unit,
+                title=f"{Path(args.data).name} [{series.name}]: top {len(curves)} by {args.criterion.upper()}",
+            )
+    print(f"\nwrote {final / 'ranking.csv'}, {final / 'model.json'} and {final / 'wv_top.png'}", file=sys.stderr)
     return 0

@@ -99,6 +99,9 @@ def _navigation(tmp: Path) -> None:
 def _online(tmp: Path) -> None:
     d = _drive(tmp)
     _cli("online", "--data", d, "--out", tmp / "online")
+    # with ZUPT/ZARU at the stops (the demo's gmwm_zupt): the step filter's ZARU kernel, which `nav --zupt`
+    # (ZUPT only) does not call; left cold, two demo workers compiled it at once
+    _cli("online", "--data", d, "--zupt", "--out", tmp / "online_zupt")
 
 
 def _calibrate(tmp: Path) -> None:
@@ -180,8 +183,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from imunoise.cli.kernel_cache import CompileRecorder, silence
+    from imunoise.cli.kernel_cache import CompileRecorder, cache_dir_problem, silence
+    from imunoise.errors import DataError
 
+    problem = cache_dir_problem()
+    if problem:  # before any work: numba would write elsewhere and the warm-up would look successful
+        raise DataError(problem)
     silence()
 
     print("imunoise warm-up: compiling (or loading) the kernels of every command; with an empty cache "

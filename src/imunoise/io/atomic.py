@@ -19,6 +19,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from imunoise.io.interrupt import interrupt_point, raise_if_interrupted
+
 __all__ = ["atomic_path", "atomic_write_text", "atomic_write_bytes", "atomic_savefig", "staged_dir", "staged_run"]
 
 
@@ -56,6 +58,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     tmp = _temp_beside(path)
     try:
         yield tmp
+        interrupt_point(path.name)
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
@@ -107,6 +110,8 @@ def staged_dir(out: str | Path) -> Iterator[Path]:
     stage = Path(tempfile.mkdtemp(dir=parent, prefix=f".{out.name}.", suffix=".partial"))
     try:
         yield stage
+        interrupt_point("publish")
+        raise_if_interrupted()  # a Ctrl-C swallowed on the way (imunoise.io.interrupt): nothing is published
         out.mkdir(parents=True, exist_ok=True)
         for entry in sorted(stage.iterdir()):
             dest = out / entry.name
@@ -162,6 +167,8 @@ def staged_run(out: str | Path, owned: Sequence[str]) -> Iterator[Path]:
     stage = Path(tempfile.mkdtemp(dir=out, prefix=".run.", suffix=".partial"))
     try:
         yield stage
+        interrupt_point("publish")
+        raise_if_interrupted()  # a Ctrl-C swallowed on the way (imunoise.io.interrupt): nothing is published
         moved: set[Path] = set()
         _merge_into(stage, out, moved, out)
         for pattern in owned:

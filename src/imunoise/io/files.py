@@ -61,11 +61,12 @@ def read_text(
     if path.is_dir():
         raise error(f"{what} {path} is a folder; give a file")
     try:
-        if path.suffix == ".gz":
-            with gzip.open(path, "rb") as fh:
-                raw = fh.read()
-        else:
-            raw = path.read_bytes()
+        # the head first: a binary (or sparse, all-NUL) file of any size is refused before it is read whole
+        with (gzip.open(path, "rb") if path.suffix == ".gz" else open(path, "rb")) as fh:
+            raw = fh.read(_BINARY_SNIFF)
+            if looks_binary(raw):
+                raise error(f"{what} {path} is not a text file (binary content near the start); give {expected}")
+            raw += fh.read()
     except EOFError as exc:
         raise error(
             f"{what} {path}: the gzip stream ends early (truncated download or copy?); get the file again"

@@ -20,6 +20,7 @@ The writers live in :mod:`imunoise.io.kfgins_write` and are importable from here
 from __future__ import annotations
 
 import io
+import re
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -107,6 +108,11 @@ def _read_table(path: str | Path, what: str) -> tuple[list[str] | None, np.ndarr
     except ValueError as exc:
         for k, r in enumerate(rows):
             if not all(is_number(x) for x in r.split()):
+                line = raw[line_no[k] - 1]
+                if re.search(r"\d,\d", line) and re.search(r"[;\t]", line):  # 1,25;3,5 (a spreadsheet locale)
+                    raise DataError(f"{what} file {path}, line {line_no[k]}: decimal commas ({line.strip()[:40]!r}): "
+                                    "this file takes '.' as the decimal mark and commas or spaces between "
+                                    "columns; export it with '.' decimals") from exc
                 raise DataError(f"{what} file {path}, line {line_no[k]}: non-numeric value in {r!r}") from exc
         raise DataError(f"{what} file {path}: cannot parse numbers ({exc})") from exc
     return header, data, line_no

@@ -124,6 +124,10 @@ def _read_numpy(path: Path, kind: str) -> Table:
         arr = arr.reshape(-1, 1) if arr.ndim == 1 else arr
         if arr.ndim != 2:
             raise DataError(f"{path}: expected a 1-D or 2-D array, got shape {arr.shape}")
+        if 1 < arr.shape[0] <= 16 and arr.shape[1] >= 100 * arr.shape[0]:  # a few rows of many samples each
+            raise DataError(f"{path}: the array has shape {arr.shape}: {arr.shape[0]} rows of {arr.shape[1]} values, "
+                            "i.e. the samples run along the rows; one row per sample and one column per axis is "
+                            "expected: save it transposed (numpy.save(path, x.T))")
         if arr.dtype.kind not in "iufb":
             raise DataError(f"{path}: the array holds {arr.dtype} values, not numbers")
         data = arr.astype(float)

@@ -36,6 +36,22 @@ def _six(where: str, key: str, v: Any, *, positive: bool = False) -> tuple[float
     return tuple(float(x) for x in v)
 
 
+# Plausible ranges: a value beyond them is a typo or a unit slip (a law with ×1e6 multipliers ran to 52 km RMS),
+# refused in one line. Multipliers c add c × the static noise (c = 100: 101× the static σ, far above the real
+# drive's 3–7×); SI magnitudes (Gauss–Markov σ, departure steps, warm-up amplitudes) up to 0.2 rad/s (11 °/s) on
+# the gyros and 5 m/s² (0.5 g) on the accelerometers, an order above the worst consumer MEMS.
+MAX_MULTIPLIER = 100.0
+MAX_SI = (0.2, 0.2, 0.2, 5.0, 5.0, 5.0)
+
+
+def _within(where: str, key: str, values: tuple[float, ...], limits: tuple[float, ...], what: str) -> None:
+    for j, (x, lim) in enumerate(zip(values, limits, strict=True)):
+        if abs(x) > lim:
+            unit = "" if what == "multiplier" else (" rad/s" if j < 3 else " m/s²")
+            raise ModelError(f"{where}: key '{key}' has {x:g}{unit} for {AXES[j]}, outside the plausible range "
+                             f"±{lim:g}{unit} ({what}; SI units, not degrees or g); correct the value")
+
+
 def _number(where: str, key: str, v: Any) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
         raise ModelError(f"{where}: key '{key}' needs a number > 0, got {v!r}")
@@ -79,17 +95,26 @@ def law_from_dict(d: Any, where: str = "motion law") -> MotionNoise:
         if group in d:
             for act, v in _table(where, group, d[group], _ACTIVITIES).items():
                 kw[f"{group}_{act}"] = _six(where, f"{group}.{act}", v)
+                _within(where, f"{group}.{act}", kw[f"{group}_{act}"], (MAX_MULTIPLIER,) * _N, "multiplier")
     if "moving_gm" in d:
         gm = _table(where, "moving_gm", d["moving_gm"], ("sigma", "tau_s"))
+        if "tau_s" in gm and "sigma" not in gm:  # else the term would silently add nothing
+            raise ModelError(f"{where}: key 'moving_gm.sigma' is needed with 'moving_gm.tau_s' (6 values ≥ 0, "
+                             "rad/s for the gyros, m/s² for the accelerometers)")
         if "sigma" in gm:
             if "tau_s" not in gm:
                 raise ModelError(f"{where}: key 'moving_gm.tau_s' is needed with 'moving_gm.sigma' (6 values > 0 s)")
             kw["moving_gm_sigma"] = _six(where, "moving_gm.sigma", gm["sigma"])
             kw["moving_gm_tau_s"] = _six(where, "moving_gm.tau_s", gm["tau_s"], positive=True)
+            _within(where, "moving_gm.sigma", kw["moving_gm_sigma"], MAX_SI, "a Gauss–Markov σ")
     if "departure_step" in d:
         kw["departure_step"] = _six(where, "departure_step", d["departure_step"])
+        _within(where, "departure_step", kw["departure_step"], MAX_SI, "a step's σ")
     if "warmup" in d:
         wu = _table(where, "warmup", d["warmup"], ("amplitude", "tau_s"))
+        if "tau_s" in wu and "amplitude" not in wu:  # else the term would silently add nothing
+            raise ModelError(f"{where}: key 'warmup.amplitude' is needed with 'warmup.tau_s' (6 values, rad/s for "
+                             "the gyros, m/s² for the accelerometers)")
         if "amplitude" in wu:
             if "tau_s" not in wu:
                 raise ModelError(f"{where}: key 'warmup.tau_s' is needed with 'warmup.amplitude' (a number > 0 s)")
@@ -100,6 +125,7 @@ def law_from_dict(d: Any, where: str = "motion law") -> MotionNoise:
                 raise ModelError(f"{where}: key 'warmup.amplitude' needs a list of {_N} numbers (gyro x, y, z, "
                                  f"accel x, y, z; SI units), got {amp!r}")
             kw["warmup_amplitude"] = tuple(float(x) for x in amp)
+            _within(where, "warmup.amplitude", kw["warmup_amplitude"], MAX_SI, "a warm-up amplitude")
             kw["warmup_tau_s"] = _number(where, "warmup.tau_s", wu["tau_s"])
     return MotionNoise(**kw)
 

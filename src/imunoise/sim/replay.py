@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import functools
 import math
+import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -66,25 +68,20 @@ def load_recording(path: str) -> NoiseRecording:
         unknown; each message names the file and the key.
     """
     p = Path(path)
+    keys = _read_keys(p)
     try:
-        z = np.load(p, allow_pickle=False)
-    except (OSError, ValueError) as exc:
-        raise DataError(f"--imu-noise {p}: cannot read it as .npz ({exc})") from None
-    missing = [k for k in ("data", "columns", "units", "freq_hz") if k not in z.files]
-    if missing:
-        raise DataError(f"--imu-noise {p}: key '{missing[0]}' missing (a recording states data, columns, units "
-                        "and freq_hz)")
-    data = np.asarray(z["data"], dtype=float)
-    cols = [str(c) for c in np.atleast_1d(z["columns"])]
-    units = [str(u) for u in np.atleast_1d(z["units"])]
+        data = np.asarray(keys["data"], dtype=float)
+    except (TypeError, ValueError):
+        raise DataError(f"--imu-noise {p}: key 'data' is not numeric ({keys['data'].dtype}); store a float "
+                        "array of shape (samples, columns)") from None
+    cols = [str(c) for c in np.atleast_1d(keys["columns"])]
+    units = [str(u) for u in np.atleast_1d(keys["units"])]
     if len(units) == 1:
         units = units * len(cols)
     if data.ndim != 2 or data.shape[1] != len(cols) or len(units) != len(cols):
         raise DataError(f"--imu-noise {p}: key 'data' has shape {data.shape} for {len(cols)} columns and "
                         f"{len(units)} units")
-    rate = float(z["freq_hz"])
-    if not (math.isfinite(rate) and rate > 0):
-        raise DataError(f"--imu-noise {p}: key 'freq_hz' must be > 0, got {rate}")
+    rate = _rate(p, keys["freq_hz"])
     out = np.zeros((data.shape[0], len(AXES)))
     seen = set()
     for j, (c, u) in enumerate(zip(cols, units, strict=True)):
@@ -100,10 +97,81 @@ def load_recording(path: str) -> NoiseRecording:
         raise DataError(f"--imu-noise {p}: key 'columns' lacks {sorted(set(AXES) - seen)}")
     if not np.all(np.isfinite(out)):
         raise DataError(f"--imu-noise {p}: key 'data' holds non-finite values")
+    _check_plausible(p, out, dict(zip([canonical_axis(c) for c in cols], units, strict=True)))
     mean = out.mean(axis=0)
     out -= mean
     out.setflags(write=False)
     return NoiseRecording(str(p.resolve()), rate, out, tuple(float(m) for m in mean))
+
+
+def _read_keys(p: Path) -> dict[str, np.ndarray]:
+    """The four keys of the recording, each read here: a truncated or corrupt archive, a pickled (object)
+    array or a missing key is one line naming the file and the key."""
+    try:
+        z = np.load(p, allow_pickle=False)
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise DataError(f"--imu-noise {p}: cannot read it as .npz ({exc}); give a recording saved by "
+                        "numpy.savez with data, columns, units and freq_hz") from None
+    if not isinstance(z, np.lib.npyio.NpzFile):
+        raise DataError(f"--imu-noise {p}: a single .npy array, not an .npz recording; save data, columns, units "
+                        "and freq_hz with numpy.savez")
+    missing = [k for k in ("data", "columns", "units", "freq_hz") if k not in z.files]
+    if missing:
+        raise DataError(f"--imu-noise {p}: key '{missing[0]}' missing (a recording states data, columns, units "
+                        "and freq_hz)")
+    out = {}
+    for k in ("data", "columns", "units", "freq_hz"):
+        try:
+            out[k] = z[k]
+        except ValueError as exc:  # an object array: loading it would run pickled code
+            raise DataError(f"--imu-noise {p}: key '{k}' is a pickled (object) array, not read for safety "
+                            f"({exc}); store it as a plain numeric or string array") from None
+        except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+            raise DataError(f"--imu-noise {p}: key '{k}' cannot be read, the file is truncated or corrupt "
+                            f"({exc}); copy it again") from None
+    return out
+
+
+def _rate(p: Path, value: np.ndarray) -> float:
+    """``freq_hz``: one positive finite number."""
+    v = np.asarray(value)
+    if v.size != 1 or v.dtype.kind not in "iuf":
+        raise DataError(f"--imu-noise {p}: key 'freq_hz' must be one number (the sampling rate in Hz), got "
+                        f"{v.dtype} of shape {v.shape}")
+    rate = float(v.reshape(()))
+    if not (math.isfinite(rate) and rate > 0):
+        raise DataError(f"--imu-noise {p}: key 'freq_hz' must be > 0, got {rate}")
+    return rate
+
+
+# Static-recording plausibility in SI (before the mean is removed): a gyro at rest reads Earth rate plus its
+# bias (|mean| well below 0.1 rad/s = 5.7 °/s for any MEMS) with a per-sample spread far below 0.05 rad/s; the
+# accelerometers read gravity, |mean vector| = 9.8 m/s². The shared ADIS16405 logs: gyro std 0.0061–0.0075 rad/s,
+# |mean| ≤ 0.0076 rad/s; accel norm 9.97 m/s². Data in deg/s labelled rad/s read 57× larger, in g labelled m/s²
+# 9.8× smaller: both far outside.
+GYRO_MAX_STD = 0.05  # rad/s
+GYRO_MAX_MEAN = 0.1  # rad/s
+ACCEL_NORM_RANGE = (7.8, 11.8)  # m/s², g ± 2
+
+
+def _check_plausible(p: Path, si: np.ndarray, units: dict) -> None:
+    """Refuse a recording whose magnitudes contradict its stated units (deg/s labelled rad/s, g labelled m/s²)."""
+    for j in range(3):
+        ax = AXES[j]
+        mean, std = abs(float(si[:, j].mean())), float(si[:, j].std())
+        if std > GYRO_MAX_STD or mean > GYRO_MAX_MEAN:
+            hint = " (the numbers look like deg/s)" if units[ax] == "rad/s" else ""
+            raise DataError(f"--imu-noise {p}: key 'units' says {units[ax]} for {ax}, but at rest it reads a mean "
+                            f"of {mean:.3g} rad/s and a spread of {std:.3g} rad/s per sample, no static gyro"
+                            f"{hint}; correct the file's units (deg/s or rad/s)")
+    norm = float(np.linalg.norm(si[:, 3:].mean(axis=0)))
+    if not ACCEL_NORM_RANGE[0] <= norm <= ACCEL_NORM_RANGE[1]:
+        stated = ", ".join(sorted({units[a] for a in AXES[3:]}))
+        hint = " (the numbers look like g)" if 0.8 <= norm <= 1.2 else (
+            " (the numbers look like m/s² labelled g)" if 78.0 <= norm <= 118.0 else "")
+        raise DataError(f"--imu-noise {p}: key 'units' says {stated} for the accelerometers, but at rest they read "
+                        f"|mean| = {norm:.3g} m/s², not gravity (9.81 m/s²){hint}; correct the file's units "
+                        "(g or m/s^2)")
 
 
 def _check_rate(rec: NoiseRecording, rate_hz: float) -> None:
