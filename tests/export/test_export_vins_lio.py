@@ -235,3 +235,10 @@ def test_a_topic_for_a_tool_whose_topic_is_not_written_is_refused(tmp_path, mode
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--imu-topic" in err and "drop --imu-topic" in err
     assert not (tmp_path / "v.yaml").exists()
+
+
+def test_every_command_offers_every_export_format():
+    from imunoise.cli.options import EXPORT_TOOLS
+    from imunoise.export.formats import FORMATS
+
+    assert set(EXPORT_TOOLS) == set(FORMATS)

@@ -12,6 +12,7 @@ from typing import Any
 from imunoise.cli.export_gate import add_force, refusal, write_exports
 from imunoise.cli.fit import STREAM_ABOVE
 from imunoise.cli.options import (
+    EXPORT_TOOLS,
     add_criterion,
     add_time_options,
     add_topic,
@@ -91,9 +92,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_criterion(p, "model selection")
     p.add_argument("--complete", help="complete model (the largest structure searched; default 4*AR1+DR+WN+QN+RW)")
     p.add_argument("--seed", type=int, default=0, help="random seed (of the random starting points)")
-    p.add_argument("--export", action="append", choices=["kalibr", "openvins", "orbslam3", "json"],
-                   help="also write this export beside the model (repeatable); refused where a fit leaves its WV "
-                   "band (see --force)")
+    p.add_argument("--export", action="append", choices=EXPORT_TOOLS,
+                   help="also write this export beside the model (repeatable); refused where no (N, K) pair stands "
+                   "for the data (see --force)")
     add_force(p)
     p.add_argument("--out", help="output folder (default <first log name>_calib)")
     p.set_defaults(func=run)

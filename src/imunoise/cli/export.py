@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from imunoise.cli.export_gate import add_force, pair_gates, refusal, with_warnings
-from imunoise.cli.options import add_topic
+from imunoise.cli.options import EXPORT_TOOLS, add_topic
 
 EXAMPLES = """examples:
   imunoise export fit/imu_model.json --to kalibr                     # -> fit/imu.yaml
@@ -73,7 +73,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("model", help="imu_model.json (six axes) or model.json (one axis)")
     p.add_argument(
         "--to",
-        choices=["kalibr", "openvins", "orbslam3", "vins", "lio-sam", "fast-lio", "json"],
+        choices=EXPORT_TOOLS,
         default="kalibr",
         dest="fmt",
         help="target tool: kalibr (imu.yaml), openvins (kalibr_imu_chain.yaml, OpenVINS v2.6 and >= v2.7), "

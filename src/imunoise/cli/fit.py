@@ -21,6 +21,7 @@ from imunoise.cli.export_gate import (
     write_exports,
 )
 from imunoise.cli.options import (
+    EXPORT_TOOLS,
     add_columns,
     add_criterion,
     add_data_argument,
@@ -116,8 +117,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--export",
         action="append",
-        choices=["kalibr", "openvins", "orbslam3", "json"],
-        help="also write this export beside the model (repeatable); refused where a fit leaves its WV band (--force)",
+        choices=EXPORT_TOOLS,
+        help="also write this export beside the model (repeatable); refused where no (N, K) pair stands for the "
+        "data (--force writes the data's own reading)",
     )
     add_force(p)
     add_update_interval(p)

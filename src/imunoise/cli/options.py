@@ -402,3 +402,7 @@ def add_nav_input_options(p: argparse.ArgumentParser) -> None:
 
 MAX_IMU_GAP_S = 1.0
 """Longest IMU time gap a navigation run integrates without ``--max-imu-gap`` (s)."""
+
+EXPORT_TOOLS = ("kalibr", "openvins", "orbslam3", "vins", "lio-sam", "fast-lio", "json")
+"""The ``--export``/``--to`` choices of ``fit``, ``calibrate`` and ``export`` (the formats of
+:mod:`imunoise.export.formats`; tests/export checks they agree)."""
