@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 
+from imunoise.errors import ModelError
 from imunoise.export.noise import BASE_UNIT, SensorNoise, density_units, format_float
 
 __all__ = ["TOOL_FORMATS", "TOOL_FILENAMES", "TOOL_KEYS", "TOOL_BLOCK", "tool_values", "tool_comment",
@@ -78,7 +79,7 @@ def tool_values(sn: SensorNoise, fmt: str) -> tuple[float, float]:
         return n, k
     if fmt == "fast-lio":
         return n * n * f, k * k * f
-    raise ValueError(f"not a VINS/LIO-SAM/FAST-LIO format: {fmt!r}")
+    raise ModelError(f"not a VINS/LIO-SAM/FAST-LIO format: {fmt!r}; use vins, lio-sam or fast-lio")
 
 
 def _units(sensor: str, fmt: str) -> tuple[str, str]:

@@ -18,6 +18,7 @@ from scipy.stats import norm
 
 from imunoise._version import __version__
 from imunoise.errors import ModelError
+from imunoise.noise.fitting.identifiability import collapsed_components
 from imunoise.noise.fitting.params import kind_codes, theta_to_u, u_to_theta
 from imunoise.noise.fitting.problem import GMWMProblem
 from imunoise.noise.fitting.summary_text import (
@@ -438,23 +439,4 @@ class GMWMFit:
             raise ModelError(
                 f"fit file {path}: not a complete imunoise fit (bad or missing {exc}); give {expected}"
             ) from exc
-
-
-def collapsed_components(intervals: dict[str, tuple[float, float]], model: Any) -> dict[str, tuple[float, float]]:
-    """``intervals`` with every quantity of a component whose variance is not identified marked so too.
-
-    A Gauss–Markov (or MA1) process whose innovation variance collapsed to its bound contributes nothing to the
-    wavelet variance, so its φ (and T_c) is not identified either, however tight the delta method makes it
-    look: the optimiser leaves φ wherever it was when σ² went to zero, and another start leaves it elsewhere
-    with the same objective.
-    """
-    out = dict(intervals)
-    for comp in {name.split(".")[0] for name in model.param_names}:
-        var = f"{comp}.sigma2"
-        shape = [n for n in model.param_names if n.split(".")[0] == comp and n != var]
-        if var in out and math.isnan(out[var][0]) and shape:
-            for name in out:
-                if name.split(".")[0] == comp:
-                    out[name] = (math.nan, math.nan)
-    return out
 
