@@ -23,7 +23,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("imunoise.detect",),
     ("imunoise.wv", "imunoise.wv_stream", "imunoise.wv_log", "imunoise.ar1_math", "imunoise.process_base",
      "imunoise.process_ma1", "imunoise.process_white", "imunoise.process_bias", "imunoise.process_ar1",
-     "imunoise.processes", "imunoise.state_space", "imunoise.model"),
+     "imunoise.process_registry", "imunoise.processes", "imunoise.state_space", "imunoise.model"),
     ("imunoise.fitting",),
     ("imunoise.estimator", "imunoise.selection"),
     ("imunoise.allan", "imunoise.plots", "imunoise.em", "imunoise.em_kalman", "imunoise.equivalent_noise",

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import imunoise.model  # noqa: F401  (registers the processes' algebra)
 from imunoise.estimator import gmwm
 from imunoise.fitting.kernels import wv_of_theta
 from imunoise.fitting.params import kind_codes

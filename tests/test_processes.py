@@ -135,3 +135,18 @@ def test_continuous_conversions():
     var_gm = 1e-8 / (1 - phi**2)
     assert c["AR1_1.sigma_gm"] == pytest.approx(np.sqrt(var_gm))
     assert c["AR1_1.q_c"] == pytest.approx(2 * var_gm / 50.0)
+
+
+def test_algebra_works_from_the_processes_module_alone():
+    """``from imunoise.processes import WN, RW; WN() + RW()`` in a fresh interpreter: the algebra is no side effect
+    of some other import."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    code = "from imunoise.processes import WN, RW; m = WN() + RW(); print(type(m).__name__, m)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={**os.environ, "PYTHONPATH": src})
+    assert out.stdout.strip() == "Model WN + RW"

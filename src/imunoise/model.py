@@ -18,7 +18,11 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import ModelError
-from imunoise.processes import AR1, DR, ORDER, PROCESS_TYPES, QN, RW, WN, Process
+from imunoise.process_ar1 import AR1
+from imunoise.process_base import Process
+from imunoise.process_bias import DR, RW
+from imunoise.process_registry import ORDER, PROCESS_TYPES
+from imunoise.process_white import QN, WN
 from imunoise.state_space import StateSpace, stack_state_space
 
 __all__ = ["Model", "StateSpace", "ORDER", "ModelLike", "as_model"]

@@ -251,14 +251,16 @@ class Process:
         return None
 
     # -- algebra ----------------------------------------------------------------------------------
-    # The sum type is registered by imunoise.model when it loads (Model.register below it): the algebra needs
-    # Model, and Model needs the processes, so the dependency points one way (model → processes).
+    # The sum type is set by imunoise.model when it loads: the algebra needs Model, and Model needs the processes,
+    # so the dependency points one way (model → processes). imunoise.processes, where users import the processes
+    # from, loads the model, so the algebra is there whatever was imported first.
     sum_type: ClassVar[Any] = None
 
     @staticmethod
     def _sum(components: list[Process]) -> Model:
         if Process.sum_type is None:
-            raise ModelError("the model algebra needs imunoise.model: import imunoise.model (or use imunoise.WN etc.)")
+            raise ModelError("the model algebra needs imunoise.model: import the processes from imunoise.processes "
+                             "(or imunoise), not from their family modules")
         return Process.sum_type(components)
 
     def __add__(self, other: Process | Model) -> Model:
