@@ -13,6 +13,7 @@ from imunoise.em_kalman import kalman_estep as _estep
 from imunoise.em_kalman import state_form as _to_state
 from imunoise.errors import ModelError
 from imunoise.model import Model
+from imunoise.process_registry import PROCESS_TYPES
 
 AR1_WN = Model.parse("AR1+WN").with_params({"AR1_1.phi": 0.95, "AR1_1.sigma2": 1e-2, "WN.sigma2": 1e-1})
 
@@ -120,3 +121,18 @@ def test_cli_em(tmp_path, capsys):
     d = json.loads((out / "model.json").read_text())
     assert d["method"] == "em" and d["extra"]["iterations"] <= 50
     assert cli_main(["em", str(data), "--freq", "100", "--model", "AR1+QN+WN"]) == 2
+
+
+@pytest.mark.parametrize("kind", sorted(PROCESS_TYPES))
+def test_em_handles_or_refuses_every_registered_kind(kind):
+    """Every kind of the registry is either in the fitted model's structure or refused in one line naming it;
+    never dropped without a word (``em_fit('WN+MA1', ...)`` returned a plain WN fit)."""
+    y = np.random.default_rng(3810).normal(0.0, 1e-3, 4000) + np.cumsum(np.full(4000, 1e-7))
+    parts = [PROCESS_TYPES[kind]()] + ([] if kind == "WN" else [PROCESS_TYPES["WN"]()])
+    structure = Model(parts)
+    if PROCESS_TYPES[kind].em_form:
+        fit = em_fit(structure, y, freq=100.0, init=None, max_iter=5)
+        assert str(fit.model) == str(structure)
+    else:
+        with pytest.raises(ModelError, match=rf"^em_fit: {kind} has no place .* fit it with gmwm\(\)$"):
+            em_fit(structure, y, freq=100.0, init=None)

@@ -226,6 +226,9 @@ class Process:
         """∂ν/∂θ in a parametrisation that never vanishes at 0 (the WVIC's rank count)."""
         return self.wv_jacobian(tau)
 
+    em_form: ClassVar[str] = ""  # its place in the EM baseline's state-space form (imunoise.em): "state" (a
+    # first-order Kalman state with a closed-form M-step), "observation" (the observation noise), "drift" (a
+    # deterministic regressor), "" (none: em_fit refuses the kind, naming it)
     reading: ClassVar[str] = "white"  # how a calibration reads it within a horizon: white, random_walk (as K),
     # gauss_markov (a value when T_c is inside the horizon), ramp (never a value)
     starts_fine: ClassVar[bool] = True  # the estimator's start reads the finest scale (else the coarsest)
