@@ -105,11 +105,11 @@ def test_em_with_drift_and_av_start():
 def test_em_rejects_models_without_state_form():
     y = AR1_WN.simulate(512, seed=0)
     with pytest.raises(ModelError):
-        em_fit("AR1+WN+QN", y, init=None)
+        em_fit("AR1+WN+QN", y, init=None, freq=1.0)
     with pytest.raises(ModelError):
-        em_fit("AR1+RW", y, init=None)
+        em_fit("AR1+RW", y, init=None, freq=1.0)
     with pytest.raises(ModelError):
-        em_fit(None, y, init=None)
+        em_fit(None, y, init=None, freq=1.0)
 
 
 def test_cli_em(tmp_path, capsys):

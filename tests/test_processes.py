@@ -21,7 +21,7 @@ def _mc_check(model: Model, seed: int) -> None:
     rng = np.random.default_rng(seed)
     wvs = []
     for _ in range(REPS):
-        wv = wavelet_variance(model.simulate(N, rng))
+        wv = wavelet_variance(model.simulate(N, rng), freq=1.0)
         wvs.append(wv.variance)
     scales = wv.scales
     keep = wv.n_coefficients >= MIN_COEF
@@ -55,7 +55,7 @@ def test_closed_form_matches_monte_carlo(model):
 def test_drift_wv_is_exact():
     # A linear trend has identical Haar coefficients ω·m/2 at every position, so ν̂² = ω²τ²/16 exactly.
     model = Model([DR(omega=3e-4)])
-    wv = wavelet_variance(model.simulate(4096, seed=0))
+    wv = wavelet_variance(model.simulate(4096, seed=0), freq=1.0)
     np.testing.assert_allclose(wv.variance, model.wv(wv.scales), rtol=1e-8)
 
 

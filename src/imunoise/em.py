@@ -35,11 +35,12 @@ import numpy as np
 
 from imunoise.em_kalman import kalman_estep, kalman_loglik, state_form
 from imunoise.errors import DataError, FitError, ModelError
-from imunoise.fitting.arguments import check_freq, check_unit
+from imunoise.fitting.arguments import check_unit
 from imunoise.fitting.problem import prepare
 from imunoise.fitting.result import GMWMFit
 from imunoise.model import Model, ModelLike, as_model
 from imunoise.processes import AR1, DR, PROCESS_TYPES, RW, WN
+from imunoise.units import required_freq
 
 __all__ = ["em_fit", "kalman_loglik", "check_em_kinds"]
 
@@ -123,7 +124,7 @@ def em_fit(
     data: Any = None,
     /,
     *,
-    freq: float = 1.0,
+    freq: float | None = None,
     init: GMWMFit | ModelLike | None = "av",
     max_iter: int = 500,
     tol: float = 1e-8,
@@ -143,7 +144,7 @@ def em_fit(
     data
         One 1-D array (segments are joined after removing each one's mean; EM needs one time line).
     freq
-        Sample rate in Hz (a number, else :class:`DataError`).
+        Sample rate in Hz, required (keyword; none is assumed; a number, else :class:`DataError`).
     init
         ``"av"`` (the AV baseline, default), a fit, or a model (process, Model or string) with
         parameters.
@@ -166,7 +167,7 @@ def em_fit(
     """
     t0 = time.perf_counter()
     model, data = _em_arguments(model, data, legacy)
-    freq = check_freq(freq)
+    freq = required_freq(freq, "em_fit")
     unit = check_unit(unit)
     if model is not None:
         model = as_model(model)

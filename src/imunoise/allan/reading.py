@@ -42,6 +42,7 @@ from imunoise.fitting.problem import prepare
 from imunoise.fitting.result import GMWMFit
 from imunoise.model import Model
 from imunoise.processes import AR1, DR, QN, RW, WN
+from imunoise.units import required_freq
 from imunoise.wv import scale_runs
 
 __all__ = [
@@ -247,7 +248,7 @@ def reading_model(reading: AllanReading, freq: float) -> Model:
 def allan_fit(
     data: Any,
     *,
-    freq: float = 1.0,
+    freq: float | None = None,
     unit: str = "u",
     grid: str = "dense",
     weights: str = "efficient",
@@ -261,7 +262,7 @@ def allan_fit(
     data
         Array or list of segments.
     freq
-        Sample rate in Hz (a number, else ``DataError``).
+        Sample rate in Hz, required (keyword; none is assumed; a number, else ``DataError``).
     unit
         Data unit named in the summary and the reading's units.
     grid
@@ -280,6 +281,7 @@ def allan_fit(
         the AV points.
     """
     t0 = time.perf_counter()
+    freq = required_freq(freq, "allan_fit")
     problem = prepare(data, freq=freq, weights=weights, robust=robust)
     av = allan_variance(data, freq=freq, grid=grid, wv=problem.wv if grid == "octave" else None)
     reading = read_allan(av, **reading_options)

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from imunoise.errors import DataError
+from imunoise.units import required_freq
 from imunoise.wv.accumulator import (
     MIN_COEFFICIENTS,
     MIN_SAMPLES,
@@ -29,7 +30,7 @@ def wavelet_variance(
     levels: int | None = None,
     robust: bool = False,
     alpha: float = 0.05,
-    freq: float = 1.0,
+    freq: float | None = None,
     concat: bool = False,
     min_coefficients: int = MIN_COEFFICIENTS,
 ) -> WaveletVariance:
@@ -46,7 +47,7 @@ def wavelet_variance(
     alpha : float
         Level of the chi-square intervals.
     freq : float
-        Sample rate [Hz] (only used for ``scales_s`` and ``avar``).
+        Sample rate [Hz], required (keyword; no rate is assumed): it sets ``scales_s`` and ``avar``.
     concat : bool
         Join the segments of a list first.
     min_coefficients : int
@@ -61,6 +62,7 @@ def wavelet_variance(
     DataError
         For too few samples, constant or non-finite data, or bad arguments.
     """
+    freq = required_freq(freq, "wavelet_variance")
     check_args(levels, alpha, min_coefficients)
     segments, is_list = as_segments(data)
     if concat and is_list:
