@@ -50,7 +50,7 @@ def _child(mode: str, n: int, chunk: int) -> dict:
     from imunoise.noise.wv_stream import WVStream
 
     warm = np.random.default_rng(0).standard_normal(1 << 16)
-    wavelet_variance(warm)
+    wavelet_variance(warm, freq=1.0)
     WVStream().add(warm)
     rss0 = _rss_mb()
     if mode == "batch":
@@ -58,7 +58,7 @@ def _child(mode: str, n: int, chunk: int) -> dict:
         for k, c in enumerate(_chunks(n, chunk)):
             x[k * chunk : k * chunk + c.shape[0]] = c
         t0 = time.perf_counter()
-        wv = wavelet_variance(x)
+        wv = wavelet_variance(x, freq=1.0)
         seconds = time.perf_counter() - t0
     else:
         stream = WVStream(levels=CAPPED_LEVELS if mode == "capped" else None)

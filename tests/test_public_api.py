@@ -191,7 +191,7 @@ def test_em_fit_old_argument_order_warns_and_gives_the_same_fit():
     with pytest.raises(DataError, match="em_fit needs data"):
         em_fit("WN", freq=100.0)
     with pytest.raises(TypeError, match="unexpected keyword argument 'iters'"):
-        em_fit("WN", X_WN, iters=3)
+        em_fit("WN", X_WN, iters=3, freq=1.0)
 
 
 # -- rates and units as the CLI checks them --------------------------------------------------------------

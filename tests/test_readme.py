@@ -153,7 +153,7 @@ def test_nav_model_accepts_a_one_axis_fit_and_the_simulator_truth(tmp_path):
     fit = {
         "kind": "imunoise.fit",
         "model": "AR1 + WN",
-        "params": {"AR1_1.phi": 0.99, "AR1_1.sigma2": 1e-8, "WN.sigma2": 1e-6},
+        "params": {"AR1_1.phi": 0.999, "AR1_1.sigma2": 1e-8, "WN.sigma2": 1e-6},
         "freq_hz": 200.0,
         "unit": "rad/s",
         "extra": {"column": "gyro_y"},

@@ -13,7 +13,7 @@ import numpy as np
 
 from imunoise.errors import UnitError
 
-__all__ = ["G0", "to_si", "si_unit", "UNITS", "TIME_UNITS", "quantity_of", "time_to_seconds"]
+__all__ = ["G0", "to_si", "si_unit", "UNITS", "TIME_UNITS", "quantity_of", "time_to_seconds", "required_freq"]
 
 G0 = 9.80665  # standard gravity, m/s² per g
 
@@ -77,3 +77,24 @@ def time_to_seconds(values: np.ndarray, unit: str) -> np.ndarray:
     if unit not in TIME_UNITS:
         raise UnitError(f"unknown time unit {unit!r}; use one of {', '.join(TIME_UNITS)}")
     return np.asarray(values, dtype=float) * TIME_UNITS[unit]
+
+
+def required_freq(freq: object, who: str) -> float:
+    """The sample rate ``freq`` [Hz] that ``who`` needs, as a float. No rate is assumed: a forgotten one (None)
+    is refused with what to write, as are a non-number and a rate that is not finite and > 0 (a fit at an
+    assumed 1 Hz would be 100x off at 100 Hz).
+
+    Raises
+    ------
+    DataError
+    """
+    from imunoise.errors import DataError
+
+    if freq is None:
+        raise DataError(f"{who} needs the sample rate of the data: give freq=HZ (e.g. freq=100.0); none is assumed")
+    if isinstance(freq, bool) or not isinstance(freq, (int, float, np.integer, np.floating)):
+        raise DataError(f"{who}: freq must be a number in Hz, got {freq!r}; e.g. freq=100.0")
+    value = float(freq)
+    if not (math.isfinite(value) and value > 0):
+        raise DataError(f"{who}: freq must be a finite rate > 0 Hz, got {freq!r}")
+    return value

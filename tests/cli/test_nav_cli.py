@@ -87,7 +87,7 @@ def test_model_json_layouts_and_units(tmp_path):
     fit = {
         "kind": "imunoise.fit",
         "model": "AR1 + WN",
-        "params": {"AR1_1.phi": 0.99, "AR1_1.sigma2": 1e-8, "WN.sigma2": 1e-6},
+        "params": {"AR1_1.phi": 0.999, "AR1_1.sigma2": 1e-8, "WN.sigma2": 1e-6},
         "freq_hz": 200.0,
         "unit": "rad/s",
     }

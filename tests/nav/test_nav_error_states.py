@@ -87,6 +87,20 @@ def test_ekf_swap_model_is_swap_map_on_its_state():
     np.testing.assert_allclose(ekf.sensor_errors()[:3], 1e-5, rtol=1e-12)  # the bias estimate survives
 
 
+def test_add_bias_variance_touches_only_the_bias_diagonal():
+    init = InitialState(0.0, np.array([0.7, -1.8, 100.0]), np.zeros(3), np.zeros(3))
+    ekf = LooselyCoupledEKF(EkfConfig(), None, init, imu_rate_hz=RATE)
+    ekf.propagate(np.full(3, 1e-5), np.array([0.0, 0.0, -0.098]), 0.01)
+    ekf.flush()
+    P = ekf.P.copy()
+    var = np.array([1e-10, 0.0, 2e-10, -1.0, np.nan, 3e-6])  # ≤ 0 and NaN add nothing
+    ekf.add_bias_variance(var)
+    rows = [9 + int(ekf.layout.index(a)[0]) for a in range(6)]
+    expect = P.copy()
+    expect[rows, rows] += [1e-10, 0.0, 2e-10, 0.0, 0.0, 3e-6]
+    assert np.array_equal(ekf.P, expect)
+
+
 def test_prime_only_before_the_first_increment():
     init = InitialState(0.0, np.array([0.7, -1.8, 100.0]), np.zeros(3), np.zeros(3))
     ekf = LooselyCoupledEKF(EkfConfig(), None, init, imu_rate_hz=RATE)

@@ -14,6 +14,7 @@ from imunoise.noise.em import em_fit, kalman_loglik
 from imunoise.noise.em_kalman import kalman_estep as _estep
 from imunoise.noise.em_kalman import state_form as _to_state
 from imunoise.noise.model import Model
+from imunoise.noise.process_registry import PROCESS_TYPES
 
 AR1_WN = Model.parse("AR1+WN").with_params({"AR1_1.phi": 0.95, "AR1_1.sigma2": 1e-2, "WN.sigma2": 1e-1})
 
@@ -105,11 +106,11 @@ def test_em_with_drift_and_av_start():
 def test_em_rejects_models_without_state_form():
     y = AR1_WN.simulate(512, seed=0)
     with pytest.raises(ModelError):
-        em_fit("AR1+WN+QN", y, init=None)
+        em_fit("AR1+WN+QN", y, init=None, freq=1.0)
     with pytest.raises(ModelError):
-        em_fit("AR1+RW", y, init=None)
+        em_fit("AR1+RW", y, init=None, freq=1.0)
     with pytest.raises(ModelError):
-        em_fit(None, y, init=None)
+        em_fit(None, y, init=None, freq=1.0)
 
 
 def test_cli_em(tmp_path, capsys):
@@ -121,3 +122,18 @@ def test_cli_em(tmp_path, capsys):
     d = json.loads((out / "model.json").read_text())
     assert d["method"] == "em" and d["extra"]["iterations"] <= 50
     assert cli_main(["em", str(data), "--freq", "100", "--model", "AR1+QN+WN"]) == 2
+
+
+@pytest.mark.parametrize("kind", sorted(PROCESS_TYPES))
+def test_em_handles_or_refuses_every_registered_kind(kind):
+    """Every kind of the registry is either in the fitted model's structure or refused in one line naming it;
+    never dropped without a word (``em_fit('WN+MA1', ...)`` returned a plain WN fit)."""
+    y = np.random.default_rng(3810).normal(0.0, 1e-3, 4000) + np.cumsum(np.full(4000, 1e-7))
+    parts = [PROCESS_TYPES[kind]()] + ([] if kind == "WN" else [PROCESS_TYPES["WN"]()])
+    structure = Model(parts)
+    if PROCESS_TYPES[kind].em_form:
+        fit = em_fit(structure, y, freq=100.0, init=None, max_iter=5)
+        assert str(fit.model) == str(structure)
+    else:
+        with pytest.raises(ModelError, match=rf"^em_fit: {kind} has no place .* fit it with gmwm\(\)$"):
+            em_fit(structure, y, freq=100.0, init=None)

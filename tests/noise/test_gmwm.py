@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from imunoise import AR1, QN, RW, WN, DataError, Model, ModelError
-from imunoise.noise.estimator import GMWMFit, gmwm, prepare
+from imunoise.noise.estimator import GMWMFit, gmwm, prepare, refit
 from imunoise.noise.wv import wavelet_variance
 
 
@@ -25,7 +25,7 @@ def simts(request):
 @pytest.mark.parametrize("weights", ["efficient", "fast"])
 def test_beats_simts_on_its_own_series(simts, weights):
     ref, x = simts
-    fit = gmwm("2*AR1+WN+RW", x, weights=weights)
+    fit = gmwm("2*AR1+WN+RW", x, weights=weights, freq=1.0)
     assert fit.converged
     ours, theirs = fit.objective, fit.objective_at(ref["simts_estimate"])
     assert ours <= theirs
@@ -44,7 +44,7 @@ def test_parameter_recovery_50_seeds():
     truth = AR1(phi=0.995, sigma2=1e-6) + WN(sigma2=1e-4) + RW(gamma2=1e-9)
     rel = []
     for seed in range(50):
-        fit = gmwm(truth.unknown(), truth.simulate(2**17, seed=seed))
+        fit = gmwm(truth.unknown(), truth.simulate(2**17, seed=seed), freq=1.0)
         assert all(np.isfinite(list(fit.params.values())))
         rel.append([fit.params[k] / v - 1 for k, v in truth.params.items()])
     rel = np.array(rel)
@@ -89,7 +89,7 @@ def test_segments_and_quantisation_structure():
     truth = WN(sigma2=1e-6) + QN(q2=1e-7) + RW(gamma2=1e-12)
     x = truth.simulate(2**18, seed=5)
     segs = np.array_split(x, 8)
-    fit = gmwm(truth.unknown(), list(segs))
+    fit = gmwm(truth.unknown(), list(segs), freq=1.0)
     assert fit.params["WN.sigma2"] == pytest.approx(1e-6, rel=0.15)
     assert fit.params["QN.q2"] == pytest.approx(1e-7, rel=0.15)
 
@@ -97,17 +97,17 @@ def test_segments_and_quantisation_structure():
 def test_never_nan_and_clear_errors():
     rng = np.random.default_rng(0)
     with pytest.raises(DataError):
-        gmwm("WN", np.ones(1000))
+        gmwm("WN", np.ones(1000), freq=1.0)
     with pytest.raises(DataError):
-        gmwm("WN", rng.normal(size=8))
+        gmwm("WN", rng.normal(size=8), freq=1.0)
     with pytest.raises(ModelError):
-        gmwm("AR3+WN", rng.normal(size=1000))
+        gmwm("AR3+WN", rng.normal(size=1000), freq=1.0)
     with pytest.raises(DataError):  # more parameters than levels
-        gmwm("4*AR1+WN+QN+RW+DR", rng.normal(size=600))
+        gmwm("4*AR1+WN+QN+RW+DR", rng.normal(size=600), freq=1.0)
     with pytest.raises(ModelError):
-        gmwm("WN", rng.normal(size=1000), weights="magic")
+        gmwm("WN", rng.normal(size=1000), weights="magic", freq=1.0)
     # a model far too rich for white noise still returns finite parameters
-    fit = gmwm("3*AR1+WN+RW", rng.normal(size=4096))
+    fit = gmwm("3*AR1+WN+RW", rng.normal(size=4096), freq=1.0)
     assert np.all(np.isfinite(fit.model.vector))
     # (a fast AR1 with φ ≈ 0 is indistinguishable from WN, so test the implied WV, not the split)
     np.testing.assert_allclose(fit.theoretical_wv[:6], 1.0 / fit.wv.scales[:6], rtol=0.1)
@@ -116,7 +116,7 @@ def test_never_nan_and_clear_errors():
 def test_warm_start_refit_is_consistent():
     truth = AR1(phi=0.995, sigma2=1e-6) + WN(sigma2=1e-4)
     x = truth.simulate(40_000, seed=9)
-    problem = prepare(wavelet_variance(x))
+    problem = prepare(wavelet_variance(x, freq=1.0), freq=1.0)
     a = gmwm(truth.unknown(), problem)
     b = gmwm(truth.unknown(), problem, start=a.model, n_random=0)
     assert b.objective <= a.objective * (1 + 1e-9)
@@ -139,3 +139,22 @@ def test_a_collapsed_gauss_markov_process_has_no_interval_for_its_correlation_ti
     lo, hi = ci[f"{kept}.phi"]
     assert lo < 0.995 < hi  # the real process keeps its interval, which covers the truth
     assert "(not identified)" in fit.summary()
+
+
+def test_every_estimator_requires_the_rate():
+    """No rate is assumed: gmwm, em_fit, wavelet_variance and the Allan functions refuse data without freq=, in
+    one line naming freq= (a fit at an assumed 1 Hz is 100x off at 100 Hz); a WV carries its own rate."""
+    from imunoise.noise.allan import allan_fit, allan_variance
+    from imunoise.noise.em import em_fit
+
+    x = np.random.default_rng(3820).normal(size=4096)
+    calls = {"gmwm": lambda: gmwm("WN", x), "em_fit": lambda: em_fit("WN", x, init=None),
+             "wavelet_variance": lambda: wavelet_variance(x), "allan_variance": lambda: allan_variance(x),
+             "allan_fit": lambda: allan_fit(x), "refit": lambda: refit("WN", x)}
+    for who, call in calls.items():
+        with pytest.raises(DataError, match=rf"^{who} needs the sample rate of the data: give freq=HZ"):
+            call()
+    wv = wavelet_variance(x, freq=100.0)
+    assert gmwm("WN", wv).freq == 100.0  # the WV's own rate
+    with pytest.raises(DataError, match=r"freq=1.0 but the wavelet variance was computed at 100 Hz"):
+        gmwm("WN", wv, freq=1.0)

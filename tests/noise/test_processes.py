@@ -21,7 +21,7 @@ def _mc_check(model: Model, seed: int) -> None:
     rng = np.random.default_rng(seed)
     wvs = []
     for _ in range(REPS):
-        wv = wavelet_variance(model.simulate(N, rng))
+        wv = wavelet_variance(model.simulate(N, rng), freq=1.0)
         wvs.append(wv.variance)
     scales = wv.scales
     keep = wv.n_coefficients >= MIN_COEF
@@ -55,7 +55,7 @@ def test_closed_form_matches_monte_carlo(model):
 def test_drift_wv_is_exact():
     # A linear trend has identical Haar coefficients ω·m/2 at every position, so ν̂² = ω²τ²/16 exactly.
     model = Model([DR(omega=3e-4)])
-    wv = wavelet_variance(model.simulate(4096, seed=0))
+    wv = wavelet_variance(model.simulate(4096, seed=0), freq=1.0)
     np.testing.assert_allclose(wv.variance, model.wv(wv.scales), rtol=1e-8)
 
 
@@ -135,3 +135,19 @@ def test_continuous_conversions():
     var_gm = 1e-8 / (1 - phi**2)
     assert c["AR1_1.sigma_gm"] == pytest.approx(np.sqrt(var_gm))
     assert c["AR1_1.q_c"] == pytest.approx(2 * var_gm / 50.0)
+
+
+def test_algebra_works_from_the_processes_module_alone():
+    """``from imunoise.noise.processes import WN, RW; WN() + RW()`` in a fresh interpreter: the algebra is no side
+    effect of some other import."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    src = str(Path(__file__).resolve().parents[2] / "src")
+    for where in ("imunoise.noise.processes", "imunoise.processes"):  # the new path and the old one
+        code = f"from {where} import WN, RW; m = WN() + RW(); print(type(m).__name__, m)"
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                             env={**os.environ, "PYTHONPATH": src})
+        assert out.stdout.strip() == "Model WN + RW", where

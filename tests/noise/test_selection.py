@@ -113,7 +113,7 @@ def test_optimism_penalty_is_two_per_parameter_for_efficient_weights():
 
 def test_wv_deviance_and_correlation_identities():
     tau = 2.0 ** np.arange(1, 14)
-    wv = prepare(CASE_A.simulate(2**14, seed=2)).wv
+    wv = prepare(CASE_A.simulate(2**14, seed=2), freq=1.0).wv
     assert wv_deviance(wv, wv.variance) == 0.0
     assert wv_deviance(wv, 1.1 * wv.variance) > 0.0
     M = np.full(tau.size, 1e5)
@@ -136,7 +136,7 @@ def test_wv_likelihood_uses_the_gaussian_variance_of_the_estimator():
     assert A[0] == pytest.approx(1.5 * (2.0 / 2.0) ** 2, rel=2e-3)
     # the likelihood prefers the generating model to a 20 % wrong one, and a drift has no spread
     x = wn.simulate(2**15, seed=3)
-    wv = prepare(x).wv
+    wv = prepare(x, freq=1.0).wv
     wrong = Model.parse("WN").with_params({"WN.sigma2": 2.4})
     assert wv_neg_loglik(wv, wn) < wv_neg_loglik(wv, wrong)
     dr = wn + Model.parse("DR").with_params({"DR.omega": 1e-3})

@@ -84,7 +84,8 @@ def test_preset_amplifies_the_10s_adev_by_the_designed_factor():
     orc = oracle_models(models, DEFAULT_MOTION)
     designed = []
     for j, ax in enumerate(AXES[:3]):
-        wm, ws = wavelet_variance(moving[:, j], levels=10), wavelet_variance(static[:, j], levels=10)
+        wm = wavelet_variance(moving[:, j], levels=10, freq=1.0)
+        ws = wavelet_variance(static[:, j], levels=10, freq=1.0)
         assert wm.scales[-1] == 1024
         want = np.sqrt(orc[ax].wv(wm.scales[-1:]) / models[ax].wv(wm.scales[-1:]))[0]
         assert np.sqrt(wm.variance[-1] / ws.variance[-1]) == pytest.approx(want, rel=0.05)
@@ -103,7 +104,7 @@ def test_oracle_models_match_the_simulated_moving_errors():
     runs = [(a + 2000, b) for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True)
             if b - a > 4000]
     for j, ax in enumerate(AXES):
-        wv = wavelet_variance([d.model_errors[a:b, j] for a, b in runs], levels=6)
+        wv = wavelet_variance([d.model_errors[a:b, j] for a, b in runs], levels=6, freq=1.0)
         np.testing.assert_allclose(wv.variance / d.moving_models[ax].wv(wv.scales), 1.0, atol=0.15)
         # at τ = 2 samples white noise dominates: ×3 (gyro) or ×7 (accel) in σ
         assert wv.variance[0] / d.imu_models[ax].wv(wv.scales[:1])[0] > 4.0

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from imunoise.errors import ModelError
+from imunoise.nav.filter_model import AxisFit, filter_axis_models
 from imunoise.noise.model import Model
 from imunoise.noise.processes import AR1, RW, WN
 
@@ -183,12 +184,17 @@ def _model_from_entry(entry: dict, sensor: str, where: str, freq_default: float)
     model = Model.from_dict(entry)
     if not model.known:
         raise ModelError(f"{where}: model {model} has no parameter values")
-    freq = entry.get("freq_hz", entry.get("rate_hz", freq_default))
-    return model, float(freq)
+    freq = float(entry.get("freq_hz", entry.get("rate_hz", freq_default)))
+    scales = (entry.get("wv") or {}).get("scales") if isinstance(entry.get("wv"), dict) else None
+    horizon = float(scales[-1]) if scales else None  # a fit file carries the WV it was fitted on
+    (mapped, rate), = filter_axis_models([AxisFit(model, freq, horizon)], freq, [None])
+    return mapped, rate
 
 
 def load_axis_models(src, freq_default: float) -> list[tuple[Model, float]]:
-    """Six (model, freq) pairs from a model JSON (path or parsed dict).
+    """Six filter (model, freq) pairs from a model JSON (path or parsed dict), each axis through the one door
+    into the filter (:func:`imunoise.nav.filter_model.filter_axis_models`, without a floor; a fit file's WV gives
+    the horizon): ``nav --imu-model`` and ``online --imu-model``.
 
     Accepted layouts: the multi-axis model file (``kind: imunoise.noise.imu_model`` with ``axes``),
     ``{"gyro": FIT, "accel": FIT}`` (one model per sensor), ``{"gyro": {"x": FIT, "y":

@@ -83,6 +83,10 @@ class ModelLayout:
     def index(self, axis: int) -> np.ndarray:
         return np.flatnonzero(self.axis_of == axis)
 
+    def bias_rows(self) -> np.ndarray:
+        """Row of each axis' bias state (its first model state) in the full covariance, gyro x,y,z, accel x,y,z."""
+        return np.array([N_NAV + int(self.index(a)[0]) for a in range(6)], dtype=np.int64)
+
     @classmethod
     def build(
         cls, models: list[tuple[object, float]], dt: float, scale: tuple[float, float, float] | None = None

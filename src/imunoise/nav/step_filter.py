@@ -385,8 +385,7 @@ class LooselyCoupledEKF:
         counterpart in the new model (same structure: by position; else an AR1 with the same φ) is carried
         over 1:1 instead (:func:`~imunoise.nav.error_states.swap_map`); ``kept`` counts those, ``reset``
         the states that start fresh. ``axis_models``: as for the constructor
-        (:func:`~imunoise.nav.defaults.normalize_axis_models`,
-        with ``imu_rate_hz`` as the default rate).
+        (:func:`~imunoise.nav.defaults.normalize_axis_models`, with ``imu_rate_hz`` as the default rate).
 
         Parameters
         ----------
@@ -396,11 +395,6 @@ class LooselyCoupledEKF:
             Carry matching AR1/DR states over instead of resetting them.
         imu_rate_hz : float, optional
             Rate of models given without one (default: the filter's nominal rate).
-
-        Returns
-        -------
-        dict
-            ``{"kept": k, "reset": r}``, numbers of model states.
         """
         self.flush()
         rate = imu_rate_hz or 1.0 / self.dt_nom
@@ -408,6 +402,12 @@ class LooselyCoupledEKF:
         res = swap_map(self.layout, new, self.xm, self.P, initial_covariance(self.config, new), preserve=preserve)
         self.xm, self.P, self.layout = res.x, res.P, new
         return {"kept": res.kept, "reset": res.reset}
+
+    def add_bias_variance(self, var) -> None:
+        """Add ``var[a]`` to the variance of axis a's bias state (gyro x,y,z, accel x,y,z) at the current epoch."""
+        self.flush()
+        v = np.asarray(var, dtype=float)
+        self.P[self.layout.bias_rows(), self.layout.bias_rows()] += np.where(v > 0, v, 0.0)  # ≤ 0 or NaN: none
 
     # -- what-if runs -------------------------------------------------------------------------------
     def rehearse(self, t: np.ndarray, dtheta: np.ndarray, dv: np.ndarray, gnss_t: np.ndarray, gnss_llh: np.ndarray,

@@ -36,13 +36,14 @@ import numpy as np
 
 from imunoise.errors import DataError, FitError, ModelError
 from imunoise.noise.em_kalman import kalman_estep, kalman_loglik, state_form
-from imunoise.noise.fitting.arguments import check_freq, check_unit
+from imunoise.noise.fitting.arguments import check_unit
 from imunoise.noise.fitting.problem import prepare
 from imunoise.noise.fitting.result import GMWMFit
 from imunoise.noise.model import Model, ModelLike, as_model
-from imunoise.noise.processes import AR1, DR, RW, WN
+from imunoise.noise.processes import AR1, DR, PROCESS_TYPES, RW, WN
+from imunoise.units import required_freq
 
-__all__ = ["em_fit", "kalman_loglik"]
+__all__ = ["em_fit", "kalman_loglik", "check_em_kinds"]
 
 _PHI_LO, _PHI_HI = 1e-6, 1.0 - 1e-10
 
@@ -72,9 +73,17 @@ def _start_model(structure: Model, init: Model | None, var_y: float) -> Model:
             if kind != "DR":
                 v = max(v, 1e-14 * var_y)
             comps.append(proc(**{proc.param_names[0]: v}))
-    if structure.has("QN"):
-        raise ModelError("the EM baseline has no QN (not a first-order state-space process); remove QN")
     return Model(comps)
+
+
+def check_em_kinds(structure: Model) -> None:
+    """Refuse, in one line naming it, a kind the EM's state-space form has no place for (its class' ``em_form``
+    is empty: QN, MA1), instead of fitting the model without it."""
+    bad = sorted({c.kind for c in structure.components if not type(c).em_form})
+    if bad:
+        handled = [k for k, cls in PROCESS_TYPES.items() if cls.em_form]
+        raise ModelError(f"em_fit: {', '.join(bad)} has no place in the EM's state-space form (it handles "
+                         f"{', '.join(handled)}); remove {', '.join(bad)} from the model or fit it with gmwm()")
 
 
 def _looks_like_data(x: Any) -> bool:
@@ -116,7 +125,7 @@ def em_fit(
     data: Any = None,
     /,
     *,
-    freq: float = 1.0,
+    freq: float | None = None,
     init: GMWMFit | ModelLike | None = "av",
     max_iter: int = 500,
     tol: float = 1e-8,
@@ -136,7 +145,7 @@ def em_fit(
     data
         One 1-D array (segments are joined after removing each one's mean; EM needs one time line).
     freq
-        Sample rate in Hz (a number, else :class:`DataError`).
+        Sample rate in Hz, required (keyword; none is assumed; a number, else :class:`DataError`).
     init
         ``"av"`` (the AV baseline, default), a fit, or a model (process, Model or string) with
         parameters.
@@ -159,10 +168,11 @@ def em_fit(
     """
     t0 = time.perf_counter()
     model, data = _em_arguments(model, data, legacy)
-    freq = check_freq(freq)
+    freq = required_freq(freq, "em_fit")
     unit = check_unit(unit)
     if model is not None:
         model = as_model(model)
+        check_em_kinds(model)  # before the AV start is computed
     if isinstance(data, (list, tuple)):
         y = np.concatenate([np.asarray(s, dtype=float) - np.mean(s) for s in data])
     else:
@@ -188,6 +198,7 @@ def em_fit(
     if structure is None:
         raise ModelError("give the EM a model structure (model=) or a starting fit (init=)")
     structure = structure.unknown()
+    check_em_kinds(structure)
     current = _start_model(structure, init_model, var_y)
     n = y.size
     tt = np.arange(n, dtype=float) - (n - 1) / 2.0

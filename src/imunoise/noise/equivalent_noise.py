@@ -49,7 +49,7 @@ Rule, per axis (parameters per sample at f, docs/guide/theory.rst, 'Latent proce
    it is 0.57–1.21x the true K (mean 0.90), and a correct WN + RW fit is capped in about 4 of 10 records —
    the cap trades a K that may be low for never stating more bias wander than the data show.
 
-The export (:mod:`imunoise.export`) and the online filter mapping (:func:`imunoise.online.ekf_axis_model`)
+The export (:mod:`imunoise.export`) and the filter mapping (:func:`imunoise.nav.filter_model.filter_model`)
 both call :func:`equivalent_noise`; the online engine keeps AR1s with ``fold_tau_s`` ≤ T_c ≤ horizon as
 Gauss–Markov states and passes the rest here with ``white_below_s = fold_tau_s``. The online mapping passes
 no ``data_av``, so the filter keeps the model's own RW: rule 4 is for the exported pair, which states what

@@ -19,7 +19,11 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import ModelError
-from imunoise.noise.processes import AR1, DR, ORDER, PROCESS_TYPES, QN, RW, WN, Process
+from imunoise.noise.process_ar1 import AR1
+from imunoise.noise.process_base import Process
+from imunoise.noise.process_bias import DR, RW
+from imunoise.noise.process_registry import ORDER, PROCESS_TYPES
+from imunoise.noise.process_white import QN, WN
 from imunoise.noise.state_space import StateSpace, stack_state_space
 
 __all__ = ["Model", "StateSpace", "ORDER", "ModelLike", "as_model"]

@@ -56,6 +56,7 @@ class AR1(Process):
     """
 
     kind = "AR1"
+    em_form = "state"
     reading = "gauss_markov"
     param_names = ("phi", "sigma2")
     param_units = ("1", "u^2")

@@ -234,6 +234,9 @@ class Process:
         """∂ν/∂θ in a parametrisation that never vanishes at 0 (the WVIC's rank count)."""
         return self.wv_jacobian(tau)
 
+    em_form: ClassVar[str] = ""  # its place in the EM baseline's state-space form (imunoise.noise.em): "state" (a
+    # first-order Kalman state with a closed-form M-step), "observation" (the observation noise), "drift" (a
+    # deterministic regressor), "" (none: em_fit refuses the kind, naming it)
     reading: ClassVar[str] = "white"  # how a calibration reads it within a horizon: white, random_walk (as K),
     # gauss_markov (a value when T_c is inside the horizon), ramp (never a value)
     starts_fine: ClassVar[bool] = True  # the estimator's start reads the finest scale (else the coarsest)
@@ -259,15 +262,16 @@ class Process:
         return None
 
     # -- algebra ----------------------------------------------------------------------------------
-    # The sum type is registered by imunoise.noise.model when it loads (Model.register below it): the algebra needs
-    # Model, and Model needs the processes, so the dependency points one way (model → processes).
+    # The sum type is set by imunoise.noise.model when it loads: the algebra needs Model, and Model needs the processes,
+    # so the dependency points one way (model → processes). imunoise.noise.processes, where users import the processes
+    # from, loads the model, so the algebra is there whatever was imported first.
     sum_type: ClassVar[Any] = None
 
     @staticmethod
     def _sum(components: list[Process]) -> Model:
         if Process.sum_type is None:
-            raise ModelError("the model algebra needs imunoise.noise.model: import imunoise.noise.model "
-                             "(or use imunoise.WN etc.)")
+            raise ModelError("the model algebra needs imunoise.noise.model: import the processes from "
+                             "imunoise.noise.processes (or imunoise), not from their family modules")
         return Process.sum_type(components)
 
     def __add__(self, other: Process | Model) -> Model:

@@ -53,6 +53,7 @@ class RW(Process):
     """
 
     kind = "RW"
+    em_form = "state"
     reading = "random_walk"
     param_names = ("gamma2",)
     param_units = ("u^2",)
@@ -123,6 +124,7 @@ class DR(Process):
     """
 
     kind = "DR"
+    em_form = "drift"
     reading = "ramp"
     param_names = ("omega",)
     param_units = ("u",)

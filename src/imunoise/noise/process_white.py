@@ -42,6 +42,7 @@ class WN(Process):
     """
 
     kind = "WN"
+    em_form = "observation"
     param_names = ("sigma2",)
     param_units = ("u^2",)
     continuous_units = {"noise_density": "u/√Hz"}

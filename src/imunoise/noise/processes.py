@@ -18,7 +18,7 @@ estimator's kernels run, sit right above it in its family's module (:mod:`imunoi
 :mod:`imunoise.noise.process_bias`: RW, DR; :mod:`imunoise.noise.process_ar1`: AR1;
 :mod:`imunoise.noise.process_ma1`: MA1).
 Everything else iterates over :data:`PROCESS_TYPES`, the one kind vocabulary (``cls.code`` is the compiled kind
-code).
+code), kept in :mod:`imunoise.noise.process_registry`.
 
 A process either has all its parameters (a "known" process, e.g. ``AR1(phi=0.99, sigma2=1e-6)``) or
 none (``AR1()``, to be estimated). ``+`` and ``k *`` build a :class:`imunoise.noise.model.Model`.
@@ -46,19 +46,12 @@ from imunoise.noise.process_base import (
 )
 from imunoise.noise.process_bias import DR, RW
 from imunoise.noise.process_ma1 import MA1
+from imunoise.noise.process_registry import N_PARAMS, ORDER, PROCESS_TYPES
 from imunoise.noise.process_white import QN, WN
 
 __all__ = [
-    "Process", "WN", "QN", "RW", "DR", "AR1", "MA1", "PROCESS_TYPES", "ORDER", "N_PARAMS", "ar1_wv", "ar1_wv_dphi",
+    "Process", "WN", "QN", "RW", "DR", "AR1", "MA1", "PROCESS_TYPES", "ORDER", "N_PARAMS", "ar1_wv",
+    "ar1_wv_dphi",
     "ROLE_BIAS", "ROLE_STATIONARY", "ROLE_RAMP", "FilterState", "EquivalentPart", "dr_equivalent_rw",
     "ar1_white_variance", "LOG_LO", "LOG_HI", "V_LO", "V_HI", "B_LO", "B_HI",
 ]
-
-PROCESS_TYPES: dict[str, type[Process]] = {cls.kind: cls for cls in (AR1, WN, QN, RW, DR, MA1)}
-"""The registry, the one kind vocabulary: canonical order (a model lists its components in it) and, by position,
-the compiled kind codes. A new process is one class (in its family's module) plus its entry here (and its branch
-in the kernels' dispatch, :mod:`imunoise.noise.fitting.kernels`)."""
-for _code, _cls in enumerate(PROCESS_TYPES.values()):
-    _cls.code = _code
-ORDER: tuple[str, ...] = tuple(PROCESS_TYPES)
-N_PARAMS: tuple[int, ...] = tuple(len(c.param_names) for c in PROCESS_TYPES.values())

@@ -7,8 +7,9 @@ name importable from ``imunoise.online``:
 ``config``
     :class:`OnlineConfig` (the engine's settings), ``COMPLETE``, ``NEGLIGIBLE``, :func:`config_summary`.
 ``to_filter``
-    The one fit → filter-noise mapping: :func:`ekf_axis_model` (one axis), :func:`filter_axis_models` (six
-    axes), :func:`data_horizon`, :func:`dr_equivalent_rw`.
+    The engine's settings on the one fit → filter-noise mapping (:mod:`imunoise.nav.filter_model`):
+    :func:`ekf_axis_model` (one axis), :func:`filter_axis_models` (six axes), :func:`data_horizon`,
+    :func:`dr_equivalent_rw`.
 ``jobs``
     The modelling job (:func:`model_job`: identification or refit per axis, plausibility check), a pure
     function run inline or in a worker thread.

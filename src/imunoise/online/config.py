@@ -13,12 +13,12 @@ from typing import Any
 from imunoise.detect import DetectorConfig
 from imunoise.errors import ModelError
 from imunoise.nav.defaults import EkfConfig
+from imunoise.nav.filter_model import NEGLIGIBLE  # re-exported: the engine's name for it
 from imunoise.online.motion_noise import MotionNoiseConfig
 
 __all__ = ["COMPLETE", "NEGLIGIBLE", "OnlineConfig", "config_summary"]
 
 COMPLETE = "4*AR1 + DR + WN + QN + RW"
-NEGLIGIBLE = 1e-12  # relative stationary variance below which a fitted AR1 is treated as absent
 
 
 @dataclass(frozen=True)

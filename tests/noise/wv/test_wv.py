@@ -38,7 +38,7 @@ def simts_case(shared_data):
 
 def test_matches_simts_wv_and_eta3_ci(simts_case):
     x, ref = simts_case
-    wv = wavelet_variance(x)
+    wv = wavelet_variance(x, freq=1.0)
     assert len(wv) == 16 == len(ref)
     np.testing.assert_array_equal(wv.levels, ref["level"].astype(int))
     np.testing.assert_array_equal(wv.scales, ref["tau"])
@@ -54,11 +54,11 @@ def test_default_level_rule_keeps_all_simts_levels_and_drops_near_empty_tops():
     # N = 1e5: M_16 = 34465 >= MIN_COEFFICIENTS, so all floor(log2 N) levels are kept (checked above);
     # N = 2**10 exactly: M_10 = 1 < MIN_COEFFICIENTS, dropped unless min_coefficients=1 (simts' set)
     x = np.random.default_rng(3).standard_normal(2**10)
-    assert wavelet_variance(x).levels.tolist() == list(range(1, 10))
-    full = wavelet_variance(x, min_coefficients=1)
+    assert wavelet_variance(x, freq=1.0).levels.tolist() == list(range(1, 10))
+    full = wavelet_variance(x, min_coefficients=1, freq=1.0)
     assert full.levels.tolist() == list(range(1, 11)) and full.n_coefficients[-1] == 1
-    assert wavelet_variance(x, levels=4).levels.tolist() == [1, 2, 3, 4]
-    assert wavelet_variance(x, levels=40).levels.tolist() == list(range(1, 10))
+    assert wavelet_variance(x, levels=4, freq=1.0).levels.tolist() == [1, 2, 3, 4]
+    assert wavelet_variance(x, levels=40, freq=1.0).levels.tolist() == list(range(1, 10))
     assert MIN_COEFFICIENTS <= 34465
 
 
@@ -110,16 +110,16 @@ def test_accumulator_equals_batch_on_segments():
     # result() can be called between adds: it reflects the segments so far
     acc2 = WVAccumulator(levels=6)
     acc2.add(segs[0])
-    _assert_same(acc2.result(), wavelet_variance(segs[:1], levels=6))
+    _assert_same(acc2.result(), wavelet_variance(segs[:1], levels=6, freq=1.0))
     acc2.add(segs[3])
-    _assert_same(acc2.result(), wavelet_variance([segs[0], segs[3]], levels=6))
+    _assert_same(acc2.result(), wavelet_variance([segs[0], segs[3]], levels=6, freq=1.0))
 
 
 def test_accumulator_with_one_segment_equals_batch_on_array():
     x = np.random.default_rng(2).standard_normal(12345)
     acc = WVAccumulator()
     acc.add(x)
-    _assert_same(acc.result(), wavelet_variance(x))
+    _assert_same(acc.result(), wavelet_variance(x, freq=1.0))
 
 
 # 4. segments never cross junctions --------------------------------------------------------------------
@@ -128,8 +128,8 @@ def test_accumulator_with_one_segment_equals_batch_on_array():
 def test_pooled_segments_ignore_a_huge_offset_between_them():
     rng = np.random.default_rng(4)
     a, b = rng.standard_normal(5000), 1e6 + 3.0 * rng.standard_normal(3000)
-    pooled = wavelet_variance([a, b])
-    wa, wb = wavelet_variance(a), wavelet_variance(b)
+    pooled = wavelet_variance([a, b], freq=1.0)
+    wa, wb = wavelet_variance(a, freq=1.0), wavelet_variance(b, freq=1.0)
     k = len(wb)  # levels both segments have
     assert pooled.levels.tolist() == wa.levels.tolist()
     by_hand_m = wa.n_coefficients[:k] + wb.n_coefficients
@@ -138,7 +138,7 @@ def test_pooled_segments_ignore_a_huge_offset_between_them():
     assert _rel(pooled.variance[:k], by_hand) < 1e-10
     assert _rel(pooled.variance[k:], wa.variance[k:]) < 1e-12  # only segment a reaches these levels
     # the paper's way (concatenate) sees the 1e6 step at every level
-    joined = wavelet_variance([a, b], concat=True)
+    joined = wavelet_variance([a, b], concat=True, freq=1.0)
     assert np.all(joined.variance[:k] > 100 * pooled.variance[:k])
     assert joined.n_coefficients[0] == 7999
 
@@ -149,7 +149,7 @@ def test_pooled_segments_ignore_a_huge_offset_between_them():
 def test_eta3_chi_square_interval():
     x = np.random.default_rng(5).standard_normal(3000)
     for alpha in (0.05, 0.32):
-        wv = wavelet_variance(x, alpha=alpha)
+        wv = wavelet_variance(x, alpha=alpha, freq=1.0)
         eta = np.maximum(wv.n_coefficients / wv.scales, 1.0)
         np.testing.assert_allclose(wv.ci_low, eta * wv.variance / chi2.ppf(1 - alpha / 2, eta), rtol=1e-12)
         np.testing.assert_allclose(wv.ci_high, eta * wv.variance / chi2.ppf(alpha / 2, eta), rtol=1e-12)
@@ -161,8 +161,8 @@ def test_eta3_chi_square_interval():
 def test_white_noise_wv_and_covariance_calibration():
     # WN sigma^2 = 4: nu^2_j = 4/tau_j; the diagonal cov matches the Monte Carlo variance of nu^2 hat
     rng = np.random.default_rng(6)
-    est = np.array([wavelet_variance(2.0 * rng.standard_normal(4096), levels=6).variance for _ in range(150)])
-    cov = wavelet_variance(2.0 * rng.standard_normal(4096), levels=6).cov
+    est = np.array([wavelet_variance(2.0 * rng.standard_normal(4096), levels=6, freq=1.0).variance for _ in range(150)])
+    cov = wavelet_variance(2.0 * rng.standard_normal(4096), levels=6, freq=1.0).cov
     truth = 4.0 / 2.0 ** np.arange(1, 7)
     se = est.std(axis=0) / np.sqrt(len(est))
     assert np.all(np.abs(est.mean(axis=0) - truth) < 4 * se)
@@ -172,7 +172,7 @@ def test_white_noise_wv_and_covariance_calibration():
 
 def test_cov_positive_definite_and_finite_for_short_or_periodic_data():
     for x in (np.random.default_rng(7).standard_normal(16), np.tile([1.0, -1.0], 64), np.arange(40.0)):
-        wv = wavelet_variance(x, min_coefficients=1)
+        wv = wavelet_variance(x, min_coefficients=1, freq=1.0)
         assert np.all(np.isfinite(wv.cov)) and np.all(np.isfinite(wv.variance))
         assert np.linalg.eigvalsh(wv.cov).min() > 0
         np.testing.assert_array_equal(wv.cov, np.diag(np.diag(wv.cov)))
@@ -187,13 +187,13 @@ def test_huber_constant_gives_60_percent_efficiency_and_consistency():
 def test_robust_close_to_classical_on_clean_data_and_resists_outliers():
     rng = np.random.default_rng(9)
     x = rng.standard_normal(2**17)
-    clean, robust = wavelet_variance(x, levels=6), wavelet_variance(x, levels=6, robust=True)
+    clean, robust = wavelet_variance(x, levels=6, freq=1.0), wavelet_variance(x, levels=6, robust=True, freq=1.0)
     assert robust.robust and not clean.robust
     assert _rel(robust.variance, clean.variance) < 0.05
     truth = 1.0 / clean.scales
     y = x.copy()
     y[rng.choice(y.size, 100, replace=False)] += 50.0 * rng.choice([-1.0, 1.0], 100)
-    cl, rb = wavelet_variance(y, levels=6), wavelet_variance(y, levels=6, robust=True)
+    cl, rb = wavelet_variance(y, levels=6, freq=1.0), wavelet_variance(y, levels=6, robust=True, freq=1.0)
     err_cl, err_rb = np.abs(cl.variance / truth - 1), np.abs(rb.variance / truth - 1)
     # each spike touches tau_j coefficients, so the contaminated share grows with the level
     assert np.all(err_rb[:5] < 0.1), err_rb

@@ -53,7 +53,7 @@ def test_random_chunkings_equal_the_batch(seed):
 
 def test_one_sample_chunks_and_cuts_at_powers_of_two():
     x = _series(3001, 7)
-    ref = wavelet_variance(x, alpha=0.1)
+    ref = wavelet_variance(x, alpha=0.1, freq=1.0)
     _assert_same(_stream(x, range(1, x.shape[0]), alpha=0.1).result(), ref)
     _assert_same(_stream(x, [2**k for k in range(12)], alpha=0.1).result(), ref)
     _assert_same(_stream(x, [2**k - 1 for k in range(1, 12)], alpha=0.1).result(), ref)
@@ -67,18 +67,18 @@ def test_chunks_longer_than_a_block_and_result_midway():
     x = _series(3 * BLOCK + 123, 11)
     s = WVStream()
     s.add(x[: 2 * BLOCK + 5])
-    _assert_same(s.result(), wavelet_variance(x[: 2 * BLOCK + 5]))  # result() leaves the stream intact
+    _assert_same(s.result(), wavelet_variance(x[: 2 * BLOCK + 5], freq=1.0))  # result() leaves the stream intact
     s.add(x[2 * BLOCK + 5 :])
-    _assert_same(s.result(), wavelet_variance(x))
+    _assert_same(s.result(), wavelet_variance(x, freq=1.0))
     assert s.n_samples == x.shape[0]
 
 
 def test_fixed_levels_and_max_scale_s():
     x = _series(4321, 5)
     cuts = [100, 1024, 1025, 3000]
-    _assert_same(_stream(x, cuts, levels=6).result(), wavelet_variance(x, levels=6))
+    _assert_same(_stream(x, cuts, levels=6).result(), wavelet_variance(x, levels=6, freq=1.0))
     # more levels asked than the data hold: the batch rule floor(log2 N) caps it
-    _assert_same(_stream(x, cuts, levels=30).result(), wavelet_variance(x, levels=30))
+    _assert_same(_stream(x, cuts, levels=30).result(), wavelet_variance(x, levels=30, freq=1.0))
     # 0.64 s at 100 Hz = 64 samples = 2**6; 0.7 s also gives 6 (2**7 = 1.28 s is too coarse)
     for max_scale_s in (0.64, 0.7):
         got = _stream(x, cuts, freq=100.0, max_scale_s=max_scale_s).result()
@@ -88,7 +88,7 @@ def test_fixed_levels_and_max_scale_s():
 
 def test_all_levels_of_an_exact_power_of_two_with_min_coefficients_one():
     x = _series(2**11, 8)
-    ref = wavelet_variance(x, min_coefficients=1)
+    ref = wavelet_variance(x, min_coefficients=1, freq=1.0)
     assert ref.n_coefficients[-1] == 1 and len(ref) == 11
     _assert_same(_stream(x, [3, 1000], min_coefficients=1).result(), ref)
 
@@ -108,7 +108,7 @@ def test_long_series_with_large_offset_keeps_the_digits():
     rng = np.random.default_rng(4)
     n = 2**21 + 12345
     x = 9.81 + 1e-3 * rng.standard_normal(n) + 1e-6 * np.cumsum(rng.standard_normal(n)) + np.linspace(0, 0.5, n)
-    ref = wavelet_variance(x)
+    ref = wavelet_variance(x, freq=1.0)
     assert len(ref) == 21
     _assert_same(_stream(x, [1, *range(1, n, 300_007)]).result(), ref)
 

@@ -44,6 +44,7 @@ from imunoise.noise.fitting.result import GMWMFit
 from imunoise.noise.model import Model
 from imunoise.noise.processes import AR1, DR, QN, RW, WN
 from imunoise.noise.wv import scale_runs
+from imunoise.units import required_freq
 
 __all__ = [
     "BI_FACTOR",
@@ -249,7 +250,7 @@ def reading_model(reading: AllanReading, freq: float) -> Model:
 def allan_fit(
     data: Any,
     *,
-    freq: float = 1.0,
+    freq: float | None = None,
     unit: str = "u",
     grid: str = "dense",
     weights: str = "efficient",
@@ -264,7 +265,7 @@ def allan_fit(
     data
         Array or list of segments.
     freq
-        Sample rate in Hz (a number, else ``DataError``).
+        Sample rate in Hz, required (keyword; none is assumed; a number, else ``DataError``).
     unit
         Data unit named in the summary and the reading's units.
     grid
@@ -283,6 +284,7 @@ def allan_fit(
         the AV points.
     """
     t0 = time.perf_counter()
+    freq = required_freq(freq, "allan_fit")
     problem = prepare(data, freq=freq, weights=weights, robust=robust)
     av = allan_variance(data, freq=freq, grid=grid, wv=problem.wv if grid == "octave" else None)
     reading = read_allan(av, **reading_options)

@@ -21,6 +21,7 @@ from numba import njit
 
 from imunoise.errors import DataError
 from imunoise.noise.wv import WaveletVariance, wavelet_variance
+from imunoise.units import required_freq
 
 __all__ = ["AllanVariance", "allan_variance", "chi2_ci"]
 
@@ -83,7 +84,7 @@ def _segments(data: Any) -> list[np.ndarray]:
 def allan_variance(
     data: Any,
     *,
-    freq: float = 1.0,
+    freq: float | None = None,
     grid: str = "octave",
     points_per_decade: int = 10,
     wv: WaveletVariance | None = None,
@@ -93,8 +94,7 @@ def allan_variance(
     ``grid="octave"``: m = 2^{j−1} via the identity AVAR = 2ν²_j (a ready ``wv`` may be passed);
     ``grid="dense"``: m on a log grid with ``points_per_decade`` points, from cumulative sums.
     """
-    if not freq > 0:
-        raise DataError(f"sampling frequency must be > 0 Hz, got {freq}")
+    freq = required_freq(freq, "allan_variance")
     if grid == "octave":
         if wv is None:
             wv = wavelet_variance(data, freq=freq)

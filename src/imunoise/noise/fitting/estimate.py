@@ -120,7 +120,7 @@ def gmwm(
     model: ModelLike,
     data: Any,
     *,
-    freq: float = 1.0,
+    freq: float | None = None,
     weights: str | np.ndarray = "efficient",
     start: Model | dict[str, float] | None = None,
     robust: bool = False,
@@ -148,7 +148,8 @@ def gmwm(
         A 1-D array, a list of static segments (pooled WV), a :class:`WaveletVariance`, or a
         :class:`GMWMProblem`.
     freq
-        Sample rate in Hz (a number; ``DataError`` otherwise, :func:`check_freq`).
+        Sample rate in Hz, required for data (keyword; none is assumed, else ``DataError`` naming ``freq=``); a
+        :class:`WaveletVariance` or :class:`GMWMProblem` carries its own.
     weights
         ``"efficient"`` (Ω = Cov(ν̂)⁻¹), ``"diagonal"``, ``"fast"`` (simts' 1/CI-width²), ``"identity"``
         or a matrix.
@@ -378,11 +379,11 @@ def refit(
     structure = as_model(structure).unknown()
     prev = start.model if isinstance(start, GMWMFit) else (None if start is None else as_model(start))
     if freq is None:
-        freq = start.freq if isinstance(start, GMWMFit) else 1.0
+        freq = start.freq if isinstance(start, GMWMFit) else None
     if unit is None:
         unit = start.unit if isinstance(start, GMWMFit) else "u"
     unit = check_unit(unit)
-    problem = prepare(data, freq=freq, weights=weights, robust=robust)
+    problem = prepare(data, freq=freq, weights=weights, robust=robust, who="refit")
     J = len(problem.tau)
     if structure.n_params > J:
         raise DataError(f"{structure} has {structure.n_params} parameters but the data give only {J} wavelet levels")

@@ -22,6 +22,7 @@ from imunoise.noise.fitting.params import bounds, kind_codes, theta_to_u, thetas
 from imunoise.noise.model import Model
 from imunoise.noise.processes import AR1, PROCESS_TYPES
 from imunoise.noise.wv import WaveletVariance, wavelet_variance
+from imunoise.units import required_freq
 
 __all__ = ["GMWMProblem", "prepare", "guided_starts", "param_cov"]
 
@@ -134,9 +135,10 @@ def _weight_matrix(wv: WaveletVariance, weights: str | np.ndarray) -> tuple[str,
 def prepare(
     data: Any,
     *,
-    freq: float = 1.0,
+    freq: float | None = None,
     weights: str | np.ndarray = "efficient",
     robust: bool = False,
+    who: str = "gmwm",
 ) -> GMWMProblem:
     """The problem a GMWM fit solves: WV of ``data``, weight matrix Ω, normalisation
     (docs/guide/theory.rst, 'GMWM estimator'–5).
@@ -147,12 +149,15 @@ def prepare(
         A 1-D array, a list of static segments (pooled WV), a ready :class:`WaveletVariance`, or a
         :class:`GMWMProblem` (returned as is).
     freq
-        Sample rate in Hz (a number, else ``DataError``; :func:`~imunoise.noise.fitting.arguments.check_freq`).
+        Sample rate in Hz, required for data (keyword; none is assumed: :func:`imunoise.units.required_freq`);
+        a :class:`WaveletVariance` or :class:`GMWMProblem` carries its own (a different ``freq`` is refused).
     weights
         ``"efficient"`` (Ω = Cov(ν̂)⁻¹), ``"diagonal"``, ``"fast"`` (simts' 1/CI-width²), ``"identity"``
         or a J×J symmetric positive definite matrix.
     robust
         Robust WV estimator (docs/guide/theory.rst, 'Wavelet variance').
+    who
+        The function named in the message when the rate is missing.
 
     Returns
     -------
@@ -160,12 +165,15 @@ def prepare(
         WV, Ω = WᵀW (``weights`` names what was used: ``"diagonal"`` if the efficient Ω was singular)
         and the normalised copies the kernels solve on.
     """
-    freq = check_freq(freq)
-    if isinstance(data, GMWMProblem):
-        return data
-    if isinstance(data, WaveletVariance):
+    if isinstance(data, GMWMProblem | WaveletVariance):
+        own = float(data.wv.freq if isinstance(data, GMWMProblem) else data.freq)
+        if freq is not None and abs(check_freq(freq) - own) > 1e-9 * own:
+            raise DataError(f"{who}: freq={freq!r} but the wavelet variance was computed at {own:g} Hz; drop freq")
+        if isinstance(data, GMWMProblem):
+            return data
         wv = data
     else:
+        freq = required_freq(freq, who)
         wv = wavelet_variance(data, robust=robust, freq=freq)
     if len(wv.variance) < 2:
         raise DataError(f"only {len(wv.variance)} wavelet level(s): need more data to fit a model")

@@ -20,6 +20,7 @@ from imunoise.noise.wv.covariance import finish
 from imunoise.noise.wv.kernels import LEVEL_CAP
 from imunoise.noise.wv.result import WaveletVariance
 from imunoise.noise.wv.robust import robust_stats
+from imunoise.units import required_freq
 
 __all__ = ["wavelet_variance"]
 
@@ -30,7 +31,7 @@ def wavelet_variance(
     levels: int | None = None,
     robust: bool = False,
     alpha: float = 0.05,
-    freq: float = 1.0,
+    freq: float | None = None,
     concat: bool = False,
     min_coefficients: int = MIN_COEFFICIENTS,
 ) -> WaveletVariance:
@@ -48,7 +49,7 @@ def wavelet_variance(
     alpha : float
         Level of the chi-square intervals.
     freq : float
-        Sample rate [Hz] (only used for ``scales_s`` and ``avar``).
+        Sample rate [Hz], required (keyword; no rate is assumed): it sets ``scales_s`` and ``avar``.
     concat : bool
         Join the segments of a list first.
     min_coefficients : int
@@ -63,6 +64,7 @@ def wavelet_variance(
     DataError
         For too few samples, constant or non-finite data, or bad arguments.
     """
+    freq = required_freq(freq, "wavelet_variance")
     check_args(levels, alpha, min_coefficients)
     segments, is_list = as_segments(data)
     if concat and is_list:

@@ -21,7 +21,6 @@ import numpy as np
 
 from imunoise.nav.earth import radii
 from imunoise.nav.solution import antenna_llh
-from imunoise.nav.state import N_NAV
 from imunoise.online.learner.candidates import Spec, compose, departure_variance
 
 __all__ = ["SampleBuffer", "run_round", "ned_offset", "horizontal_distance", "add_departure", "static_runs"]
@@ -52,12 +51,8 @@ def static_runs(static: np.ndarray, run0: int) -> np.ndarray:
 
 def add_departure(ekf: Any, var: Sequence[float]) -> None:
     """A departure from a stop: the bias covariance of axis a grows by ``var[a]`` (P refers to the current
-    epoch first; cross-covariances untouched)."""
-    ekf.flush()
-    for a, v in enumerate(var):
-        if v > 0:
-            b = N_NAV + int(ekf.layout.index(a)[0])
-            ekf.P[b, b] += v
+    epoch first; cross-covariances untouched): :meth:`LooselyCoupledEKF.add_bias_variance`."""
+    ekf.add_bias_variance(var)
 
 
 class SampleBuffer:

@@ -1,0 +1,168 @@
+"""The one door from a fitted noise model into the filter: :func:`filter_model` per axis, :func:`filter_axis_models`
+for the six axes. Every entry goes through it: the online engine's fits (:mod:`imunoise.online.to_filter`, its
+settings adapter), a model file given to ``nav --imu-model`` or ``online --imu-model``
+(:func:`imunoise.nav.defaults.load_axis_models`) and the experiments' fixed-model baselines.
+
+What the filter can hold (docs/guide/theory.rst, 'Navigation filter', the rules measured in
+:mod:`imunoise.online.navigator`, "From a GMWM fit to
+filter noise"): an AR1 with ``fold_tau_s`` ≤ T_c and T_c·f ≤ ``horizon`` stays a Gauss–Markov state; everything
+else becomes the white noise + random walk of :func:`imunoise.noise.equivalent_noise.equivalent_noise`, the mapping the
+export uses too (WN, RW exact; a faster AR1 white with its zero-frequency density; QN white or dropped; an AR1
+slower than the data matched over the data's scales; MA1 white with its zero-frequency density); a part that
+collapsed to zero amplitude in the fit is dropped (it would make P ill-conditioned).
+
+The drift DR, decided once here: when the data's longest scale is known (a fit carries its WV, ``horizon``), DR
+becomes the random walk with the same WV at that scale (:func:`dr_equivalent_rw`). Over the scales a static
+record covers, a ramp and a random walk are two readings of one rising WV, and a ramp state would extrapolate
+one fitted slope over the whole drive (a slope the WV cannot even sign: it sees ω² only), while the random walk
+lets the filter track a bias that keeps wandering at the rate the data showed. Without a horizon (a model
+written by hand or the simulator's truth, which carry no WV) nothing says at which scale to match a random walk,
+and the model itself is the statement: DR stays the ramp state it describes. Before this module ``nav
+--imu-model`` kept every DR as a ramp; a fit file with a WV now gets the random walk the online engine uses.
+
+Floor: the online engine bounds its own fits of short stops from below by the plain default (``floor``); a model
+file is the user's statement and is taken without a floor (``online --no-floor`` makes the engine do the same).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from imunoise.errors import ModelError
+from imunoise.noise.equivalent_noise import data_horizon, dr_equivalent_rw, equivalent_noise
+from imunoise.noise.model import Model
+from imunoise.noise.processes import AR1, DR, RW, WN
+
+__all__ = ["NEGLIGIBLE", "AxisFit", "filter_model", "filter_axis_models", "data_horizon", "dr_equivalent_rw"]
+
+NEGLIGIBLE = 1e-12  # relative stationary variance below which a fitted part is treated as absent
+
+
+class AxisFit(NamedTuple):
+    """A fitted model of one axis as the door needs it: parameters per sample at ``freq`` [Hz] and the longest
+    Haar scale of the data it was fitted on (``horizon``, samples at ``freq``; None when unknown)."""
+
+    model: Model
+    freq: float
+    horizon: float | None
+
+
+def filter_model(model: Model, freq: float, floor: Model | None = None, *, fold_tau_s: float = 1.0,
+                 dr: str | None = None, horizon: float | None = None, qn: str = "white") -> Model:
+    """Filter model of one axis from a fitted model (module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        Known parameters per sample at ``freq``.
+    freq : float
+        Sample rate of the parameters [Hz].
+    floor : Model, optional
+        A WN + RW + AR1 model at ``freq``: bounds the white variance and γ² from below and contributes its AR1
+        when the model has no AR1 at least as slow.
+    fold_tau_s : float
+        AR1s with T_c below it [s] become white.
+    dr : {"rw", "drop", "state"}, optional
+        DR as the random walk with its WV at the horizon, dropped, or kept as a ramp state; default (None):
+        "rw" when ``horizon`` is known, else "state" (module docstring).
+    horizon : float, optional
+        Longest Haar scale of the fitted data [samples at ``freq``].
+    qn : {"white", "drop"}
+        QN as white noise (2Q² per sample) or dropped.
+
+    Returns
+    -------
+    Model
+    """
+    dr = dr or ("state" if horizon is None else "rw")
+    ar1: list[tuple[float, float]] = []
+    ramp = None
+    rest: list = []
+    for c in model.components:
+        if c.kind == "AR1":
+            phi, s2 = c.values
+            tc_samples = -1.0 / math.log(phi)
+            if tc_samples >= fold_tau_s * freq and (horizon is None or tc_samples <= horizon):
+                ar1.append((phi, s2))
+            else:
+                rest.append(c)  # folded into white (fast) or matched as a random walk (slower than the data)
+        elif c.kind == "DR":
+            if dr == "state":
+                ramp = c.values[0]
+            elif dr == "rw":
+                if horizon is None or not horizon >= 2:
+                    raise ModelError("filter_model: a DR maps to a random walk at the data's longest scale; "
+                                     "pass horizon (samples, ≥ 2) or dr='drop'/'state'")
+                rest.append(c)
+        else:
+            rest.append(c)
+    white = 0.0
+    gamma2 = 0.0
+    if rest:
+        eq = equivalent_noise(Model(rest), freq, horizon_s=None if horizon is None else horizon / (2.0 * freq),
+                              white_below_s=fold_tau_s, qn=qn)
+        white, gamma2 = eq.sigma2, eq.gamma2
+    if floor is not None:
+        for c in floor.components:
+            if c.kind == "WN":
+                white = max(white, c.values[0])
+            elif c.kind == "RW":
+                gamma2 = max(gamma2, c.values[0])
+            elif c.kind == "AR1":
+                phi_f, s2_f = c.values
+                var_f = s2_f / (1 - phi_f**2)
+                slow = [(p, s) for p, s in ar1 if p >= phi_f]
+                if not slow or max(s / (1 - p * p) for p, s in slow) < var_f:
+                    ar1.append((phi_f, s2_f))
+    # a process that collapsed to zero amplitude in the fit (GOF keeps such "nested" components at the
+    # parameter bound, σ²_GM ~ 1e-57) carries nothing and would make P ill-conditioned: drop it
+    total = white + sum(s / (1 - p * p) for p, s in ar1)
+    comps: list = [AR1(phi=p, sigma2=s) for p, s in ar1 if s / (1 - p * p) > NEGLIGIBLE * total]
+    if white > 0:
+        comps.append(WN(sigma2=white))
+    if gamma2 > NEGLIGIBLE * max(total, 1e-300):
+        comps.append(RW(gamma2=gamma2))
+    if ramp is not None:
+        comps.append(DR(omega=ramp))
+    if not comps:
+        comps.append(WN(sigma2=1e-30))
+    return Model(comps)
+
+
+def filter_axis_models(fits: list, freq: float, floor: list[Model | None], *, fold_tau_s: float = 1.0,
+                       dr: str | None = None, qn: str = "white") -> list[tuple[Model, float]]:
+    """The six (model, freq) pairs the filter gets from per-axis fits (gyro x,y,z, accel x,y,z).
+
+    Parameters
+    ----------
+    fits : list
+        Per axis a :class:`~imunoise.noise.estimator.GMWMFit` (or anything with ``model``, ``freq`` and optionally
+        ``wv``: converted to ``freq`` with :meth:`Model.at_rate`), an :class:`AxisFit` (kept at its own rate), a
+        bare :class:`Model` (per sample at ``freq``, no horizon), or None (the axis' ``floor`` model as it is).
+    freq : float
+        Filter (IMU) rate [Hz].
+    floor : list
+        Per axis the floor model at ``freq`` (:func:`filter_model`), or None for none.
+    fold_tau_s, dr, qn
+        As for :func:`filter_model`.
+
+    Returns
+    -------
+    list of (Model, float)
+    """
+    out = []
+    for a, f in enumerate(fits):
+        if f is None:
+            out.append((floor[a], freq))
+            continue
+        rate, model, horizon = freq, f, None
+        if isinstance(f, AxisFit):  # a model file's axis: mapped at the rate its parameters are given at
+            rate, model, horizon = f.freq, f.model, f.horizon
+        elif hasattr(f, "model"):  # per sample at the fit's own rate: the same continuous-time model at freq
+            model, horizon = f.model.at_rate(float(f.freq), freq), data_horizon(f)
+            if horizon is not None and float(f.freq) != freq:
+                horizon = horizon * freq / float(f.freq)
+        fl = floor[a] if rate == freq else None
+        out.append((filter_model(model, rate, fl, fold_tau_s=fold_tau_s, dr=dr, horizon=horizon, qn=qn), rate))
+    return out
