@@ -96,7 +96,8 @@ FRESH = textwrap.dedent(
         "wavelet_variance": lambda: isinstance(I.wavelet_variance(x, freq=100.0), I.WaveletVariance) or 1 / 0,
         "WVAccumulator": wv_accumulator,
         "WVStream": wv_stream,
-        "WaveletVariance": lambda: I.WaveletVariance.from_dict(I.wavelet_variance(x).to_dict()).freq == 1.0 or 1/0,
+        "WaveletVariance": lambda: I.WaveletVariance.from_dict(I.wavelet_variance(x, freq=2.0).to_dict()).freq == 2.0
+        or 1 / 0,
         "gmwm": lambda: check_fit(I.gmwm(AR1() + WN(), x, freq=100.0), "AR1 + WN"),
         "GMWMFit": fit_roundtrip,
         "select_model": select,

@@ -160,9 +160,12 @@ def test_one_filter_mapping_used_by_engine_and_experiments():
     from imunoise.noise.processes import AR1, RW, WN
     from imunoise.online import OnlineConfig, data_horizon, ekf_axis_model, filter_axis_models
 
-    calls = _where(lambda n: isinstance(n, ast.Call) and getattr(n.func, "id", None) == "ekf_axis_model")
-    assert [c.split(":")[0] for c in calls] == ["online/to_filter.py"]
-    assert _calls_in_functions("online/to_filter.py", "ekf_axis_model") == ["filter_axis_models"]
+    # the one door: nav/filter_model.filter_model, called per axis by its filter_axis_models only (the engine's
+    # ekf_axis_model is the same function under the name the engine has used)
+    calls = _where(lambda n: isinstance(n, ast.Call) and getattr(n.func, "id", None) in ("ekf_axis_model",
+                                                                                          "filter_model"))
+    assert [c.split(":")[0] for c in calls] == ["nav/filter_model.py"]
+    assert _calls_in_functions("nav/filter_model.py", "filter_model") == ["filter_axis_models"]
     assert "filter_models" in _calls_in_functions("online/navigator.py", "filter_axis_models")  # OnlineNavigator's
     assert _calls_in_functions("experiments/common.py", "filter_axis_models") == ["filter_models"]
 

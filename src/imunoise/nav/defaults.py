@@ -21,7 +21,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from imunoise.errors import ModelError
-from imunoise.nav.filter_model import AxisFit, filter_axis_models
 from imunoise.noise.model import Model
 from imunoise.noise.processes import AR1, RW, WN
 
@@ -187,6 +186,10 @@ def _model_from_entry(entry: dict, sensor: str, where: str, freq_default: float)
     freq = float(entry.get("freq_hz", entry.get("rate_hz", freq_default)))
     scales = (entry.get("wv") or {}).get("scales") if isinstance(entry.get("wv"), dict) else None
     horizon = float(scales[-1]) if scales else None  # a fit file carries the WV it was fitted on
+    # imported here: the door loads the equivalent-noise fit (scipy.optimize), which `nav` without a model file
+    # never needs (tests/cli/test_cli_startup.py)
+    from imunoise.nav.filter_model import AxisFit, filter_axis_models
+
     (mapped, rate), = filter_axis_models([AxisFit(model, freq, horizon)], freq, [None])
     return mapped, rate
 

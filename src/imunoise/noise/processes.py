@@ -55,3 +55,7 @@ __all__ = [
     "ROLE_BIAS", "ROLE_STATIONARY", "ROLE_RAMP", "FilterState", "EquivalentPart", "dr_equivalent_rw",
     "ar1_white_variance", "LOG_LO", "LOG_HI", "V_LO", "V_HI", "B_LO", "B_HI",
 ]
+
+# The sum type: loading the model sets Process.sum_type, so that WN() + RW() works from any import of the processes
+# (the model imports the registry and the family modules, never this module: no cycle).
+import imunoise.noise.model  # noqa: E402,F401

@@ -238,7 +238,7 @@ def test_json_round_trip_and_subset():
 )
 def test_bad_input_raises_data_error(data, kwargs, match):
     with pytest.raises(DataError, match=match):
-        wavelet_variance(data, **kwargs)
+        wavelet_variance(data, **{"freq": 1.0, **kwargs})
 
 
 def test_accumulator_bad_input():
