@@ -15,6 +15,10 @@ pair against the model there, the GOF, the fit time and the handled data problem
 (``notes``: sorted or duplicated stamps, gaps, unidentified white noise). With a remote
 scheduler the workers must see the input files and the output folder at the same paths. The table is
 written as CSV, and also as Parquet when ``pyarrow`` is installed (optional).
+
+The outputs of a run appear in the output folder together when it completes (:func:`imunoise.io.atomic.staged_run`):
+the workers write into a hidden staging folder inside it, so an interrupted or failed run (Ctrl-C reaching the
+workers too) leaves the folder as it was, and the tables and models an earlier batch left there are replaced.
 """
 
 from __future__ import annotations
@@ -32,7 +36,8 @@ from typing import Any
 
 from imunoise.errors import DataError, ModelError
 
-__all__ = ["BatchResult", "TABLE_FIELDS", "expand_paths", "process_file", "run_batch", "run_sequential", "write_table"]
+__all__ = ["BatchResult", "BATCH_OUTPUTS", "TABLE_FIELDS",
+           "expand_paths", "process_file", "run_batch", "run_sequential", "write_table"]
 
 TABLE_FIELDS = [
     "file",
@@ -56,6 +61,10 @@ TABLE_FIELDS = [
     "notes",
     "model_json",
 ]
+
+
+BATCH_OUTPUTS = ("batch.csv", "batch.parquet", "*.model.json")
+"""Every file a batch run writes into its output folder (a rerun removes the ones it did not write again)."""
 
 
 @dataclass
@@ -209,14 +218,30 @@ def run_sequential(
     """The plain loop (the baseline of the benchmark), same outputs as :func:`run_batch`."""
     from tqdm import tqdm
 
+    from imunoise.io.atomic import staged_run
+    from imunoise.io.interrupt import interrupt_point
+
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     rows = []
-    for p, n in tqdm(list(zip(paths, _names(paths))), desc="files", disable=not progress, unit="file"):
-        rows += process_file(p, cfg, str(out_dir), n)
-    wall = time.perf_counter() - t0
-    return BatchResult(rows, wall, write_table(rows, out_dir), "sequential")
+    with staged_run(out_dir, BATCH_OUTPUTS) as stage:
+        for p, n in tqdm(list(zip(paths, _names(paths))), desc="files", disable=not progress, unit="file"):
+            rows += process_file(p, cfg, str(stage), n)
+            interrupt_point("batch-progress")
+        res = _finish(rows, paths, stage, out_dir, time.perf_counter() - t0, "sequential")
+    return res
+
+
+def _finish(rows: list[dict[str, Any]], paths: Sequence[str], stage: Path, out_dir: Path, wall: float,
+            scheduler: str) -> BatchResult:
+    """The rows in the order of ``paths``, naming the models where they will be once published, and the
+    tables written into the staging folder (their published paths in the result)."""
+    rows = _sort_rows(rows, paths)
+    for r in rows:
+        if r.get("model_json"):
+            r["model_json"] = str(out_dir / Path(r["model_json"]).name)
+    tables = [out_dir / p.name for p in write_table(rows, stage)]
+    return BatchResult(rows, wall, tables, scheduler)
 
 
 def run_batch(
@@ -239,8 +264,10 @@ def run_batch(
     from dask.distributed import Client, LocalCluster, as_completed
     from tqdm import tqdm
 
+    from imunoise.io.atomic import staged_run
+    from imunoise.io.interrupt import interrupt_point
+
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     cluster = None
     if scheduler in ("local", "threads"):
@@ -250,6 +277,7 @@ def run_batch(
             processes=scheduler == "local",
             dashboard_address=None,
             silence_logs=40,
+            preload=["imunoise.io.interrupt"] if scheduler == "local" else [],  # workers leave Ctrl-C to us
         )
         client = Client(cluster)
     else:
@@ -258,24 +286,32 @@ def run_batch(
         except OSError as exc:
             raise DataError(f"cannot reach the Dask scheduler {scheduler!r}: {exc}") from exc
     rows: list[dict[str, Any]] = []
-    try:
-        names = _names(paths)
-        futures = {
-            client.submit(process_file, p, cfg, str(out_dir.resolve()), n, pure=False): p for p, n in zip(paths, names)
-        }
-        bar = tqdm(total=len(futures), desc="files", disable=not progress, unit="file")
-        for fut in as_completed(list(futures)):
-            try:
-                rows += fut.result()
-            except Exception as exc:  # noqa: BLE001 - a worker crash on one file is reported, not fatal
-                blank = {k: "" for k in TABLE_FIELDS}
-                rows.append({**blank, "file": futures[fut], "status": "error", "error": f"worker: {exc}"})
-            bar.update(1)
-        bar.close()
-    finally:
+
+    def stop() -> None:
         client.close()
         if cluster is not None:
             cluster.close()
-    rows = _sort_rows(rows, paths)
-    wall = time.perf_counter() - t0
-    return BatchResult(rows, wall, write_table(rows, out_dir), scheduler)
+
+    try:
+        with staged_run(out_dir, BATCH_OUTPUTS) as stage:
+            try:
+                names = _names(paths)
+                where = str(stage.resolve())  # remote workers see the folder at the same path
+                futures = {client.submit(process_file, p, cfg, where, n, pure=False): p for p, n in zip(paths, names)}
+                bar = tqdm(total=len(futures), desc="files", disable=not progress, unit="file")
+                for fut in as_completed(list(futures)):
+                    try:
+                        rows += fut.result()
+                    except Exception as exc:  # noqa: BLE001 - a worker crash on one file is reported, not fatal
+                        blank = {k: "" for k in TABLE_FIELDS}
+                        rows.append({**blank, "file": futures[fut], "status": "error", "error": f"worker: {exc}"})
+                    bar.update(1)
+                    interrupt_point("batch-progress")
+                bar.close()
+            finally:
+                stop()  # no worker writes into the staging folder once it is removed (an interrupt)
+            res = _finish(rows, paths, stage, out_dir, time.perf_counter() - t0, scheduler)
+    except BaseException:
+        stop()  # the staging folder could not be made: the cluster still goes (closing twice is harmless)
+        raise
+    return res

@@ -30,7 +30,9 @@ EXAMPLES = """examples:
 Writes DIR/batch.csv (and DIR/batch.parquet when pyarrow is installed): one row per file and axis with
 the model, continuous-time noise density N and bias random walk K_eq (+ units), GOF and fit time; a file
 that cannot be read or fitted is one row with status "error" and the reason. One multi-axis model JSON
-per file (DIR/<file>.model.json) is the input of `imunoise export` and `imunoise nav --model`."""
+per file (DIR/<file>.model.json) is the input of `imunoise export` and `imunoise nav --model`.
+The outputs appear in DIR together when the run completes (Ctrl-C, workers included, leaves DIR as it was);
+the table and models an earlier batch left there are replaced, nothing else is touched."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:

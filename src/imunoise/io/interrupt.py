@@ -5,7 +5,8 @@ printed as "Exception ignored" and dropped by Python) still stops the run before
 
 Worker processes forked by a run ignore SIGINT: a Ctrl-C in a terminal reaches the whole process group, and
 the parent alone decides (its pool is terminated when the ``KeyboardInterrupt`` unwinds it); without this every
-worker would print its own traceback.
+worker would print its own traceback. Dask's local worker processes are spawned, not forked: they load this
+module as their preload (:func:`dask_setup`) and ignore SIGINT from then on, for the same reason.
 
 :func:`interrupt_point` is where the tests interrupt a command at a known step, deterministically: with
 ``IMUNOISE_TEST_SIGINT=NAME`` in the environment the process sends itself a real SIGINT when it reaches the
@@ -19,7 +20,7 @@ import os
 import signal
 import time
 
-__all__ = ["install_interrupt_memory", "interrupt_received", "raise_if_interrupted", "interrupt_point"]
+__all__ = ["dask_setup", "install_interrupt_memory", "interrupt_received", "raise_if_interrupted", "interrupt_point"]
 
 _received = False
 _installed = False
@@ -48,6 +49,12 @@ def install_interrupt_memory() -> None:
         return
     os.register_at_fork(after_in_child=_ignore_sigint_in_child)
     _installed = True
+
+
+def dask_setup(worker=None) -> None:  # noqa: ARG001 - the Dask preload interface passes the worker
+    """Run in each Dask worker process given this module as ``preload`` (the worker's main thread, at its
+    start): the worker ignores SIGINT, the parent alone decides and closes the cluster."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def interrupt_received() -> bool:
