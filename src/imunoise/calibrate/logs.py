@@ -130,7 +130,9 @@ def read_log(
             from imunoise.io.kfgins import read_imu
 
             ds = read_dataset(p, required=("imu",))
-            imu = read_imu(ds.imu, time_offset=float(ds.imu_time_offset_s or 0.0))
+            unit = src.time_unit or "s"
+            imu = read_imu(ds.imu, time_offset=float(ds.imu_time_offset_s or 0.0), time_unit=unit)
+            check_stamp_unit(imu.t, unit, f"IMU file {ds.imu}")
             gyro, accel = imu.rates()
             t, rate = np.asarray(imu.t, dtype=float), float(imu.rate_hz)
             meta["format"] = "dataset"
@@ -143,7 +145,9 @@ def read_log(
         else:
             from imunoise.io.kfgins import read_imu
 
-            imu = read_imu(p)
+            unit = src.time_unit or "s"
+            imu = read_imu(p, time_unit=unit)
+            check_stamp_unit(imu.t, unit, f"IMU file {p}")
             gyro, accel = imu.rates()
             t, rate = np.asarray(imu.t, dtype=float), float(imu.rate_hz)
             meta["format"] = "kfgins"
@@ -158,6 +162,19 @@ def read_log(
         meta["warnings"] = msgs
     name = str(src.path)  # as given (a folder keeps its slash)
     return ImuLog(name, t, np.ascontiguousarray(gyro), np.ascontiguousarray(accel), rate, speed, meta)
+
+
+def check_stamp_unit(t: np.ndarray, unit: str, source: str) -> None:
+    """Refuse stamps read in ``unit`` [converted to s in ``t``] whose spacing is no IMU rate while another unit
+    gives one (milliseconds read as seconds: 0.1 Hz with "gaps" of seconds), naming ``--time-unit``: the rule
+    `fit`'s table readers apply (:func:`imunoise.io.time_column.infer_time_unit`), for the KF-GINS files."""
+    from imunoise.io.time_column import infer_time_unit
+    from imunoise.units import TIME_UNITS
+
+    dt = np.diff(t)
+    dt = dt[dt > 0]
+    if dt.size:
+        infer_time_unit(float(np.median(dt)) / TIME_UNITS[unit], unit, source)
 
 
 def _read_source(src: ImuSource):

@@ -187,7 +187,9 @@ _RATE_COLS = tuple(LEGACY_AXES)  # the rate CSV header names the axes the short 
 _TIME_NAMES = ("sow", "t", "time", "timestamp", "gps_time", "tow")
 
 
-def read_imu(path: str | Path, *, time_offset: float = 0.0, gap_factor: float = GAP_FACTOR) -> ImuData:
+def read_imu(
+    path: str | Path, *, time_offset: float = 0.0, gap_factor: float = GAP_FACTOR, time_unit: str = "s"
+) -> ImuData:
     """Read IMU samples as increments (body FRD, SI).
 
     Accepts the KF-GINS increment format (7 columns, no header: ``t dθxyz [rad] dvxyz [m/s]``; extra
@@ -204,6 +206,8 @@ def read_imu(path: str | Path, *, time_offset: float = 0.0, gap_factor: float = 
         Added to every stamp [s].
     gap_factor : float
         Gaps longer than this many median steps are reported with a :class:`DataWarning`.
+    time_unit : str
+        Unit of the file's stamps (s, ms, us, ns; the format's is s), converted to s before anything else.
 
     Returns
     -------
@@ -249,6 +253,10 @@ def read_imu(path: str | Path, *, time_offset: float = 0.0, gap_factor: float = 
         kind = "increments"
     if data.shape[0] < 2:
         raise DataError(f"IMU file {path}: need at least 2 samples, got {data.shape[0]}")
+    if time_unit != "s":
+        from imunoise.units import TIME_UNITS
+
+        data[:, 0] *= TIME_UNITS[time_unit]  # before the rates become increments rate·Δt
     keep = _check_time(data[:, 0], lines, path, "IMU", gap_factor)
     data = data[keep]
     imu = ImuData(t=data[:, 0] + float(time_offset), dtheta=data[:, 1:4], dv=data[:, 4:7], kind=kind)
