@@ -12,7 +12,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from imunoise.cli.navrun import (
+    add_mount_option,
     gyro_unit_notes,
+    mounting_metrics,
+    mounting_notes,
     nav_start,
     outage_summary,
     read_gnss_vel,
@@ -76,6 +79,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_nav_input_options(p)
+    add_mount_option(p)
     m = p.add_mutually_exclusive_group()
     m.add_argument("--imu-model", help="IMU error models: model JSON ({'gyro': fit, 'accel': fit} or per axis, from "
                    "`imunoise fit` or `calibrate`)")
@@ -148,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
         imu, gnss, t0, static_duration=args.static_duration, yaw=yaw, lever_arm=lever, check_still=True
     )
     new += gyro_unit_notes(imu, gnss, init, args.static_duration, inp.imu_path)
+    new += mounting_notes(args, inp, log)
     for n in new:
         log.warning("%s", n)
     notes += new
@@ -200,6 +205,7 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
     run, err = run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)
     metrics.update(run)
     metrics["warnings"] = notes
+    metrics["mounting"] = mounting_metrics(args, res)
     metrics["gnss_rejected"] = int(np.sum(res.gnss_status == 0))
     metrics["gnss_forced"] = int(np.sum(res.gnss_status == 2))
     if vel is not None:

@@ -34,6 +34,9 @@ __all__ = [
     "outage_summary",
     "read_gnss_vel",
     "velocity_counts",
+    "add_mount_option",
+    "mounting_notes",
+    "mounting_metrics",
 ]
 
 
@@ -61,6 +64,11 @@ def read_nav_inputs(args: argparse.Namespace, log: logging.Logger) -> NavInputs:
     from imunoise.io.kfgins import read_outages
     from imunoise.io.navchecks import check_imu_gaps
 
+    mount = getattr(args, "mount_rpy", None)
+    if mount is not None:
+        from imunoise.nav.mounting import parse_mount_rpy
+
+        mount = args.mount_rpy = parse_mount_rpy(mount)  # refused before the work
     ds, imu_p, gnss_p, ref_p, out_p, lever, offset = resolve_nav_inputs(args)
     prepare_out_dir(args.out)  # an unusable --out fails before the work
     if args.imu_model:
@@ -79,6 +87,10 @@ def read_nav_inputs(args: argparse.Namespace, log: logging.Logger) -> NavInputs:
         min_quality=getattr(args, "min_quality", 6),
     )
     check_imu_gaps(imu.t, getattr(args, "max_imu_gap", MAX_IMU_GAP_S), imu_p)
+    if mount is not None:  # once, here: alignment, NHC and ZUPT all see a vehicle-frame IMU
+        from imunoise.nav.mounting import mount_matrix, rotate_imu
+
+        imu = rotate_imu(imu, mount_matrix(mount))
     windows = read_outages(out_p) if out_p else []
     return NavInputs(ds, imu_p, gnss_p, ref_p, out_p, lever, imu, gnss, ref, notes, windows)
 
@@ -155,6 +167,45 @@ def gyro_unit_notes(imu: Any, gnss: Any, init: Any, static_duration: float, imu_
     bias = np.mean(gyro[still], axis=0)
     note = gyro_unit_evidence(imu.t, gyro, roll, pitch, bias, gnss.t, ned, imu_path, min_step_m=step)
     return [note] if note else []
+
+
+def add_mount_option(p: argparse.ArgumentParser) -> None:
+    """``--mount-rpy R,P,Y``: the IMU's mounting in the vehicle (:mod:`imunoise.nav.mounting`)."""
+    p.add_argument("--mount-rpy", metavar="R,P,Y",
+                   help="the IMU's mounting in the vehicle FRD frame, roll,pitch,yaw [deg] as an attitude (0,0,90: "
+                        "the IMU's x points right); its data are turned into the vehicle frame before anything "
+                        "else. Without it the run checks the mounting and warns above 10° with the value to give")
+
+
+def mounting_notes(args: argparse.Namespace, inp: NavInputs, log: logging.Logger) -> list[str]:
+    """The mounting check of a run (:func:`imunoise.nav.mounting.estimate_mounting`) on the IMU as the filter takes
+    it (after ``--mount-rpy``): the estimate kept in ``args.mounting`` for ``metrics.json`` and the one-line
+    warning above the threshold, or nothing."""
+    import numpy as np
+
+    from imunoise.nav.earth import llh_to_ned
+    from imunoise.nav.mounting import estimate_mounting, mounting_warning
+
+    imu, gnss = inp.imu, inp.gnss
+    still = imu.t <= imu.t[0] + args.static_duration  # the levelling window of coarse_align
+    sigma_h = float(np.median(np.hypot(gnss.sigma_ned[:, 0], gnss.sigma_ned[:, 1])))
+    est = estimate_mounting(imu.t, imu.dv, still, gnss.t, llh_to_ned(gnss.llh, gnss.llh[0]), sigma_h)
+    given = getattr(args, "mount_rpy", None)
+    args.mounting = {"mount_rpy_deg": list(given) if given else None, "check": est.as_dict()}
+    log.info("mounting check: roll %.1f° pitch %.1f° at the first stop, yaw %s from %d GNSS epochs", est.roll_deg,
+             est.pitch_deg, "unobserved" if est.yaw_deg is None else f"{est.yaw_deg:.1f}°", est.epochs)
+    note = mounting_warning(est, inp.imu_path, given=given)
+    return [note] if note else []
+
+
+def mounting_metrics(args: argparse.Namespace, res: Any) -> dict:
+    """``metrics.json`` ``mounting``: the option, the check and the filter's sideslip (its NHC residual's
+    direction, :func:`imunoise.nav.mounting.sideslip_deg`)."""
+    from imunoise.nav.mounting import sideslip_deg
+
+    m = dict(getattr(args, "mounting", None) or {})
+    m["filter_sideslip_deg"] = sideslip_deg(res.euler, res.vel_ned) if res.t.size else None
+    return m
 
 
 def read_gnss_vel(args: argparse.Namespace, inp: NavInputs, log: logging.Logger):

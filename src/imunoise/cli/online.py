@@ -12,7 +12,10 @@ import time
 from pathlib import Path
 
 from imunoise.cli.navrun import (
+    add_mount_option,
     gyro_unit_notes,
+    mounting_metrics,
+    mounting_notes,
     nav_start,
     outage_summary,
     read_nav_inputs,
@@ -67,6 +70,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_nav_input_options(p)
+    add_mount_option(p)
     p.add_argument("--imu-model", help="IMU error models: model JSON the run starts with (default: the plain "
                    "default WN+RW+GM)")
     add_criterion(p)
@@ -149,6 +153,7 @@ def run(args: argparse.Namespace) -> int:
     init = coarse_align(imu, gnss, t0, static_duration=args.static_duration, yaw=yaw, lever_arm=lever,
                         check_still=True)
     notes += gyro_unit_notes(imu, gnss, init, args.static_duration, inp.imu_path)
+    notes += mounting_notes(args, inp, log)
     if motion is not None and motion.statistic == "likelihood":
         notes.append(EXPERIMENTAL_LIKELIHOOD)
     for n in notes[n_read:]:
@@ -216,6 +221,7 @@ def run(args: argparse.Namespace) -> int:
                                        "rehearsal_rounds": end[-1]["n_rehearsals"],
                                        "carried_rounds": end[-1]["n_prior"], "evidence": end[-1]["evidence"]}
         metrics["warnings"] = notes
+        metrics["mounting"] = mounting_metrics(args, res)
         atomic_write_text(stage / "metrics.json", json.dumps(metrics, indent=1, default=json_default))
         fits = {ax: f.to_dict() for ax, f in zip(AXES, res.fits, strict=True) if f is not None}
         if fits:
