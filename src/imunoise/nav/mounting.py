@@ -168,10 +168,21 @@ def _wrap(deg: float) -> float:
     return (deg + 180.0) % 360.0 - 180.0
 
 
+SNAP_DEG = 5.0
+"""An angle this close to a multiple of 90° is given as that multiple in the fix: IMUs are mostly mounted turned by
+right angles, and the yaw estimate scatters by a few degrees (docs/evidence/imu_mounting.md)."""
+
+
+def _snap(deg: float) -> float:
+    right = 90.0 * round(deg / 90.0)
+    return right if abs(deg - right) <= SNAP_DEG else deg
+
+
 def mounting_warning(est: MountEstimate, source: str, threshold_deg: float = MOUNT_THRESHOLD_DEG,
                      given: tuple[float, float, float] | None = None) -> str | None:
     """One line when a mounting angle exceeds ``threshold_deg``: the angles and the ``--mount-rpy`` that corrects
-    them (added to ``given``, the mounting already applied, yaw only where the drive shows it); else None."""
+    them (added to ``given``, the mounting already applied; tilt and yaw each only above the threshold; an angle
+    within :data:`SNAP_DEG` of a right angle given as the right angle), else None."""
     roll, pitch = _wrap(est.roll_deg), _wrap(est.pitch_deg)
     yaw = 0.0 if est.yaw_deg is None else _wrap(est.yaw_deg)
     if max(abs(roll), abs(pitch), abs(yaw)) <= threshold_deg:
@@ -184,7 +195,7 @@ def mounting_warning(est: MountEstimate, source: str, threshold_deg: float = MOU
     from imunoise.nav.earth import dcm_to_euler
 
     fix = found @ mount_matrix(given or (0.0, 0.0, 0.0))
-    r, p, y = (round(math.degrees(float(a))) + 0 for a in dcm_to_euler(fix))
+    r, p, y = (round(_snap(math.degrees(float(a)))) + 0 for a in dcm_to_euler(fix))
     what = []
     if tilt:
         what.append(f"tilted roll {round(roll) + 0}°, pitch {round(pitch) + 0}° at the first stop "
