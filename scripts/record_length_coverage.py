@@ -23,8 +23,9 @@ import time
 import numpy as np
 from scipy.stats import norm
 
+from imunoise.export.record_length import LengthPredictor
 from imunoise.noise.estimator import gmwm
-from imunoise.noise.fitting.record_length import LAWS, QUANTITIES, predict
+from imunoise.noise.fitting.length_covariance import LAWS
 from imunoise.noise.processes import RW, WN
 
 FREQ = 100.0
@@ -44,10 +45,10 @@ def one(seed: int, n: int, n_pilot: int, law: str) -> dict:
     x = model.simulate(n, seed=seed)
     full = gmwm("WN+RW", x, freq=FREQ, seed=seed)
     pilot = gmwm("WN+RW", x[:n_pilot], freq=FREQ, seed=seed)
-    own = predict(full, n / FREQ, law=law)
-    pred = predict(pilot, n / FREQ, law=law)
+    own = LengthPredictor(full, law=law).predict(n / FREQ)
+    pred = LengthPredictor(pilot, law=law).predict(n / FREQ)
     out = {"seed": seed}
-    for k in QUANTITIES:
+    for k in ("N", "K"):
         est = getattr(own, k)
         out[k] = {"est": est, "ci": list(getattr(own, k + "_ci")), "pilot_pred_ci": list(getattr(pred, k + "_ci")),
                   "pilot_pred_value": getattr(pred, k)}
@@ -57,7 +58,7 @@ def one(seed: int, n: int, n_pilot: int, law: str) -> dict:
 def summarise(rows: list[dict], z: float, rng: np.random.Generator) -> dict:
     truth = {"N": N_TRUE, "K": K_TRUE}
     res = {}
-    for k in QUANTITIES:
+    for k in ("N", "K"):
         est = np.array([r[k]["est"] for r in rows])
         ci = np.array([r[k]["ci"] for r in rows])
         cov_own = int(np.sum((ci[:, 0] <= truth[k]) & (truth[k] <= ci[:, 1])))

@@ -63,23 +63,24 @@ def axis_record_length(fit: Any, target_pct: float, target_horizon_s: float | No
                        pooled: bool = False, record_s: float | None = None) -> dict[str, Any]:
     """The JSON block of one axis: the prediction at the record's length, the lengths the targets need and the
     curve of half-widths against length (factors 1/16 … 64 of the record)."""
-    from imunoise.noise.fitting.record_length import length_for, length_for_horizon, predict, record_length_s
+    from imunoise.export.record_length import LengthPredictor, length_for_horizon
 
-    rec = record_length_s(fit) if record_s is None else float(record_s)
-    here = predict(fit, rec, pooled=pooled, record_s=rec)
-    need = {k: length_for(fit, k, target_pct, pooled=pooled, record_s=rec) for k in ("N", "K")}
+    pr = LengthPredictor(fit, pooled=pooled, record_s=record_s)
+    rec = pr.record_s
+    here = pr.predict(rec)
+    need = {k: pr.length_for(k, target_pct) for k in ("N", "K")}
     curve: dict[str, list] = {"length_s": [], "N_pct": [], "K_pct": [], "horizon_s": []}
     for c in _CURVE_FACTORS:
         try:
-            p = predict(fit, rec * c, pooled=pooled, record_s=rec)
+            p = pr.predict(rec * c)
         except ImunoiseError:  # too short to hold a wavelet level
             continue
         for key, v in (("length_s", p.length_s), ("N_pct", p.pct("N")), ("K_pct", p.pct("K")),
                        ("horizon_s", p.horizon_s)):
             curve[key].append(_finite(v))
     out = {
-        "record_s": rec, "pooled_stops": pooled, "level": 0.95, "quantities": {"N": "WN.noise_density",
-                                                                               "K": "RW.random_walk"},
+        "record_s": rec, "pooled_stops": pooled, "level": 0.95,
+        "quantities": "the exported pair of the model (before the cap at the data's Allan bound)",
         "at_record": {"N": _finite(here.N), "N_ci": [_finite(v) for v in here.N_ci], "N_pct": _finite(here.pct("N")),
                       "K": _finite(here.K), "K_ci": [_finite(v) for v in here.K_ci], "K_pct": _finite(here.pct("K")),
                       "horizon_s": _finite(here.horizon_s)},
@@ -102,13 +103,14 @@ def _need(d: dict[str, Any], k: str) -> float:
 def line(axis: str, d: dict[str, Any]) -> str:
     """The summary line of one axis: "gyro_x: record 2.8 h: N ±1.2 %, K ±18 %, horizon 655 s; for ±10 %: …"."""
     a = d["at_record"]
-    pct = {k: (f"±{a[k + '_pct']:.2g} %" if a[k + "_pct"] is not None else
-               ("not identified" if a[k] is not None else "a bound (no such term in the model)")) for k in ("N", "K")}
+    pct = {k: f"±{a[k + '_pct']:.2g} %" if a[k + "_pct"] is not None else "a bound (not identified)"
+           for k in ("N", "K")}
     what = "static (pooled stops)" if d["pooled_stops"] else "record"
     more = " of stops like these" if d["pooled_stops"] else ""
+    need = [f"{k} {duration_text(_need(d, k))}" for k in ("N", "K") if a[k + "_pct"] is not None]
     s = (f"{axis}: {what} {duration_text(d['record_s'])}: N {pct['N']}, K {pct['K']}, horizon "
          f"{duration_text(a['horizon_s'] or math.nan)}; for ±{d['target_pct']:g} %: "
-         + ", ".join(f"{k} {duration_text(_need(d, k))}" for k in ("N", "K") if a[k + "_pct"] is not None) + more)
+         + (", ".join(need) + more if need else "no interval to narrow"))
     if "target_horizon_s" in d:
         who = "a stop of" if d["pooled_stops"] else "a record of"
         s += f"; horizon {duration_text(d['target_horizon_s'])} needs {who} {duration_text(d['length_for_horizon_s'])}"
