@@ -94,6 +94,7 @@ class LengthPredictor:
         if fit.param_cov_u is None or np.any(np.isnan(fit.param_cov_u)):
             raise ModelError(f"the fit of {fit.model} has no parameter covariance: no interval to predict")
         self.fit, self.pooled, self.law = fit, pooled, law
+        self._wv_cov: dict = {}  # the WV covariance integrals per set of levels (model_wv_cov)
         self.record_s = record_length_s(fit) if record_s is None else float(record_s)
         self.z = float(norm.ppf(0.5 + level / 2))
         f = float(fit.freq)
@@ -122,7 +123,8 @@ class LengthPredictor:
 
     def predict(self, length_s: float) -> LengthPrediction:
         """N, K with their intervals and the horizon a record (or static time) of ``length_s`` s would give."""
-        cov = predicted_cov(self.fit, length_s, pooled=self.pooled, record_s=self.record_s, law=self.law)
+        cov = predicted_cov(self.fit, length_s, pooled=self.pooled, record_s=self.record_s, law=self.law,
+                            cache=self._wv_cov)
         free = np.isinf(np.diag(cov))
         cov = np.where(np.isinf(cov), 0.0, cov)
         out = {}

@@ -66,22 +66,29 @@ def _weights_follow_v(fit: Any) -> bool:
     return not str(fit.weights).startswith(("identity", "custom"))
 
 
-def model_wv_cov(model: Any, tau: np.ndarray, m: np.ndarray) -> np.ndarray:
+def model_wv_cov(model: Any, tau: np.ndarray, m: np.ndarray, cache: dict | None = None) -> np.ndarray:
     """Percival's (1995) Gaussian asymptotic covariance of the Haar WV estimates under ``model``:
     Cov(ν̂_j, ν̂_k) = 2·min(M_j, M_k)/(M_j M_k)·∫ ``|H_j|²|H_k|²`` S² df over [−½, ½] (the integrand of
-    :func:`imunoise.noise.fitting.wvic.wv_correlation`, here with its scale)."""
-    f, df, H = haar_gain(tau)
-    S = process_spectrum(model, f)
-    A = 2.0 * (H * (S * S * df)[None, :]) @ H.T  # the grid covers (0, ½]; the spectrum is even
+    :func:`imunoise.noise.fitting.wvic.wv_correlation`, here with its scale). ``cache``: the integrals per set of
+    levels, kept by a caller that asks for many lengths of one model (they do not depend on M)."""
+    key = np.asarray(tau, dtype=float).tobytes()
+    A = None if cache is None else cache.get(key)
+    if A is None:
+        f, df, H = haar_gain(tau)
+        S = process_spectrum(model, f)
+        A = 2.0 * (H * (S * S * df)[None, :]) @ H.T  # the grid covers (0, ½]; the spectrum is even
+        if cache is not None:
+            cache[key] = A
     C = 2.0 * A * np.minimum.outer(m, m) / np.outer(m, m)
     return 0.5 * (C + C.T)
 
 
 def predicted_cov(fit: Any, length_s: float, *, pooled: bool = False, record_s: float | None = None,
-                  law: str = "model") -> np.ndarray:
+                  law: str = "model", cache: dict | None = None) -> np.ndarray:
     """Cov(û) of the fit's parameters for a record of ``length_s`` s (module docstring); same shape and the
     same not-identified parameters (infinite variance) as ``fit.param_cov_u``. ``law``: "model" (V from the
-    fitted model's spectrum, the default) or "data" (the fit's own V rescaled: the fit's interval at L₀)."""
+    fitted model's spectrum, the default) or "data" (the fit's own V rescaled: the fit's interval at L₀); ``cache``:
+    see :func:`model_wv_cov`."""
     if law not in LAWS:
         raise ModelError(f"law must be one of {LAWS}, got {law!r}")
     if fit.param_cov_u is None or np.any(np.isnan(fit.param_cov_u)):
@@ -112,7 +119,7 @@ def predicted_cov(fit: Any, length_s: float, *, pooled: bool = False, record_s: 
     Om[np.ix_(old, old)] = om0[np.ix_(idx, idx)] / (np.outer(s, s) if follow else 1.0)
     new = ~old
     if law == "model":
-        V = model_wv_cov(fit.model, tau, m)
+        V = model_wv_cov(fit.model, tau, m, cache)
     elif new.any():
         V[new, new] = 2.0 * nu[new] ** 2 / np.maximum(m[new] / tau[new], 1.0)
     if new.any():
