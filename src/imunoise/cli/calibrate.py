@@ -22,6 +22,7 @@ from imunoise.cli.options import (
     prepare_out_dir,
     print_warnings,
 )
+from imunoise.cli.record_length import add_target, calibrate_record_lengths, check_target, record_length_figure
 from imunoise.errors import DataError, ImunoiseError, ModelError
 from imunoise.io.atomic import atomic_path, atomic_savefig, atomic_write_text, staged_run
 
@@ -96,6 +97,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="also write this export beside the model (repeatable); refused where no (N, K) pair stands "
                    "for the data (see --force)")
     add_force(p)
+    add_target(p)
     p.add_argument("--out", help="output folder (default <first log name>_calib)")
     p.set_defaults(func=run)
 
@@ -155,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
     if args.learn_s is not None and not args.learn_s > 0:
         raise ModelError(f"--learn-s must be a positive number of seconds, got {args.learn_s:g}")
     _refuse_repeated_paths(args.logs)
+    check_target(args)
     final = prepare_out_dir(args.out or f"{Path(args.logs[0]).name.split('.')[0]}_calib")
     cfg = DetectorConfig(window=args.window, min_duration_s=args.min_duration, margin_s=args.margin)
     columns = parse_column_map(args.columns) if args.columns else None
@@ -186,6 +189,7 @@ def run(args: argparse.Namespace) -> int:
                     criterion=args.criterion, complete=args.complete, seed=args.seed, progress=_tqdm_wrap,
                     max_stops_per_min=args.max_stop_rate)
     print(res.summary())
+    calibrate_record_lengths(res, args)  # how long to record (stdout, imu_model.json, calibration.json, report)
     if read_warnings:
         res.model.source["warnings"] = read_warnings
     checks = {ax: (a.model, a.gate) for ax, a in res.axes.items()}
@@ -222,6 +226,7 @@ def calibrate_outputs() -> tuple[str, ...]:
     from imunoise.export import DEFAULT_FILENAMES
 
     return ("imu_model.json", "calibration.json", "report.html", "report.md", "detection_*.png", "wv_*.png",
+            "record_length.png",
             *sorted(set(DEFAULT_FILENAMES.values())))
 
 
@@ -248,6 +253,7 @@ def _write_outputs(res, out: Path, path: Path, forced: list[str]) -> list[Path]:
         summary["warnings"] = list(res.model.source["warnings"])
     if forced:
         summary["export_warnings"] = list(forced)
+    summary["record_length"] = res.model.source.get("record_length", {})
     atomic_write_text(out / "calibration.json", json.dumps(_json_safe(summary), indent=1))
     return [path, out / "calibration.json", write_report(res, out)]
 
@@ -350,6 +356,7 @@ def write_report(res, out: Path) -> Path:
             plot_wv_fit(fit, tmp, title=f"{ax}: {fit.model}",
                         marks=[(tau_h, f"horizon τ = {tau_h:.3g} s (averaging time {tau_h / 2:.3g} s)")])
         rep.figure(fig, f"{ax}: pooled WV of the stops, its 95% band, the {fit.model} fit and the horizon")
+    record_length_figure(rep, res.model.source.get("record_length", {}), out)
     rep.heading("Stops")
     rep.table(["log", "start [s]", "end [s]", "duration [s]"],
               [[Path(ls.log.name).name, f"{s.t0:.2f}", f"{s.t1:.2f}", f"{s.duration:.2f}"]

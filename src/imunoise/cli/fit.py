@@ -37,6 +37,7 @@ from imunoise.cli.options import (
     out_dir,
     print_warnings,
 )
+from imunoise.cli.record_length import add_target, check_target, fit_record_lengths
 from imunoise.errors import DataError, FitError, ModelError
 from imunoise.io.atomic import atomic_path, atomic_write_text, staged_run
 
@@ -127,13 +128,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="fit the data as read: do not remove the narrowband lines found in its spectrum (they are "
                    "still reported)")
     p.add_argument("--sensor", choices=["gyro", "accel"], help="sensor: which one a single-axis fit is (for --export)")
-    p.add_argument(
-        "--horizon",
-        type=float,
-        metavar="S",
-        help="--export: longest averaging time [s] the pair is matched on (default: the data's longest "
-        "scale); see `imunoise export --help` for the rule",
-    )
+    p.add_argument("--horizon", type=float, metavar="S", help="--export: longest averaging time [s] the pair is "
+                   "matched on (default: the data's longest scale); see `imunoise export --help` for the rule")
+    add_target(p)
     add_out(p, "fit")
     p.set_defaults(func=run)
 
@@ -144,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.io.tabular import parse_column_map
 
     check_freq(args.freq)
+    check_target(args)
     if args.column is not None and args.columns is not None:
         raise ModelError("give --column (one axis) or --columns (several), not both")
     bag = is_bag(args.data)
@@ -397,6 +395,7 @@ def _gates(args: argparse.Namespace, fits: dict) -> dict:
     gates = pair_gates(fits, horizon_s=args.horizon, update_interval_s=args.update_interval)
     for axis, (_, g) in gates.items():
         print(f"{axis}: {'REFUSED ' if g.refused else ''}{g.text()}")
+    fit_record_lengths(fits, args)  # how long to record, per axis (stdout and the model file)
     return gates
 
 
