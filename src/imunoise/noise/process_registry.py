@@ -3,8 +3,9 @@ lists its components in it) and, by position, the compiled kind codes (``cls.cod
 
 It sits below :mod:`imunoise.noise.model` (which needs the registry) and below :mod:`imunoise.noise.processes`
 (the public face, which also loads the model so that ``WN() + RW()`` works from any import). A new process is one
-class in its family's module plus its entry here (and its branch in the kernels' dispatch,
-:mod:`imunoise.noise.fitting.kernels`).
+class in its own module (all its math: WV in numpy and numba, parameter transforms and bounds, starting values,
+simulation, filter states, EM form or refusal, export route), its entry here, and its branch in the kernels'
+dispatch (:mod:`imunoise.noise.fitting.kernels`). It is a selection candidate only when a complete model names it.
 """
 
 from __future__ import annotations
