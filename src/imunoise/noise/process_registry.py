@@ -14,11 +14,12 @@ from imunoise.noise.process_ar1 import AR1
 from imunoise.noise.process_base import Process
 from imunoise.noise.process_bias import DR, RW
 from imunoise.noise.process_ma1 import MA1
+from imunoise.noise.process_sin import SIN
 from imunoise.noise.process_white import QN, WN
 
 __all__ = ["PROCESS_TYPES", "ORDER", "N_PARAMS"]
 
-PROCESS_TYPES: dict[str, type[Process]] = {cls.kind: cls for cls in (AR1, WN, QN, RW, DR, MA1)}
+PROCESS_TYPES: dict[str, type[Process]] = {cls.kind: cls for cls in (AR1, WN, QN, RW, DR, MA1, SIN)}
 """Kind → class, in canonical order; a class' position is its compiled kind code."""
 for _code, _cls in enumerate(PROCESS_TYPES.values()):
     _cls.code = _code
