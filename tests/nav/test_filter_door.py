@@ -5,6 +5,8 @@ for every registered process kind."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from imunoise.imu import AXES
@@ -14,7 +16,7 @@ from imunoise.noise.estimator import gmwm
 from imunoise.noise.imu_model import ImuModel
 from imunoise.noise.model import Model
 from imunoise.noise.process_registry import PROCESS_TYPES
-from imunoise.noise.processes import AR1, DR, MA1, QN, RW, WN
+from imunoise.noise.processes import AR1, DR, MA1, QN, RW, SIN, WN
 from imunoise.online import OnlineConfig
 from imunoise.online.to_filter import filter_axis_models as engine_filter_models
 
@@ -26,6 +28,7 @@ TRUTH = {  # one model per registered kind, that kind on top of white noise (AR1
     "RW": RW(gamma2=1e-11) + WN(sigma2=1e-6),
     "DR": DR(omega=2e-8) + WN(sigma2=1e-6),
     "MA1": Model([MA1(theta=0.4, sigma2=1e-6)]),
+    "SIN": SIN(alpha2=4e-6, beta=2 * math.pi * 31.0 / RATE) + WN(sigma2=1e-6),
 }
 
 

@@ -9,7 +9,8 @@ filter noise"): an AR1 with ``fold_tau_s`` ≤ T_c and T_c·f ≤ ``horizon`` st
 else becomes the white noise + random walk of :func:`imunoise.noise.equivalent_noise.equivalent_noise`, the mapping the
 export uses too (WN, RW exact; a faster AR1 white with its zero-frequency density; QN white or dropped; an AR1
 slower than the data matched over the data's scales; MA1 white with its zero-frequency density); a part that
-collapsed to zero amplitude in the fit is dropped (it would make P ill-conditioned).
+collapsed to zero amplitude in the fit is dropped (it would make P ill-conditioned). A process that declares its
+own filter states (``Process.keeps_filter_state``, e.g. a sinusoid's 2-state oscillator) passes as it is.
 
 The drift DR, decided once here: when the data's longest scale is known (a fit carries its WV, ``horizon``), DR
 becomes the random walk with the same WV at that scale (:func:`dr_equivalent_rw`). Over the scales a static
@@ -32,7 +33,7 @@ from typing import NamedTuple
 from imunoise.errors import ModelError
 from imunoise.noise.equivalent_noise import data_horizon, dr_equivalent_rw, equivalent_noise
 from imunoise.noise.model import Model
-from imunoise.noise.processes import AR1, DR, RW, WN
+from imunoise.noise.processes import AR1, DR, RW, WN, Process, StateBlock
 
 __all__ = ["NEGLIGIBLE", "AxisFit", "filter_model", "filter_axis_models", "data_horizon", "dr_equivalent_rw"]
 
@@ -79,8 +80,11 @@ def filter_model(model: Model, freq: float, floor: Model | None = None, *, fold_
     ar1: list[tuple[float, float]] = []
     ramp = None
     rest: list = []
+    kept: list = []  # processes that declare their own filter states (Process.keeps_filter_state), kept as they are
     for c in model.components:
-        if c.kind == "AR1":
+        if type(c).keeps_filter_state:
+            kept.append(c)
+        elif c.kind == "AR1":
             phi, s2 = c.values
             tc_samples = -1.0 / math.log(phi)
             if tc_samples >= fold_tau_s * freq and (horizon is None or tc_samples <= horizon):
@@ -119,6 +123,7 @@ def filter_model(model: Model, freq: float, floor: Model | None = None, *, fold_
     # parameter bound, σ²_GM ~ 1e-57) carries nothing and would make P ill-conditioned: drop it
     total = white + sum(s / (1 - p * p) for p, s in ar1)
     comps: list = [AR1(phi=p, sigma2=s) for p, s in ar1 if s / (1 - p * p) > NEGLIGIBLE * total]
+    comps += [c for c in kept if _stationary_variance(c) > NEGLIGIBLE * total]
     if white > 0:
         comps.append(WN(sigma2=white))
     if gamma2 > NEGLIGIBLE * max(total, 1e-300):
@@ -128,6 +133,15 @@ def filter_model(model: Model, freq: float, floor: Model | None = None, *, fold_
     if not comps:
         comps.append(WN(sigma2=1e-30))
     return Model(comps)
+
+
+def _stationary_variance(c: Process) -> float:
+    """The variance a kept process adds to the sensor error (h P0 hᵀ of its own states)."""
+    _, own = c.filter_block(1.0, 1.0)
+    if isinstance(own, StateBlock):
+        h = own.h
+        return float(sum(h[i] * own.p0[i][j] * h[j] for i in range(len(h)) for j in range(len(h))))
+    return float(sum(st.h * st.h * st.p0 for st in own))
 
 
 def filter_axis_models(fits: list, freq: float, floor: list[Model | None], *, fold_tau_s: float = 1.0,

@@ -22,7 +22,8 @@ if TYPE_CHECKING:  # the sum type is imunoise.noise.model.Model, which imports t
     Model = Any
 
 __all__ = [
-    "Process", "ROLE_BIAS", "ROLE_STATIONARY", "ROLE_RAMP", "FilterState", "EquivalentPart", "dr_equivalent_rw",
+    "Process", "ROLE_BIAS", "ROLE_STATIONARY", "ROLE_RAMP", "FilterState", "StateBlock", "EquivalentPart",
+    "dr_equivalent_rw",
     "ar1_white_variance", "fmt_seconds", "LOG_LO", "LOG_HI", "V_LO", "V_HI", "B_LO", "B_HI",
 ]
 
@@ -48,6 +49,20 @@ class FilterState(NamedTuple):
     h: float
     role: int
     bias_link: float = 0.0
+
+
+class StateBlock(NamedTuple):
+    """A process' k coupled states over a filter step (k ≥ 2, e.g. an oscillator's rotation): x' = phi @ x + noise of
+    covariance q, error += h @ x; ``p0`` the stationary covariance, ``role`` of every state (ROLE_STATIONARY:
+    the filter starts it from ``p0``). Scalar states, which are most, stay :class:`FilterState` lists: the
+    filter's arrays are the same and the stacking keeps its scalar path
+    (docs/guide/theory.rst, 'Navigation filter')."""
+
+    phi: tuple[tuple[float, ...], ...]
+    q: tuple[tuple[float, ...], ...]
+    p0: tuple[tuple[float, ...], ...]
+    h: tuple[float, ...]
+    role: int
 
 
 class EquivalentPart(NamedTuple):
@@ -213,9 +228,13 @@ class Process:
         (docs/guide/theory.rst, 'Navigation filter')."""
         return 0.0
 
-    def filter_block(self, steps: float, dt: float) -> tuple[float, list[FilterState]]:
-        """(variance added to the bias state per filter step, own states) over a step of ``steps`` samples."""
+    def filter_block(self, steps: float, dt: float) -> tuple[float, list[FilterState] | StateBlock]:
+        """(variance added to the bias state per filter step, own states) over a step of ``steps`` samples: scalar
+        :class:`FilterState` s, or one :class:`StateBlock` of coupled states."""
         return 0.0, []
+
+    keeps_filter_state: ClassVar[bool] = False  # the fit→filter door (imunoise.nav.filter_model) keeps it as its
+    # own filter_block states instead of folding it into the white noise + random walk pair (equivalent_part)
 
     def scaled(self, white: float, bias: float) -> Process:
         """This process with its white variance × ``white`` or its bias driving variance × ``bias``."""

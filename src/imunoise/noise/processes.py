@@ -41,6 +41,7 @@ from imunoise.noise.process_base import (
     EquivalentPart,
     FilterState,
     Process,
+    StateBlock,
     ar1_white_variance,
     dr_equivalent_rw,
 )
@@ -52,10 +53,18 @@ from imunoise.noise.process_white import QN, WN
 __all__ = [
     "Process", "WN", "QN", "RW", "DR", "AR1", "MA1", "PROCESS_TYPES", "ORDER", "N_PARAMS", "ar1_wv",
     "ar1_wv_dphi",
-    "ROLE_BIAS", "ROLE_STATIONARY", "ROLE_RAMP", "FilterState", "EquivalentPart", "dr_equivalent_rw",
+    "ROLE_BIAS", "ROLE_STATIONARY", "ROLE_RAMP", "FilterState", "StateBlock", "EquivalentPart", "dr_equivalent_rw",
     "ar1_white_variance", "LOG_LO", "LOG_HI", "V_LO", "V_HI", "B_LO", "B_HI",
 ]
 
 # The sum type: loading the model sets Process.sum_type, so that WN() + RW() works from any import of the processes
 # (the model imports the registry and the family modules, never this module: no cycle).
 import imunoise.noise.model  # noqa: E402,F401
+
+
+def __getattr__(name: str) -> type[Process]:
+    # a process of the registry that has no import line above (a new one lives in its own module and its registry
+    # line): ``from imunoise.noise.processes import KIND`` works for every registered kind
+    if name in PROCESS_TYPES:
+        return PROCESS_TYPES[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import ModelError
-from imunoise.noise.process_base import ROLE_BIAS
+from imunoise.noise.process_base import ROLE_BIAS, FilterState, StateBlock
 
 __all__ = ["StateSpace", "stack_state_space"]
 
@@ -23,7 +23,8 @@ class StateSpace:
 
     Sensor error = ``H @ x + w`` with ``x_{k+1} = Phi @ x_k + q_k``, ``q ~ N(0, Q)`` and a white part w.
     States: ``bias`` (random constant, plus RW if present), then each process' own states in canonical order
-    (one per AR1, ``DR``: the rate ramp, which drives the bias), from :meth:`Process.filter_block`; ``roles``
+    (one per AR1, ``DR``: the rate ramp, which drives the bias; a process with coupled states, e.g. an oscillator,
+    brings its k×k block), from :meth:`Process.filter_block`; ``roles``
     names what each state is to the filter (:data:`imunoise.noise.process_base.ROLE_BIAS` etc.). ``P0`` holds the
     stationary variance of each AR1 state and 0 for bias and DR: the filter sets those from its own initial
     uncertainty. ``white_psd`` is the two-sided continuous PSD of the white part (WN + QN, and an MA1 by its
@@ -73,12 +74,16 @@ def stack_state_space(model: Any, dt: float, freq: float | None = None) -> State
         raise ModelError(f"sampling frequency must be > 0 Hz, got {freq}")
     steps = dt * f
     labels = ["bias"]
-    states = []
+    states: list[FilterState | StateBlock] = []  # a scalar state or a block of k coupled ones
     bias_q = 0.0
     for name, c in zip(model.component_names(), model.components):
         q_add, own = c.filter_block(steps, dt)
         if q_add:
             bias_q += q_add
+        if isinstance(own, StateBlock):
+            labels += [f"{name}.{k + 1}" for k in range(len(own.h))]
+            states.append(own)
+            continue
         for k, st in enumerate(own):
             labels.append(name if len(own) == 1 else f"{name}.{k + 1}")
             states.append(st)
@@ -90,13 +95,25 @@ def stack_state_space(model: Any, dt: float, freq: float | None = None) -> State
     H[0] = 1.0
     if bias_q:
         Q[0, 0] += bias_q
-    for i, st in enumerate(states, start=1):
+    roles = [ROLE_BIAS]
+    i = 1
+    for st in states:
+        if isinstance(st, StateBlock):
+            k = len(st.h)
+            Phi[i : i + k, i : i + k] = st.phi
+            Q[i : i + k, i : i + k] = st.q
+            P0[i : i + k, i : i + k] = st.p0
+            H[i : i + k] = st.h
+            roles += [st.role] * k
+            i += k
+            continue
         Phi[i, i] = st.phi
         Q[i, i] = st.q
         P0[i, i] = st.p0
         H[i] = st.h
         if st.bias_link:
             Phi[0, i] = st.bias_link
+        roles.append(st.role)
+        i += 1
     white_psd = model.white_variance() / f
-    roles = (ROLE_BIAS,) + tuple(st.role for st in states)
-    return StateSpace(tuple(labels), Phi, Q, H, P0, white_psd, white_psd / dt, roles)
+    return StateSpace(tuple(labels), Phi, Q, H, P0, white_psd, white_psd / dt, tuple(roles))

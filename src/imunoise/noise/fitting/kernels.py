@@ -20,13 +20,14 @@ from numba import njit, types
 
 from imunoise.noise.ar1_math import ar1_g
 from imunoise.noise.fitting.ar1_levels import ar1_g_levels
-from imunoise.noise.processes import AR1, DR, MA1, N_PARAMS, QN, RW, V_HI, WN
+from imunoise.noise.processes import AR1, DR, MA1, N_PARAMS, QN, RW, SIN, V_HI, WN
 
 # kind codes and numba forms of the registry, frozen as compile-time constants of the kernels
 _AR1, _WN, _QN, _RW, _DR = AR1.code, WN.code, QN.code, RW.code, DR.code
 _WN_U, _QN_U, _RW_U, _DR_U = WN.nb_wv_u, QN.nb_wv_u, RW.nb_wv_u, DR.nb_wv_u
 _AR1_T, _WN_T, _QN_T, _RW_T, _DR_T = AR1.nb_wv_theta, WN.nb_wv_theta, QN.nb_wv_theta, RW.nb_wv_theta, DR.nb_wv_theta
 _MA1, _MA1_U, _MA1_T = MA1.code, MA1.nb_wv_u, MA1.nb_wv_theta
+_SIN, _SIN_U, _SIN_T = SIN.code, SIN.nb_wv_u, SIN.nb_wv_theta
 _NP = N_PARAMS
 
 __all__ = ["ar1_g", "ar1_g_levels", "wv_and_jacobian", "objectives", "levenberg_marquardt", "wv_of_theta", "u_rows"]
@@ -103,6 +104,8 @@ def _wv_jac(u, kinds, tau, nu, jac, g, gL, ar_exp, ar_idx):
             _DR_U(u, p, tau, nu, jac)
         elif kind == _MA1:
             _MA1_U(u, p, tau, nu, jac)
+        elif kind == _SIN:
+            _SIN_U(u, p, tau, nu, jac)
         p += _NP[kind]
 
 
@@ -409,5 +412,7 @@ def wv_of_theta(theta, kinds, tau):  # pragma: no cover - compiled
             _DR_T(theta, p, tau, nu)
         elif k == _MA1:
             _MA1_T(theta, p, tau, nu)
+        elif k == _SIN:
+            _SIN_T(theta, p, tau, nu)
         p += _NP[k]
     return nu
