@@ -13,6 +13,7 @@ filter given the true model vs the plain default (5 windows × 10 seeds).
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import statistics
 import time
@@ -254,11 +255,12 @@ def main(quick: bool | None = None) -> str:
             ("KF-GINS loose values (WN+GM)", default_axis_models(rate, kfgins_loose()), None),
             ("plain default + ZUPT at detected stops (`--zupt`)", None, zmask),
         ]:
-            res = run_ekf(imu, gnss, init, cfg, models, zupt=zupt)
+            c = cfg if zupt is None else dataclasses.replace(cfg, zupt_every=1)  # the mask holds the ZUPT phase
+            res = run_ekf(imu, gnss, init, c, models, zupt=zupt)
             m = summarize(nav_errors(res.t, res.antenna_llh(lever), res.vel_ned, res.euler, ref))
             ends = []
             for w in windows:
-                r = run_ekf(imu, gnss.without([w]), init, cfg, models, zupt=zupt)
+                r = run_ekf(imu, gnss.without([w]), init, c, models, zupt=zupt)
                 mw = summarize(nav_errors(r.t, r.antenna_llh(lever), r.vel_ned, r.euler, ref), outages=[w])
                 ends.append(mw["outages"][0]["end_horizontal_m"])
             v = m["velocity_rms_mps"]

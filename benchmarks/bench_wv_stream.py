@@ -51,7 +51,7 @@ def _child(mode: str, n: int, chunk: int) -> dict:
 
     warm = np.random.default_rng(0).standard_normal(1 << 16)
     wavelet_variance(warm, freq=1.0)
-    WVStream().add(warm)
+    WVStream(freq=1.0).add(warm)
     rss0 = _rss_mb()
     if mode == "batch":
         x = np.empty(n)
@@ -61,7 +61,7 @@ def _child(mode: str, n: int, chunk: int) -> dict:
         wv = wavelet_variance(x, freq=1.0)
         seconds = time.perf_counter() - t0
     else:
-        stream = WVStream(levels=CAPPED_LEVELS if mode == "capped" else None)
+        stream = WVStream(levels=CAPPED_LEVELS if mode == "capped" else None, freq=1.0)
         seconds = 0.0
         for c in _chunks(n, chunk):
             t0 = time.perf_counter()
@@ -124,8 +124,8 @@ def main(n: int = N, chunk: int = CHUNK) -> str:
             "| estimator | wall time (s) | speed vs batch (wall) | peak RSS (MiB) | increase (MiB) |",
             "|---|---|---|---|---|",
             row(f"batch `wavelet_variance`, {len(batch['levels'])} levels (tau up to 2^{top})", batch),
-            row(f"`WVStream()`, all {len(stream['levels'])} levels", stream),
-            row(f"`WVStream(levels={CAPPED_LEVELS})`", capped),
+            row(f"`WVStream(freq=…)`, all {len(stream['levels'])} levels", stream),
+            row(f"`WVStream(levels={CAPPED_LEVELS}, freq=…)`", capped),
             "",
             f"Max relative difference to the batch (variance, CI, covariance diagonal): {rel:.1e} (all "
             f"levels), {rel_capped:.1e} (levels 1-{CAPPED_LEVELS}). Rings of the capped stream: "

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import imunoise.nav.step_filter as step_filter
-import imunoise.online.chunks as chunks
 from imunoise.experiments.common import simulate_scenario
 from imunoise.nav.filter_loop import next_event
+from imunoise.nav.zupt_policy import static_runs
 from imunoise.online import OnlineConfig, OnlineNavigator
 
 FAST = "2*AR1 + WN + RW"
@@ -113,8 +113,8 @@ def test_next_event_is_the_earliest_source_at_or_after_k():
 
 def test_static_runs_continue_the_previous_chunk():
     s = np.array([True, True, False, True, True, True, False])
-    assert chunks._static_runs(s, 5).tolist() == [6, 7, 0, 1, 2, 3, 0]
-    assert chunks._static_runs(np.array([True, True]), 0).tolist() == [1, 2]
+    assert static_runs(s, 5).tolist() == [6, 7, 0, 1, 2, 3, 0]
+    assert static_runs(np.array([True, True]), 0).tolist() == [1, 2]
 
 
 @pytest.mark.timeout(900)

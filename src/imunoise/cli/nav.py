@@ -142,6 +142,8 @@ def run(args: argparse.Namespace) -> int:
         from imunoise.nav.measurements.nhc import NhcConfig
 
         kw["aiding"] = (NhcConfig(),)
+    if args.zupt:
+        kw["zupt_every"] = 1  # the mask of zupt_mask holds the due samples of the one ZUPT rule, phase included
     config = EkfConfig(**kw)
 
     t0, start_from = nav_start(args, inp)
@@ -240,9 +242,12 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
 
 
 def zupt_mask(imu, static_duration: float) -> np.ndarray:
-    """Stops found by the docs/guide/theory.rst, 'Static detection' static detector, λ0 learned from the first
-    ``static_duration`` s (a stop): a boolean mask over the IMU epochs for the ZUPT updates."""
+    """The samples where a ZUPT is due by the one rule of the batch filter and the online engine
+    (:func:`imunoise.nav.zupt_policy.zupt_due`) at the stops of the docs/guide/theory.rst, 'Static detection' static
+    detector, λ0 learned from the first ``static_duration`` s (a stop): a boolean mask over the IMU epochs, applied
+    by :func:`~imunoise.nav.ekf.run_ekf` with ``zupt_every = 1``."""
     from imunoise.detect import DetectorConfig, detect_static, learn_lambda0
+    from imunoise.nav.zupt_policy import ZUPT_AFTER, ZUPT_EVERY, zupt_due
 
     gyro, accel = imu.rates()
     m = imu.t < imu.t[0] + static_duration
@@ -254,7 +259,7 @@ def zupt_mask(imu, static_duration: float) -> np.ndarray:
         len(det.segments),
         ", ".join(f"{s.t0:.1f}+{s.duration:.1f}s" for s in det.segments),
     )
-    return det.static
+    return zupt_due(det.static, every=ZUPT_EVERY, after=ZUPT_AFTER)
 
 
 def _print_summary(m: dict) -> None:

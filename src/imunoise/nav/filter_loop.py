@@ -204,7 +204,7 @@ def stream_update(f, m, s, st, i, tk):
     return nis, ok, dz, S, K
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # inlined into run_steps: no call with ~100 flattened arguments per sample
 def predict_step(f, m, s, nh, dth, dv, dt, gate, carry, std, rec):
     """The first half of one filter step: the strapdown with the sample's increments, the covariance every
     ``cov_every`` samples (or after a gap), then the non-holonomic constraint when due. ``carry``: as

@@ -202,7 +202,8 @@ def _new_stream(
     estimated from the first block's stamps (the exact rate is only known at the end; it sets the WV's
     ``freq`` then, :func:`_rescaled`)."""
     if max_scale_s is None:
-        return WVStream(levels=levels)
+        # the rate may be known only at the end: the WV is given it then (_rescaled), 1 Hz holds the place
+        return WVStream(levels=levels, freq=f / k if f else 1.0)
     if f is None:
         d = np.diff(t_rel) if t_rel is not None and t_rel.size > 1 else np.zeros(0)
         d = d[d > 0]
@@ -210,7 +211,7 @@ def _new_stream(
             raise DataError("cannot tell the sample rate from the first block of stamps; give --freq")
         f = 1.0 / float(np.median(d))
     cap = WVStream(max_scale_s=max_scale_s, freq=f / k).levels
-    return WVStream(levels=cap)
+    return WVStream(levels=cap, freq=f / k)
 
 
 def _rescaled(wv: WaveletVariance, freq: float, gain: float | None) -> WaveletVariance:

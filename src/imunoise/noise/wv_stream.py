@@ -46,6 +46,7 @@ from imunoise.noise.wv import (
     level_pass,
     wavelet_variance_from_sums,
 )
+from imunoise.units import required_freq
 
 __all__ = ["BLOCK", "WVStream"]
 
@@ -159,7 +160,7 @@ class WVStream:
         Largest scale tau_J = 2**J / freq [s] to compute: J = floor(log2(max_scale_s * freq)). Give
         ``levels`` or ``max_scale_s``, not both. Either one fixes the memory.
     freq : float
-        Sample rate [Hz].
+        Sample rate [Hz], required (as :func:`~imunoise.noise.selection.select_model` requires it).
     alpha : float
         Level of the chi-square intervals.
     min_coefficients : int
@@ -183,12 +184,11 @@ class WVStream:
         *,
         levels: int | None = None,
         max_scale_s: float | None = None,
-        freq: float = 1.0,
+        freq: float | None = None,
         alpha: float = 0.05,
         min_coefficients: int = MIN_COEFFICIENTS,
     ) -> None:
-        if not (isinstance(freq, (int, float)) and math.isfinite(freq) and freq > 0):
-            raise DataError(f"freq must be a positive sample rate in Hz, got {freq!r}")
+        freq = required_freq(freq, "WVStream")  # no rate is assumed: refused in one line naming freq=
         if not 0.0 < alpha < 1.0:
             raise DataError(f"alpha must be in (0, 1), got {alpha!r}")
         if int(min_coefficients) != min_coefficients or min_coefficients < 1:

@@ -35,6 +35,7 @@ import numpy as np
 
 from imunoise.errors import DataError
 from imunoise.nav.filter_loop import SPAN_COLS, ImuInput, next_event
+from imunoise.nav.zupt_policy import static_runs, zupt_due
 from imunoise.online.stream_checks import fixes_pass
 
 __all__ = ["chunked", "push_chunk", "replay", "run_chunk", "run_record"]
@@ -150,14 +151,6 @@ def _learn_in_chunk(nav: Any, t, dth, dvv, gt, gllh, gsig) -> bool:
     return True
 
 
-def _static_runs(static: np.ndarray, run0: int) -> np.ndarray:
-    """Length of the raw static run at each sample (0 when not static), continuing ``run0``."""
-    n = static.size
-    idx = np.arange(n)
-    last_false = np.maximum.accumulate(np.where(static, -1, idx))
-    return np.where(last_false >= 0, idx - last_false, run0 + idx + 1).astype(np.int64)
-
-
 def run_record(nav: Any, t: np.ndarray, dth: np.ndarray, dv: np.ndarray, gyro: np.ndarray, accel: np.ndarray,
                gt: np.ndarray, gllh: np.ndarray, gsig: np.ndarray, progress: Any = None) -> None:
     """Replay samples and fixes (sorted) through ``nav``: detector chunks, then per chunk the events and the
@@ -213,13 +206,13 @@ def run_chunk(nav: Any, a: int, b: int, t, dth, dv, gyro, accel, det, done_at: d
     cfg = nav.config
     static = np.asarray(det.static_raw, dtype=bool)
     gate = np.asarray(det.gate_open, dtype=bool) & bool(cfg.gate)
-    runs = _static_runs(static, st.static_run)
+    runs = static_runs(static, st.static_run)
     rel = np.arange(b - a)
     py = [np.fromiter(sorted(k - a for k in done_at), dtype=np.int64)]
     bad = ~(np.all(np.isfinite(dth[a:b]), axis=1) & np.all(np.isfinite(dv[a:b]), axis=1))
     py.append(rel[bad])
     if cfg.zupt:
-        py.append(rel[static & (runs >= cfg.zupt_after) & (runs % cfg.zupt_every == 0)])
+        py.append(rel[zupt_due(static, every=cfg.zupt_every, after=cfg.zupt_after, run0=st.static_run)])
     if not st.started:
         i = int(np.searchsorted(t[a:b], nav.init.t, side="right"))
         py.append(np.array([i], dtype=np.int64))

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.detect import StaticSegment
+from imunoise.nav.zupt_policy import zupt_due_at
 from imunoise.noise.estimator import GMWMFit
 from imunoise.noise.model import Model
 from imunoise.online.engine_state import EngineState
@@ -31,12 +32,12 @@ class Zupt:
         self.state = state
 
     def step(self, t: float, gate: bool, ekf: Any, models: Sequence[tuple[Model, float]]) -> None:
-        """A ZUPT (and ZARU) every ``zupt_every`` samples of a static run of ``zupt_after`` or more, the gate
-        closed and the filter slower than ``zupt_max_speed``; ``models``: the filter's current axis models."""
+        """A ZUPT (and ZARU) where the one rule says it is due (:func:`~imunoise.nav.zupt_policy.zupt_due_at`:
+        every ``zupt_every`` samples of a static run of ``zupt_after`` or more, the gate closed) and the filter is
+        slower than ``zupt_max_speed``; ``models``: the filter's current axis models."""
         cfg = self.config
         st = self.state
-        if st.static_run >= cfg.zupt_after and st.static_run % cfg.zupt_every == 0 \
-                and not gate and ekf.view.speed_h < cfg.zupt_max_speed:
+        if zupt_due_at(st.static_run, cfg.zupt_every, cfg.zupt_after, gate) and ekf.view.speed_h < cfg.zupt_max_speed:
             # the χ² test of the zero-velocity pseudo-measurement (NIS = vᵀ(P_vv + σ²I)⁻¹v ≤ zupt_chi2, 3 dof;
             # 0 = off): a detector false positive on a moving car (a noisy IMU's learned λ0 lets smooth
             # cruising pass Eq. 9) would otherwise be forced into the filter

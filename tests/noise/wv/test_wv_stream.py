@@ -18,7 +18,7 @@ def _series(n: int, seed: int, offset: float = 3.0) -> np.ndarray:
 
 
 def _stream(x: np.ndarray, cuts, **kw) -> WVStream:
-    s = WVStream(**kw)
+    s = WVStream(**{"freq": 1.0, **kw})
     edges = [0, *sorted(int(c) for c in cuts), x.shape[0]]
     for a, b in zip(edges[:-1], edges[1:], strict=True):
         s.add(x[a:b])
@@ -57,7 +57,7 @@ def test_one_sample_chunks_and_cuts_at_powers_of_two():
     _assert_same(_stream(x, range(1, x.shape[0]), alpha=0.1).result(), ref)
     _assert_same(_stream(x, [2**k for k in range(12)], alpha=0.1).result(), ref)
     _assert_same(_stream(x, [2**k - 1 for k in range(1, 12)], alpha=0.1).result(), ref)
-    scalar = WVStream(alpha=0.1)
+    scalar = WVStream(alpha=0.1, freq=1.0)
     for v in x:
         scalar.add(v)  # a numpy scalar is one sample
     _assert_same(scalar.result(), ref)
@@ -65,7 +65,7 @@ def test_one_sample_chunks_and_cuts_at_powers_of_two():
 
 def test_chunks_longer_than_a_block_and_result_midway():
     x = _series(3 * BLOCK + 123, 11)
-    s = WVStream()
+    s = WVStream(freq=1.0)
     s.add(x[: 2 * BLOCK + 5])
     _assert_same(s.result(), wavelet_variance(x[: 2 * BLOCK + 5], freq=1.0))  # result() leaves the stream intact
     s.add(x[2 * BLOCK + 5 :])
@@ -147,12 +147,12 @@ def test_buffer_is_bounded_by_the_top_level_not_by_n():
     assert len(set(lengths.values())) == 1
     # without a cap the rings are ready for level floor(log2 N) + 1: at most 2N - 1 values
     for n in (1000, 1024, 1025, 70_000):
-        s = WVStream()
+        s = WVStream(freq=1.0)
         s.add(_series(n, 2))
         top = int(np.floor(np.log2(n)))
         assert s.buffer_len == 2 ** (top + 1) - 1 <= 2 * n - 1
     # short capped stream: rings are created only as their first window sum arrives
-    s = WVStream(levels=20)
+    s = WVStream(levels=20, freq=1.0)
     s.add(_series(100, 3))
     assert s.buffer_len == 2**7 - 1
 
@@ -161,23 +161,23 @@ def test_buffer_is_bounded_by_the_top_level_not_by_n():
 
 
 def test_bad_samples_are_located():
-    s = WVStream()
+    s = WVStream(freq=1.0)
     s.add(np.ones(10))
     x = np.zeros(5)
     x[3] = np.nan
     with pytest.raises(DataError, match="index 13 of the stream"):
         s.add(x)
-    m = WVStream()
+    m = WVStream(freq=1.0)
     bad = np.zeros((4, 3))
     bad[2, 1] = np.inf
     with pytest.raises(DataError, match="index 2, column 1"):
         m.add(bad)
     with pytest.raises(DataError, match="not numeric"):
-        WVStream().add(["a", "b"])
+        WVStream(freq=1.0).add(["a", "b"])
 
 
 def test_shape_must_stay_the_same():
-    s = WVStream()
+    s = WVStream(freq=1.0)
     s.add(np.zeros((5, 3)))
     s.add(np.zeros((0, 3)))
     with pytest.raises(DataError, match=r"\(n, 3\)"):
@@ -185,7 +185,7 @@ def test_shape_must_stay_the_same():
     with pytest.raises(DataError, match=r"\(n, 3\)"):
         s.add(np.zeros(5))
     with pytest.raises(DataError, match="shape"):
-        WVStream().add(np.zeros((2, 2, 2)))
+        WVStream(freq=1.0).add(np.zeros((2, 2, 2)))
 
 
 @pytest.mark.parametrize(
@@ -198,26 +198,27 @@ def test_shape_must_stay_the_same():
         ({"max_scale_s": -1.0}, "max_scale_s must be a positive time"),
         ({"max_scale_s": float("nan")}, "max_scale_s must be a positive time"),
         ({"max_scale_s": 0.01, "freq": 100.0}, "below the finest scale 2/freq = 0.02 s"),
-        ({"freq": 0.0}, "freq must be a positive"),
+        ({"freq": 0.0}, "freq must be a finite rate > 0"),
+        ({}, r"WVStream needs the sample rate of the data: give freq=HZ"),
         ({"alpha": 1.0}, "alpha"),
         ({"min_coefficients": 0}, "min_coefficients"),
     ],
 )
 def test_bad_arguments(kw, match):
     with pytest.raises(DataError, match=match):
-        WVStream(**kw)
+        WVStream(**({"freq": 1.0, **kw} if kw else {}))  # {}: no rate at all
 
 
 def test_too_little_or_constant_data():
-    s = WVStream()
+    s = WVStream(freq=1.0)
     s.add(np.arange(15.0))
     with pytest.raises(DataError, match="only 15 samples"):
         s.result()
-    c = WVStream()
+    c = WVStream(freq=1.0)
     c.add(np.full(100, 2.5))
     with pytest.raises(DataError, match="all samples equal"):
         c.result()
-    m = WVStream()
+    m = WVStream(freq=1.0)
     m.add(np.column_stack([np.arange(100.0), np.full(100, 1.0)]))
     with pytest.raises(DataError, match="column 1"):
         m.result()
