@@ -26,7 +26,7 @@ from imunoise.nav.measurements.gnss_position import gnss_position
 from imunoise.nav.measurements.gnss_velocity import gnss_velocity
 
 __all__ = ["KINDS", "K_GNSS_POSITION", "K_GNSS_VELOCITY", "C_CHI2", "C_MAX_REJECT", "C_GATE_ABS", "CFG_LEN",
-           "Stream", "make_stream", "empty_stream", "measure", "StreamSet", "S_NEXT", "S_REJECT"]
+           "Stream", "make_stream", "empty_stream", "measure", "StreamSet", "S_NEXT", "S_REJECT", "Epochs", "bind"]
 
 KINDS = ("gnss_position", "gnss_velocity")
 """Registered kinds, in the order the engine applies them within one IMU sample."""
@@ -74,6 +74,34 @@ def make_stream(kind: str, t, z, sigma, lever, *, chi2: float = 0.0, max_reject:
     return Stream(KINDS.index(kind), t, z, sigma, np.ascontiguousarray(lever, dtype=float), cfg,
                   np.full(n, -1, dtype=np.int64), np.full(n, np.nan), np.full(n if with_nll else 0, np.nan),
                   np.zeros(2, dtype=np.int64))
+
+
+class Epochs(NamedTuple):
+    """A stream as a reader or the simulator gives it, before a filter binds its lever arm and gate
+    (:func:`bind`): kind (:data:`KINDS`), times [s] (sorted, the IMU time base), values (n, d), 1σ (n, d), the
+    gate's guards (innovation floor ``gate_abs`` in value units, consecutive rejections before one is forced in,
+    < 0 never; ``chi2`` None: the filter's ``EkfConfig.chi2_gate``), rows dropped by the reader (NaN), where
+    the epochs came from (a file, a bag topic; for messages) and the sensor's lever arm (body FRD, m; None: the
+    filter's GNSS antenna lever arm)."""
+
+    kind: str
+    t: np.ndarray
+    z: np.ndarray
+    sigma: np.ndarray
+    gate_abs: float = 0.0
+    max_reject: int = -1
+    chi2: float | None = None
+    dropped: int = 0
+    source: str = ""
+    lever: tuple | None = None
+
+
+def bind(e: Epochs, lever, chi2: float) -> Stream:
+    """The stream of ``e`` in a filter with antenna lever arm ``lever`` and χ² gate ``chi2`` (``e.lever`` and
+    ``e.chi2`` win)."""
+    return make_stream(e.kind, e.t, e.z, e.sigma, lever if e.lever is None else e.lever,
+                       chi2=chi2 if e.chi2 is None else e.chi2,
+                       max_reject=e.max_reject, gate_abs=e.gate_abs)
 
 
 def empty_stream(kind: str, lever) -> Stream:
