@@ -33,6 +33,10 @@ OPTIONS: tuple[AidingOption, ...] = (
                  "GNSS antenna velocity fixes: a file (t vN vE vD [σN σE σD]: GPS s, NED m/s; default σ 0.05 m/s) or a "
                  "bag's TwistStamped/TwistWithCovarianceStamped topic (ENU); without FILE the manifest's 'gnss_vel' "
                  "(--data). Aids through outages; counts in metrics.json"),
+    AidingOption("odometer", "--odometer",
+                 "vehicle (wheel) speed: a file (t speed [σ]: IMU time base s, m/s; default σ 0.05 m/s, scale-factor "
+                 "σ 1 %%) or a bag's TwistStamped/Odometry topic (linear.x); without FILE the manifest's 'odometer' "
+                 "(--data). Aids through outages (imunoise.nav.measurements.odometer); counts in metrics.json"),
 )
 
 

@@ -78,8 +78,53 @@ def _write_gnss_vel(path: Path, e: Epochs) -> None:
     atomic_write_text(path, "# t[s] vN vE vD [m/s] sN sE sD [m/s] (GNSS antenna velocity)\n" + body + "\n")
 
 
+# -- odometer ------------------------------------------------------------------------------------------------
+ODO_SIM_SIGMA = 0.05
+"""1σ of a simulated odometer speed [m/s]."""
+ODO_SIM_SF_SIGMA = 0.005
+"""1σ of a simulated odometer's scale-factor error (0.5 %; drawn once per drive, seeded)."""
+
+
+def _odometer_epochs(t, speed, sigma, source: str) -> Epochs:
+    from imunoise.nav.measurements.odometer import ODO_GATE_ABS, ODO_MAX_REJECT, ODO_SF_SIGMA, ODO_SIGMA
+
+    s = np.where(np.isfinite(sigma), np.maximum(sigma, 0.005), ODO_SIGMA)
+    return Epochs("odometer", np.asarray(t, dtype=float), np.asarray(speed, dtype=float).reshape(-1, 1),
+                  np.column_stack([s, np.full(s.size, ODO_SF_SIGMA)]), ODO_GATE_ABS, ODO_MAX_REJECT, source=source,
+                  lever=(0.0, 0.0, 0.0))
+
+
+def _read_odometer(path, *, imu_t=None, gnss=None, option="--odometer", topic=None) -> Epochs:
+    from imunoise.io.odometer import read_odometer
+
+    f = read_odometer(path, imu_t=imu_t, gnss=gnss, option=option, topic=topic)
+    return _odometer_epochs(f.t, f.speed, f.sigma, str(path))._replace(dropped=f.dropped)
+
+
+def _simulate_odometer(drive, seed: int) -> Epochs:
+    """The body-x speed of the IMU point at the reference epochs (10 Hz by default) times (1 + ε), ε ~ N(0,
+    :data:`ODO_SIM_SF_SIGMA`) once per drive, plus white noise of :data:`ODO_SIM_SIGMA`, never below 0."""
+    from imunoise.nav.measurements.odometer import forward_speed
+
+    rng = np.random.default_rng([seed, 0x0D0])
+    ref = drive.reference
+    eps = ODO_SIM_SF_SIGMA * rng.standard_normal()
+    v = forward_speed(ref.vel_ned, ref.euler) * (1.0 + eps) + ODO_SIM_SIGMA * rng.standard_normal(ref.t.size)
+    e = _odometer_epochs(ref.t, np.maximum(v, 0.0), np.full(ref.t.size, ODO_SIM_SIGMA), f"simulated (ε {eps:+.4%})")
+    return e
+
+
+def _write_odometer(path: Path, e: Epochs) -> None:
+    from imunoise.io.atomic import atomic_write_text
+
+    rows = np.column_stack([e.t, e.z[:, 0], e.sigma[:, 0]])
+    body = "\n".join(f"{r[0]:.6f} {r[1]:.4f} {r[2]:.4f}" for r in rows)
+    atomic_write_text(path, f"# t[s] speed[m/s] sigma[m/s] (vehicle forward speed; {e.source})\n" + body + "\n")
+
+
 SOURCES: tuple[AidingSource, ...] = (
     AidingSource("gnss_velocity", "gnss_vel", "gnss_vel.txt", _read_gnss_vel, _simulate_gnss_vel, _write_gnss_vel),
+    AidingSource("odometer", "odometer", "odometer.txt", _read_odometer, _simulate_odometer, _write_odometer),
 )
 """Every measurement source, in :data:`imunoise.nav.streams.KINDS` order."""
 

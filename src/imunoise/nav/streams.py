@@ -24,13 +24,15 @@ from numba import njit
 from imunoise.errors import DataError
 from imunoise.nav.measurements.gnss_position import gnss_position
 from imunoise.nav.measurements.gnss_velocity import gnss_velocity
+from imunoise.nav.measurements.odometer import odometer
 
-__all__ = ["KINDS", "K_GNSS_POSITION", "K_GNSS_VELOCITY", "C_CHI2", "C_MAX_REJECT", "C_GATE_ABS", "CFG_LEN",
-           "Stream", "make_stream", "empty_stream", "measure", "StreamSet", "S_NEXT", "S_REJECT", "Epochs", "bind"]
+__all__ = ["KINDS", "K_GNSS_POSITION", "K_GNSS_VELOCITY", "K_ODOMETER", "C_CHI2", "C_MAX_REJECT", "C_GATE_ABS",
+           "CFG_LEN", "Stream", "make_stream", "empty_stream", "measure", "StreamSet", "S_NEXT", "S_REJECT", "Epochs",
+           "bind"]
 
-KINDS = ("gnss_position", "gnss_velocity")
+KINDS = ("gnss_position", "gnss_velocity", "odometer")
 """Registered kinds, in the order the engine applies them within one IMU sample."""
-K_GNSS_POSITION, K_GNSS_VELOCITY = range(len(KINDS))
+K_GNSS_POSITION, K_GNSS_VELOCITY, K_ODOMETER = range(len(KINDS))
 
 C_CHI2, C_MAX_REJECT, C_GATE_ABS = 0, 1, 2
 """``cfg`` columns: χ² gate (≤ 0 off), consecutive rejections before the next epoch is forced in (< 0 never),
@@ -125,6 +127,8 @@ def measure(nav, n, last_dt, st, i, tk):
     IMU interval, for the angular rate)."""
     if st.kind == K_GNSS_POSITION:
         return gnss_position(nav, n, st.z[i], st.lever, tk - st.t[i], st.sigma[i])
+    if st.kind == K_ODOMETER:
+        return odometer(nav, n, st.z[i], st.lever, last_dt, st.sigma[i])
     return gnss_velocity(nav, n, st.z[i], st.lever, last_dt, st.sigma[i])
 
 
