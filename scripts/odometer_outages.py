@@ -40,7 +40,7 @@ def drive(seed: int) -> dict:
     sc = simulate_scenario(seed, duration_s=600.0, n_stops=4, n_outages=4, outage_s=60.0, streams=("odometer",))
     gnss = sc.gnss.without(sc.windows)
     base = sc.ekf_config()
-    out = {"seed": seed, "windows": [list(w) for w in sc.windows], "odometer": sc.extra["streams"][0].source}
+    out = {"seed": seed, "windows": [list(w) for w in sc.windows], "odometer_source": sc.extra["streams"][0].source}
     for name in CONFIGS:
         cfg = base.with_(aiding=(NhcConfig(),)) if "nhc" in name else base
         r = run_ekf(sc.imu, gnss, sc.init, cfg, streams=sc.extra["streams"] if "odometer" in name else ())

@@ -138,3 +138,8 @@ def test_online_applies_the_odometer_and_counts_it(sim, tmp_path):
     assert code == 0, err
     m = json.loads((out / "metrics.json").read_text())["odometer"]
     assert m["file"].endswith("odometer.txt") and m["used"] + m["forced"] > 0.9 * m["fixes"]
+
+
+def test_an_experiment_takes_the_option_without_a_file(sim, tmp_path):
+    code, err = _run(["experiment", "online", "--sim", "--odometer", sim["good"], "--out", tmp_path / "e"])
+    one_line_error(code, err, "--odometer", "without FILE")
