@@ -38,7 +38,7 @@ def test_gnss_velocity_round_trips_through_a_bag(tmp_path, name):
 def test_two_twist_topics_need_a_choice(tmp_path):
     tv = 100.5 + np.arange(4) * 0.25
     bag, t = _bag(tmp_path / "two.bag", {"/a": (tv, np.ones((4, 3))), "/b": (tv, np.ones((4, 3)))})
-    with pytest.raises(DataError, match="choose one with --topic"):
+    with pytest.raises(DataError, match="choose one with --gnss-vel-topic"):
         read_gnss_velocity(bag, imu_t=t)
     with pytest.raises(DataError, match="no topic '/c'"):
         read_gnss_velocity(bag, imu_t=t, topic="/c")

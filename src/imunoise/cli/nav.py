@@ -38,6 +38,8 @@ EXAMPLES = """examples:
   imunoise nav --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --imu-model model.json \
       --out out/
   imunoise nav --data sim/ --outages sim/outages.txt --default --out out/sim
+  imunoise nav --data sim/ --outages sim/outages.txt --nhc --odometer --out out/odo   # + the wheel speed
+  imunoise nav --data data/drive_0708 --outage-runs --gnss-vel --out out/nav_vel      # + GNSS velocity
   imunoise nav --imu drive.mcap --imu-topic /imu --gnss drive.mcap --gnss-topic /fix --lever-arm 0 -0.05 0 \
       --out out/b
   imunoise nav --imu imu.txt --gnss rtk.pos --min-quality 2 --out out/pos      # RTKLIB solution, fix + float

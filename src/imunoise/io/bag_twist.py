@@ -52,7 +52,8 @@ def read_twist_topic(path: str | Path, topic: str | None, what: str) -> TwistTop
     reader = open_bag(path)
     try:
         topics = topics_of(reader)
-        name = choose_topic(path, topics, topic, TWIST_TYPES, f"{what} twist")
+        name = choose_topic(path, topics, topic, TWIST_TYPES, f"{what} twist",
+                            f"{what}-topic" if what.startswith("--") else "--topic")
         conns = [c for c in reader.connections if c.topic == name]
         stamps, lin, var = [], [], []
         msgtype = conns[0].msgtype
