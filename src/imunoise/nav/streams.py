@@ -124,12 +124,17 @@ def _empty(kind: str) -> Stream:
 @njit(cache=True)
 def measure(nav, n, last_dt, st, i, tk):
     """``(dz, H, R)`` of epoch ``i`` of stream ``st`` applied at filter time ``tk`` (``last_dt``: the last
-    IMU interval, for the angular rate)."""
+    IMU interval, for the angular rate). A kind without a branch raises: numba's cache follows a change of a
+    kernel's own file only, so a step sequence cached before a kind was added runs the dispatch it was compiled
+    with, and must stop there rather than hand the new kind to another measurement's function."""
     if st.kind == K_GNSS_POSITION:
         return gnss_position(nav, n, st.z[i], st.lever, tk - st.t[i], st.sigma[i])
+    if st.kind == K_GNSS_VELOCITY:
+        return gnss_velocity(nav, n, st.z[i], st.lever, last_dt, st.sigma[i])
     if st.kind == K_ODOMETER:
         return odometer(nav, n, st.z[i], st.lever, last_dt, st.sigma[i])
-    return gnss_velocity(nav, n, st.z[i], st.lever, last_dt, st.sigma[i])
+    raise ValueError("measurement kind unknown to the compiled filter kernels (cached before the kind was added?): "
+                     "delete numba's cache, find src -name '*.nb[ic]' -delete")
 
 
 class StreamSet:
