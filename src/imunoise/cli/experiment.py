@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+from imunoise.cli.aiding_options import add_aiding_options, stream_keys
 from imunoise.cli.options import (
     add_deprecated_alias,
     int_at_least,
@@ -22,6 +23,7 @@ EXAMPLES = """examples:
   imunoise experiment online --data data/drive_0708 --out out/exp_online
   imunoise experiment online --sim --seeds 20 --out out/mc_online          # Monte Carlo, both cores
   imunoise experiment denial --sim --seeds 20 --out out/mc_denial
+  imunoise experiment online --sim --seeds 5 --gnss-vel --out out/mc_vel   # + simulated GNSS velocity
   imunoise experiment denial --data data/drive_0708 --out out/denial_real
   imunoise experiment online --data data/drive_0708 --outages dense:60:20 --gnss-regime rtk \
       --gnss-regime noise:1.5,3,1 \
@@ -105,6 +107,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed-role", choices=("dev", "report"), default="dev",
                    help="what the seeds are for, recorded in results.json and named in the report: dev "
                    "(development, default) or report (fresh seeds, run once per method version)")
+    add_aiding_options(p)  # here without FILE: the simulator simulates the stream, --data reads the manifest's
     p.add_argument("--out", required=True, help="output folder")
     add_deprecated_alias(p, "--imu", "--imu-model")
     add_deprecated_alias(p, "--gnss", "--gnss-regime")
@@ -213,7 +216,8 @@ def _run_in(args: argparse.Namespace, out: Path, final: Path, form, outages, evi
             raise ModelError(f"--seeds must be ≥ 1, got {args.seeds}")
         seeds = list(range(args.seed0, args.seed0 + args.seeds))
         bar, step = _progress(len(seeds), f"{args.which} Monte Carlo")
-        kw = {"duration_s": args.duration, "n_stops": args.stops, "n_outages": 4 if outages is None else outages}
+        kw = {"duration_s": args.duration, "n_stops": args.stops, "n_outages": 4 if outages is None else outages,
+              "streams": stream_keys(args)}
         if args.imu_model:
             kw["imu_models"] = args.imu_model
         kw["motion_noise"] = args.motion_noise
@@ -236,7 +240,7 @@ def _run_in(args: argparse.Namespace, out: Path, final: Path, form, outages, evi
         n_runs = len(methods) * 6 if args.which == "online" else len(methods)
         bar, step = _progress(n_runs, f"{args.which} experiment")
         if args.which == "denial":
-            res, sc = denial.run_real(data, methods=methods, start=args.start, progress=step)
+            res, sc = denial.run_real(data, methods=methods, start=args.start, progress=step, streams=stream_keys(args))
             bar.close()
             res["seed_role"] = args.seed_role
             html = write_denial_real(res, sc, out)
@@ -247,7 +251,7 @@ def _run_in(args: argparse.Namespace, out: Path, final: Path, form, outages, evi
 
                 windows = read_outages(outages)
             res, sc = online_exp.run_real(data, methods=methods, workers=args.workers, start=args.start, progress=step,
-                                          windows=windows, base=args.base)
+                                          windows=windows, base=args.base, streams=stream_keys(args))
             bar.close()
             res["seed_role"] = args.seed_role
             html = write_online_real(res, sc, out)
@@ -338,7 +342,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float, final: Path) -
         # one unit = one method on one GNSS realisation of one drive
         bar, step = _progress(len(seeds) * dense.n_units(methods, regimes, noise_seeds), "evidence (drives × methods)",
                               unit="run")
-        scen = {"duration_s": args.duration, "n_stops": args.stops}
+        scen = {"duration_s": args.duration, "n_stops": args.stops, "streams": stream_keys(args)}
         if args.imu_model:
             scen["imu_models"] = args.imu_model
         scen["motion_noise"] = args.motion_noise
@@ -351,7 +355,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float, final: Path) -
         data = args.data or str(repo_data_dir())
         n_jobs = len(methods) * sum(len(noise_seeds) if r.random else 1 for r in regimes)
         bar, step = _progress(n_jobs, "evidence")
-        res = dense.run_real(data, start=args.start, progress=step, **kw)
+        res = dense.run_real(data, start=args.start, progress=step, streams=stream_keys(args), **kw)
         title = f"imunoise: dense-window evidence on {data}"
     bar.close()
     res["elapsed_s"] = time.perf_counter() - t0

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from imunoise.cli.aiding_options import add_aiding_options, aiding_metrics, epoch_counts, read_aiding
 from imunoise.cli.navrun import (
     add_mount_option,
     gyro_unit_notes,
@@ -18,10 +19,8 @@ from imunoise.cli.navrun import (
     mounting_notes,
     nav_start,
     outage_summary,
-    read_gnss_vel,
     read_nav_inputs,
     run_metrics,
-    velocity_counts,
     write_trajectory,
 )
 from imunoise.cli.options import (
@@ -42,6 +41,8 @@ EXAMPLES = """examples:
   imunoise nav --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --imu-model model.json \
       --out out/
   imunoise nav --data sim/ --outages sim/outages.txt --default --out out/sim
+  imunoise nav --data sim/ --outages sim/outages.txt --nhc --odometer --out out/odo   # + the wheel speed
+  imunoise nav --data data/drive_0708 --outage-runs --gnss-vel --out out/nav_vel      # + GNSS velocity
   imunoise nav --imu drive.mcap --imu-topic /imu --gnss drive.mcap --gnss-topic /fix --lever-arm 0 -0.05 0 \
       --out out/b
   imunoise nav --imu imu.txt --gnss rtk.pos --min-quality 2 --out out/pos      # RTKLIB solution, fix + float
@@ -97,9 +98,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--nhc", action="store_true",
                    help="non-holonomic constraints: zero lateral and vertical body velocity while driving (gated in "
                         "turns and skids; imunoise.nav.measurements.nhc)")
-    p.add_argument("--gnss-vel", nargs="?", const="", metavar="FILE",
-                   help="GNSS antenna velocity fixes (t vN vE vD [σN σE σD]: GPS s, NED m/s; default σ 0.05 m/s); "
-                        "without FILE the manifest's 'gnss_vel' (--data). Aids through outages; counts in metrics.json")
+    add_aiding_options(p)
     p.add_argument("--no-chi2-gate", action="store_true", help="disable the χ² innovation gate of the GNSS updates")
     add_deprecated_alias(p, "--no-gate", "--no-chi2-gate")
     add_deprecated_alias(p, "--model", "--imu-model")
@@ -166,8 +165,7 @@ def run(args: argparse.Namespace) -> int:
     )
 
     zupt = zupt_mask(imu, args.static_duration) if args.zupt else None
-    vel = read_gnss_vel(args, inp, log)
-    args.gnss_vel_fixes, args.gnss_vel_path = vel if vel is not None else (None, None)
+    args.aiding = read_aiding(args, inp, log)  # GNSS velocity, ...: (source, epochs) each
     out = Path(args.out)
     # every output of this run appears at once when it completes (Ctrl-C leaves --out as it was); the files
     # an earlier nav run left (outage_<k>/ of more windows, plots of a run with plots) are removed then
@@ -198,8 +196,8 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
     from imunoise.nav.ekf import run_ekf
 
     base_gnss = gnss if args.outage_runs else gnss.without(windows)
-    vel = args.gnss_vel_fixes
-    res = run_ekf(imu, base_gnss, init, config, models, t_end=args.end, zupt=zupt, gnss_vel=vel)
+    streams = [e for _, e in args.aiding]
+    res = run_ekf(imu, base_gnss, init, config, models, t_end=args.end, zupt=zupt, streams=streams)
     duration = float(res.t[-1] - res.t[0])
     write_trajectory(out / "trajectory.nav", res, ref)
     metrics: dict = {"model": model_name, "start": float(res.t[0]), "duration_s": duration, "zupt": bool(args.zupt),
@@ -210,9 +208,7 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
     metrics["mounting"] = mounting_metrics(args, res)
     metrics["gnss_rejected"] = int(np.sum(res.gnss_status == 0))
     metrics["gnss_forced"] = int(np.sum(res.gnss_status == 2))
-    if vel is not None:
-        counts = velocity_counts(res, vel, [] if args.outage_runs else windows)
-        metrics["gnss_vel"] = {"file": args.gnss_vel_path, **counts}
+    metrics.update(aiding_metrics(res.stream_status, args.aiding, [] if args.outage_runs else windows))
     if res.scale_factors is not None:  # --scale-factors: final ŝ, gyro x,y,z then accel x,y,z
         metrics["scale_factors_ppm"] = [float(x) * 1e6 for x in res.scale_factors[-1]]
 
@@ -222,14 +218,15 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
 
         outs = []
         for k, w in enumerate(tqdm(windows, desc="outage runs", disable=not sys.stderr.isatty())):
-            r = run_ekf(imu, gnss.without([w]), init, config, models, t_end=args.end, zupt=zupt, gnss_vel=vel)
+            r = run_ekf(imu, gnss.without([w]), init, config, models, t_end=args.end, zupt=zupt, streams=streams)
             sub = out / f"outage_{k + 1}"
             sub.mkdir(exist_ok=True)
             write_trajectory(sub / "trajectory.nav", r, ref)
             mk, e = run_metrics(r, ref, lever, [w], duration)
-            if vel is not None and e is not None:
-                mk["gnss_vel"] = velocity_counts(r, vel, [w])
-                mk["outages"][0]["gnss_vel"] = mk["gnss_vel"]["in_outages"]
+            if e is not None:
+                for src, ep in args.aiding:
+                    mk[src.key] = epoch_counts(r.stream_status[src.kind], ep, [w])
+                    mk["outages"][0][src.key] = mk[src.key]["in_outages"]
             if e is not None:
                 atomic_write_text(sub / "metrics.json", json.dumps(mk, indent=1))
                 outs.append(mk["outages"][0])

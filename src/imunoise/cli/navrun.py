@@ -32,8 +32,6 @@ __all__ = [
     "write_trajectory",
     "run_metrics",
     "outage_summary",
-    "read_gnss_vel",
-    "velocity_counts",
     "add_mount_option",
     "mounting_notes",
     "mounting_metrics",
@@ -206,49 +204,4 @@ def mounting_metrics(args: argparse.Namespace, res: Any) -> dict:
     m = dict(getattr(args, "mounting", None) or {})
     m["filter_sideslip_deg"] = sideslip_deg(res.euler, res.vel_ned) if res.t.size else None
     return m
-
-
-def read_gnss_vel(args: argparse.Namespace, inp: NavInputs, log: logging.Logger):
-    """``--gnss-vel [FILE]``: the GNSS velocity fixes (FILE, or the manifest's ``gnss_vel`` when no FILE is given)
-    checked against the IMU's time base and the GNSS track (:func:`imunoise.io.gnss_velocity.read_gnss_velocity`),
-    as the filter takes them, and the path; None without the option. NaN rows dropped are logged, counted and
-    noted in ``inp.notes``."""
-    opt = getattr(args, "gnss_vel", None)
-    if opt is None:
-        return None
-    from imunoise.io.gnss_velocity import read_gnss_velocity
-    from imunoise.nav.measurements.gnss_velocity import as_gnss_velocity
-
-    path = opt
-    if opt == "":
-        name = inp.dataset.extra.get("gnss_vel") if inp.dataset is not None else None
-        if not name:
-            raise ModelError("--gnss-vel without a file needs --data with a dataset.json naming 'gnss_vel'; "
-                             "give --gnss-vel FILE")
-        path = str(inp.dataset.root / name)
-    f = read_gnss_velocity(path, imu_t=inp.imu.t, gnss=inp.gnss)
-    if f.dropped:
-        note = f"--gnss-vel {path}: {f.dropped} rows with NaN dropped"
-        log.warning("%s", note)
-        inp.notes.append(note)  # kept in metrics.json's warnings
-    v = as_gnss_velocity(f.t, f.vel_ned, f.sigma_ned)
-    return v._replace(dropped=f.dropped), str(path)
-
-
-def velocity_counts(res, vel, windows) -> dict:
-    """What became of every GNSS velocity fix of a run (metrics.json ``gnss_vel``): dropped for a NaN, outside the
-    run, used, rejected by the χ² gate, forced in after consecutive rejections; the same inside the outage
-    ``windows`` (start, duration) [s]."""
-    import numpy as np
-
-    st = res.gnss_vel_status
-
-    def count(m) -> dict:
-        return {"used": int(np.sum(st[m] == 1)), "rejected": int(np.sum(st[m] == 0)), "forced": int(np.sum(st[m] == 2))}
-
-    inside = np.zeros(vel.t.size, dtype=bool)
-    for s, length in windows:
-        inside |= (vel.t >= s) & (vel.t < s + length)
-    return {"fixes": int(vel.t.size + vel.dropped), "dropped_nan": int(vel.dropped), "outside_run": int(np.sum(st < 0)),
-            **count(np.ones(vel.t.size, dtype=bool)), "in_outages": count(inside)}
 

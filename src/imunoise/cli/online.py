@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+from imunoise.cli.aiding_options import add_aiding_options, aiding_metrics, epoch_counts, read_aiding
 from imunoise.cli.navrun import (
     add_mount_option,
     gyro_unit_notes,
@@ -41,6 +42,7 @@ EXAMPLES = """examples:
   imunoise online --data data/drive_0708 --outages data/drive_0708/outages_60s.txt --outage-runs --out out/on
   imunoise online --imu imu.txt --gnss gnss.txt --ref ref.nav --lever-arm 0 -0.05 0 --zupt --out out/on
   imunoise online --data sim/ --criterion wvic --latency 0 --out out/sim_online
+  imunoise online --data sim/ --gnss-vel --out out/sim_online_vel   # + the manifest's GNSS velocity
   imunoise online --imu drive.bag --gnss rtk.pos --lever-arm 0 -0.05 0 --out out/bag_online   # ROS bag + RTKLIB
   imunoise online --imu next.bag --gnss next.pos --earlier-static out/bag_online/static.npz --out out/next
 
@@ -82,6 +84,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--worker", choices=("inline", "thread"), default="inline",
                    help="inline = deterministic replay (default); thread = background thread, never blocks")
     p.add_argument("--zupt", action="store_true", help="zero-velocity updates at detected stops (ZUPT/ZARU)")
+    add_aiding_options(p)
     p.add_argument("--no-rate-gate", action="store_true",
                    help="do not use the 30 °/s angular-rate gate of the static detector's noise model")
     add_deprecated_alias(p, "--no-gate", "--no-rate-gate")
@@ -158,6 +161,8 @@ def run(args: argparse.Namespace) -> int:
         notes.append(EXPERIMENTAL_LIKELIHOOD)
     for n in notes[n_read:]:
         log.warning("%s", n)
+    aiding = read_aiding(args, inp, log)  # GNSS velocity, ...: (source, epochs) each
+    status: dict = {}  # the last run's status per epoch, by kind
     rate = imu.rate_hz
     models = load_axis_models(args.imu_model, rate) if args.imu_model else None
     detector = DetectorConfig(lambda0=args.lambda0) if args.lambda0 is not None else None
@@ -180,7 +185,10 @@ def run(args: argparse.Namespace) -> int:
             bar.refresh()
 
         nav = OnlineNavigator(config, init, imu_rate_hz=rate, initial_models=models, earlier_static=earlier)
+        if aiding:
+            nav.add_streams(*(e for _, e in aiding))
         r = nav.run(imu, g, progress=prog)
+        status.update(nav.state.streams.status() if aiding else {})
         bar.close()
         return r
 
@@ -204,6 +212,7 @@ def run(args: argparse.Namespace) -> int:
                                                            **({"motion_noise_statistic": "likelihood"} if motion
                                                               and motion.statistic == "likelihood" else {})}}
         metrics.update(run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)[0])
+        metrics.update(aiding_metrics(status, aiding, [] if args.outage_runs else windows))
         metrics["cpu_s"] = cpu_s
         metrics["cpu_realtime_factor"] = duration / cpu_s if cpu_s > 0 else None
         if args.outage_runs and windows:
@@ -212,6 +221,8 @@ def run(args: argparse.Namespace) -> int:
                 r = one(gnss.without([w]), f"outage {k + 1}/{len(windows)}")
                 mk, e = run_metrics(r, ref, lever, [w], duration)
                 if e is not None:
+                    for src, ep in aiding:
+                        mk["outages"][0][src.key] = epoch_counts(status[src.kind], ep, [w])["in_outages"]
                     outs.append(mk["outages"][0])
             metrics.update(outage_summary(outs))
         end = [e for e in res.events if e["event"] == "motion_noise_end"]

@@ -35,7 +35,8 @@ is at or after --start-sow).
 written files: imu.txt (KF-GINS increments with errors), imu_true.txt, gnss.txt, ref.nav (the GNSS antenna
 point, like the shared real drive's reference: position and velocity of the antenna, body attitude),
 outages.txt, truth.json (models, moving-regime models under the motion law, turn-on biases, stops, turns,
-speed profile), dataset.json (docs/guide/theory.rst, 'Interfaces').
+speed profile), dataset.json (docs/guide/theory.rst, 'Interfaces'), and one file per measurement source of
+imunoise.nav.aiding_sources, named in dataset.json (gnss_vel.txt: antenna velocity, 5 cm/s noise; seeded).
 --static writes imu.txt, imu_rate.csv (sow,gx,gy,gz,ax,ay,az) and truth.json."""
 
 
@@ -188,9 +189,11 @@ def run(args: argparse.Namespace) -> int:
     if outages and max(s + d for s, d in outages) > cfg.duration_s:
         raise ModelError("an outage window ends after the drive; give outage starts in s from the start or SOW")
     drive = simulate_drive(cfg, models, args.seed)
+    from imunoise.nav.aiding_sources import write_simulated
     # IMU, GNSS, reference and truth only make sense together: an interrupted run leaves none of them
     with staged_dir(args.out) as stage:
         drive.write(stage, compress=args.gzip)
+        write_simulated(drive, stage, args.seed)  # GNSS velocity, ...: one file each, named in dataset.json
     out = args.out
     tr = drive.truth
     stops = ", ".join(f"{b - a:.0f}" for a, b in tr["stops"]) or "none"

@@ -107,9 +107,12 @@ class Scenario:
         return EkfConfig(lever_arm=tuple(float(x) for x in self.lever)).with_(**self.extra.get("ekf", {}))
 
 
-def load_real(data_dir: str | Path, *, start: float | None = None, static_duration: float = 30.0) -> Scenario:
+def load_real(data_dir: str | Path, *, start: float | None = None, static_duration: float = 30.0,
+              streams: Sequence[str] = ()) -> Scenario:
     """The real drive in a dataset folder (docs/guide/theory.rst, 'Interfaces'). Start time: ``start``, else the
-    manifest's ``start_sow``, else the first GNSS epoch; alignment from the first ``static_duration`` s (a stop)."""
+    manifest's ``start_sow``, else the first GNSS epoch; alignment from the first ``static_duration`` s (a stop).
+    ``streams``: keys of measurement sources (:mod:`imunoise.nav.aiding_sources`, e.g. ``gnss_vel``) read from the
+    files the manifest names under them, into ``extra["streams"]`` (every online run of the drive applies them)."""
     from imunoise.io.dataset import read_dataset
     from imunoise.io.kfgins import read_gnss, read_imu, read_outages, read_reference
     from imunoise.nav.align import coarse_align
@@ -126,6 +129,13 @@ def load_real(data_dir: str | Path, *, start: float | None = None, static_durati
         t0 = max(float(imu.t[0]), float(gnss.t[0]))
     lever = np.asarray(ds.lever_arm_m, dtype=float)
     init = coarse_align(imu, gnss, float(t0), static_duration=static_duration, lever_arm=lever)
+    extra_streams = []
+    for key in streams:
+        from imunoise.nav.aiding_sources import source
+
+        if not ds.extra.get(key):
+            raise DataError(f"{ds.root}/dataset.json names no '{key}' file; add it or drop the option")
+        extra_streams.append(source(key).read(ds.root / ds.extra[key], imu_t=imu.t, gnss=gnss, option=key))
     static_truth = None
     try:
         from imunoise.detect import static_truth_from_speed
@@ -134,12 +144,13 @@ def load_real(data_dir: str | Path, *, start: float | None = None, static_durati
     except ImunoiseError:
         pass
     return Scenario(ds.name, imu, gnss, ref, lever, init, windows, outage_runs=True, static_truth=static_truth,
-                    extra={"root": str(ds.root), "license": ds.license})
+                    extra={"root": str(ds.root), "license": ds.license, "streams": extra_streams})
 
 
 def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4, n_outages: int = 4,
                       imu_models: Any = SIM_IMU, outage_s: float = 60.0, outage_lead_s: float = 60.0,
-                      match_bias_prior: bool = True, motion_noise: Any = SIM_MOTION, **drive_kw: Any) -> Scenario:
+                      match_bias_prior: bool = True, motion_noise: Any = SIM_MOTION, streams: Sequence[str] = (),
+                      **drive_kw: Any) -> Scenario:
     """A simulated urban drive (docs/guide/theory.rst, 'Simulator') with ``n_outages`` windows of ``outage_s`` (all in
     one run), the first
     no earlier than ``outage_lead_s`` of GNSS-aided driving after the static start. ``match_bias_prior``: the
@@ -151,7 +162,10 @@ def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4,
     Why the lead (default 60 s): the online model exists only after the first stop (the static start, 60 s),
     and a window that opens seconds after the car starts moving tests the alignment, not the error model:
     every method enters it with the same state. Measured on 20 seeds (paper preset), a window 3 s after the
-    start dominated the mean drift (248 m for plain and online GMWM alike on seed 2)."""
+    start dominated the mean drift (248 m for plain and online GMWM alike on seed 2). ``streams``: keys of
+    measurement sources simulated from the drive's truth (:func:`imunoise.nav.aiding_sources.simulate_all`, seeded
+    by ``seed``) into ``extra["streams"]`` (every online run of the drive applies them)."""
+    from imunoise.nav.aiding_sources import simulate_all
     from imunoise.nav.align import coarse_align
     from imunoise.sim import DriveConfig, simulate_drive
 
@@ -168,7 +182,8 @@ def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4,
                     np.asarray(cfg.lever_arm_m, dtype=float), init, windows, outage_runs=False,
                     static_truth=drive.static_mask, truth_models=drive.moving_models,
                     extra={"stops": drive.truth["stops"], "seed": seed, "ekf": ekf, "static_models": drive.imu_models,
-                           "motion_noise": drive.truth["motion_noise"], "law_schedule": drive.law_schedule})
+                           "motion_noise": drive.truth["motion_noise"], "law_schedule": drive.law_schedule,
+                           "streams": list(simulate_all(drive, seed, streams).values()) if streams else []})
 
 
 def imu_noise_kwargs(path: str | None, seed0: int, *, imu: Any = None, reserve_s: float = 0.0) -> dict:
@@ -269,6 +284,8 @@ def run_filter(sc: Scenario, config: OnlineConfig, *, initial_models=None, windo
     gnss = sc.gnss.without(windows) if windows else sc.gnss
     cache = sc.extra.setdefault("job_cache", {})
     nav = OnlineNavigator(config, sc.init, imu_rate_hz=sc.rate, initial_models=initial_models, job_cache=cache)
+    if sc.extra.get("streams"):  # GNSS velocity, odometer, ...: through the outages too
+        nav.add_streams(*sc.extra["streams"])
     return nav.run(sc.imu, gnss)
 
 

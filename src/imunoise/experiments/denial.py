@@ -74,9 +74,11 @@ def _evaluate_all(sc: Scenario, models: dict, methods: Sequence[str], keep: bool
 
 
 def run_real(data_dir: str, *, methods: Sequence[str] = METHODS, start: float | None = None,
-             progress: Callable[[str], None] | None = None, complete: str | None = None) -> tuple[dict, Scenario]:
-    """Denial experiment on a real drive: models from the drive's own static segments."""
-    sc = load_real(data_dir, start=start)
+             progress: Callable[[str], None] | None = None, complete: str | None = None,
+             streams: Sequence[str] = ()) -> tuple[dict, Scenario]:
+    """Denial experiment on a real drive: models from the drive's own static segments; ``streams``: the manifest's
+    measurement sources every run applies (:func:`~imunoise.experiments.common.load_real`)."""
+    sc = load_real(data_dir, start=start, streams=streams)
     segs, det = static_segments(sc)
     models = static_models(segs, sc.rate, complete=complete)
     raw = {}

@@ -123,14 +123,16 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
              noise_seeds: Sequence[int] = (1,), methods: Sequence[str] = EVIDENCE_METHODS,
              pairs: Sequence[tuple[str, str]] = (), workers: int = 2, start: float | None = None,
              base: OnlineConfig | None = None, n_boot: int = 2000, boot_seed: int = 0,
-             paper_windows: bool = True, progress: Callable[[str], None] | None = None) -> dict:
-    """Dense-window evidence on a real drive: every method × regime × noise seed (``rtk`` once).
+             paper_windows: bool = True, progress: Callable[[str], None] | None = None,
+             streams: Sequence[str] = ()) -> dict:
+    """Dense-window evidence on a real drive: every method × regime × noise seed (``rtk`` once); ``streams``: the
+    manifest's measurement sources every run applies (:func:`~imunoise.experiments.common.load_real`).
 
     Returns the results dict (``paired`` list, per-window values, per-regime summaries)."""
     from imunoise.experiments.common import load_real
 
     logging.getLogger("imunoise").setLevel(logging.WARNING)
-    sc = load_real(data_dir, start=start)
+    sc = load_real(data_dir, start=start, streams=streams)
     dense = dense_windows(sc, spec)
     paper = list(sc.windows) if paper_windows else []
     _REAL.update(sc=sc, regimes=list(regimes), windows=dense + paper, base=base, cache={})

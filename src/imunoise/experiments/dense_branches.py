@@ -136,6 +136,8 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
     cache = sc.extra.setdefault("job_cache", {})
     nav = OnlineNavigator(config, sc.init, imu_rate_hz=sc.rate, initial_models=initial_models, job_cache=cache,
                           earlier_static=earlier_static)
+    if sc.extra.get("streams"):  # GNSS velocity, odometer, ...: every branch keeps them through its window
+        nav.add_streams(*sc.extra["streams"])
     shared = [cache, sc, t, dth, dv, gt, gllh, gsig, sc.imu, sc.ref, config]
     if updater is not None:
         shared += list(updater.shared())

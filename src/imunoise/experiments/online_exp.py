@@ -107,9 +107,9 @@ _SC: dict[str, Any] = {}
 
 
 def _init_real(data_dir: str, start: float | None, base: OnlineConfig | None = None,
-               windows: list | None = None) -> None:
+               windows: list | None = None, streams: Sequence[str] = ()) -> None:
     logging.getLogger("imunoise").setLevel(logging.WARNING)
-    _SC["sc"] = load_real(data_dir, start=start)
+    _SC["sc"] = load_real(data_dir, start=start, streams=streams)
     if windows is not None:
         _SC["sc"].windows = [tuple(w) for w in windows]
     _SC["cache"] = {}
@@ -132,14 +132,15 @@ def _real_job(job: tuple[str, int]) -> tuple[str, int, dict]:
 
 def run_real(data_dir: str, *, methods: Sequence[str] = METHODS, workers: int = 2, start: float | None = None,
              progress: Callable[[str], None] | None = None,
-             base: OnlineConfig | None = None, windows: list | None = None) -> tuple[dict, Scenario]:
+             base: OnlineConfig | None = None, windows: list | None = None,
+             streams: Sequence[str] = ()) -> tuple[dict, Scenario]:
     """The online experiment on a real dataset folder: ``results`` (docs/guide/theory.rst, 'Experiments' keys;
     per-method objects
     under ``_objects``) and the scenario. Runs (method × {full, window k}) are spread over ``workers``
     processes; ``progress(name)`` is called after every run. ``base``: the online settings the methods
     start from (default :class:`OnlineConfig`); ``windows``: outage windows (start, length) instead of the
     dataset's outage file."""
-    _init_real(str(data_dir), start, base, windows)
+    _init_real(str(data_dir), start, base, windows, streams)
     sc = _SC["sc"]
     jobs = [(m, k) for m in methods for k in range(-1, len(sc.windows))]
     # baselines first (their fits are cached per worker), long online runs early for load balance
@@ -147,7 +148,7 @@ def run_real(data_dir: str, *, methods: Sequence[str] = METHODS, workers: int = 
     parts: dict[str, dict[int, dict]] = {m: {} for m in methods}
     if workers > 1 and len(jobs) > 1:
         ctx = mp.get_context("fork")
-        with ctx.Pool(workers, initializer=_init_real, initargs=(str(data_dir), start, base, windows)) as pool:
+        with ctx.Pool(workers, initializer=_init_real, initargs=(str(data_dir), start, base, windows, streams)) as pool:
             for name, k, res in pool.imap_unordered(_real_job, jobs):
                 parts[name][k] = res
                 if progress:

@@ -83,7 +83,10 @@ def list_topics(path: str | Path) -> list[BagTopic]:
         reader.close()
 
 
-def choose_topic(path: Path, topics: list[BagTopic], topic: str | None, types: tuple[str, ...], what: str) -> str:
+def choose_topic(path: Path, topics: list[BagTopic], topic: str | None, types: tuple[str, ...], what: str,
+                 option: str = "--topic") -> str:
+    """The topic to read: ``topic`` if it carries one of ``types``, else the only such topic (``option`` chooses
+    among several)."""
     listing = "\n  ".join(str(t) for t in topics) or "(none)"
     matching = [t for t in topics if t.msgtype in types]
     if topic is None:
@@ -91,7 +94,7 @@ def choose_topic(path: Path, topics: list[BagTopic], topic: str | None, types: t
             return matching[0].name
         if not matching:
             raise DataError(f"{path} has no {what} topic ({types[0]}); its topics are:\n  {listing}")
-        raise DataError(f"{path} has {len(matching)} {what} topics; choose one with --topic. Topics:\n  {listing}")
+        raise DataError(f"{path} has {len(matching)} {what} topics; choose one with {option}. Topics:\n  {listing}")
     names = {t.name: t for t in topics}
     if topic not in names:
         raise DataError(f"{path} has no topic {topic!r}; its topics are:\n  {listing}")

@@ -11,6 +11,7 @@ import numpy as np
 
 from imunoise.errors import DataError
 from imunoise.io.bag_decode import cdr_offsets, ros1_offsets
+from imunoise.io.bag_twist import twist_messages
 
 __all__ = ["write_imu_bag"]
 
@@ -90,13 +91,15 @@ def write_imu_bag(
     frame_id: str = "imu",
     navsat: tuple | None = None,
     navsat_topic: str = "/fix",
+    twists: dict[str, tuple] | None = None,
 ) -> Path:
     """Write ``sensor_msgs/Imu`` messages (``t`` s as float, or integer ns; ``gyro`` rad/s, ``accel`` m/s²,
     (n, 3)) to a bag whose format follows the suffix: ``.bag`` ROS 1 (Noetic types); ``.db3`` / ``.mcap``
     a ROS 2 (Humble) bag folder ``<stem>/`` holding ``<stem>.db3`` / ``<stem>.mcap`` and metadata.yaml —
     the storage file's path is returned; any other name: a ROS 2 sqlite3 bag folder. Header stamp = bag time = ``t``.
     ``navsat`` = (t, lat_deg, lon_deg, alt_m[, cov (n, 9) ENU m²[, status (n,)]]) adds a NavSatFix topic
-    (``t`` s or integer ns; status 0 = fix, −1 = no fix)."""
+    (``t`` s or integer ns; status 0 = fix, −1 = no fix). ``twists`` = {topic: (t, linear (n, 3) m/s[, variance
+    (n, 3)])} adds twist topics (:func:`imunoise.io.bag_twist.twist_messages`: a GNSS velocity, a wheel speed)."""
     from rosbags.rosbag1 import Writer as Writer1
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Writer2
@@ -128,14 +131,21 @@ def write_imu_bag(
         result = folder / f"{folder.name}{ext}" if path.suffix in (".db3", ".mcap") else folder
     with writer:
         conn = writer.add_connection(topic, "sensor_msgs/msg/Imu", typestore=typestore)
-        if navsat is None:
+        if navsat is None and not twists:
             for ns, row in zip(stamp.tolist(), rec):
                 writer.write(conn, ns, row.tobytes())
             return result
-        nav_conn = writer.add_connection(navsat_topic, "sensor_msgs/msg/NavSatFix", typestore=typestore)
+        conns = [conn]
         events: list[tuple[int, int, Any]] = [(ns, 0, i) for i, ns in enumerate(stamp.tolist())]
-        events += [(ns, 1, raw) for ns, raw in _navsat_messages(typestore, navsat, ros1)]
+        if navsat is not None:
+            conns.append(writer.add_connection(navsat_topic, "sensor_msgs/msg/NavSatFix", typestore=typestore))
+            events += [(ns, 1, raw) for ns, raw in _navsat_messages(typestore, navsat, ros1)]
+        for name, tw in (twists or {}).items():
+            msgs = list(twist_messages(typestore, tw[0], tw[1], tw[2] if len(tw) > 2 else None, ros1))
+            if msgs:
+                conns.append(writer.add_connection(name, msgs[0][2], typestore=typestore))
+                events += [(ns, len(conns) - 1, raw) for ns, raw, _ in msgs]
         events.sort(key=lambda e: (e[0], e[1]))
         for ns, kind, item in events:
-            writer.write(conn, ns, rec[item].tobytes()) if kind == 0 else writer.write(nav_conn, ns, item)
+            writer.write(conn, ns, rec[item].tobytes()) if kind == 0 else writer.write(conns[kind], ns, item)
     return result

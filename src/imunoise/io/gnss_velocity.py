@@ -7,6 +7,9 @@ the fix: a column count other than 4 or 7, a negative or zero σ (a receiver's �
 filter certain), stamps in another time base than the IMU's (Unix seconds against GPS seconds of week, or no
 overlap), speeds that are not the GNSS track's (km/h: 3.6× the speed of the position fixes; or another unit).
 Rows with NaN are dropped and counted (``VelocityFile.dropped``; ``nav`` writes the count to metrics.json).
+A bag (:func:`imunoise.io.bag_topics.is_bag`) is read from its twist topic (:mod:`imunoise.io.bag_twist`:
+``TwistWithCovarianceStamped`` / ``TwistStamped`` in ENU as REP 103 and the u-blox driver publish it; σ from the
+covariance's diagonal where given), with the same checks.
 """
 
 from __future__ import annotations
@@ -18,6 +21,8 @@ from typing import NamedTuple
 import numpy as np
 
 from imunoise.errors import DataError
+from imunoise.io.bag_topics import is_bag
+from imunoise.io.bag_twist import read_twist_topic
 from imunoise.io.files import read_text
 
 __all__ = ["VelocityFile", "read_gnss_velocity", "check_velocity_track", "UNIX_T0"]
@@ -60,7 +65,7 @@ def _number(x: str) -> bool:
 
 
 def read_gnss_velocity(path: str | Path, *, sigma: float | None = None, imu_t: np.ndarray | None = None,
-                       gnss=None, option: str = "--gnss-vel") -> VelocityFile:
+                       gnss=None, option: str = "--gnss-vel", topic: str | None = None) -> VelocityFile:
     """Read and check a GNSS velocity file (module docstring).
 
     Parameters
@@ -75,11 +80,23 @@ def read_gnss_velocity(path: str | Path, *, sigma: float | None = None, imu_t: n
         Position fixes: the speeds must be the track's (:func:`check_velocity_track`).
     option : str
         The option that named the file (for the messages).
+    topic : str, optional
+        The twist topic of a bag (default: its only twist topic).
     """
     path = Path(path)
+    if is_bag(path) and path.exists():
+        tw = read_twist_topic(path, topic, option)
+        # ENU → NED; σ from the covariance, else the default
+        d = np.column_stack([tw.t, tw.linear[:, 1], tw.linear[:, 0], -tw.linear[:, 2],
+                             np.sqrt(tw.var[:, [1, 0, 2]])])
+        d[:, 4:7] = np.where(np.isnan(d[:, 4:7]), 0.05 if sigma is None else float(sigma), d[:, 4:7])
+        return _checked(d, path, option, imu_t, gnss)
     if not path.is_file():
         raise DataError(f"{option}: no such file {path}")
-    d = _table(path, option)
+    return _checked(_table(path, option), path, option, imu_t, gnss, sigma)
+
+
+def _checked(d: np.ndarray, path: Path, option: str, imu_t, gnss, sigma: float | None = None) -> VelocityFile:
     if d.shape[1] not in (4, 7):
         raise DataError(f"{path} ({option}): {d.shape[1]} columns; expected 4 (t vN vE vD) or 7 (t vN vE vD σN σE σD)")
     s = d[:, 4:7] if d.shape[1] == 7 else np.full((d.shape[0], 3), 0.05 if sigma is None else float(sigma))

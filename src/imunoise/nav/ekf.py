@@ -45,6 +45,7 @@ the non-zeros of Φ only.
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,6 +58,7 @@ from imunoise.nav.measurements.gnss_velocity import GnssVelocity
 from imunoise.nav.solution import NavSolution
 from imunoise.nav.state import NAV, InitialState
 from imunoise.nav.step_filter import Innovation, LooselyCoupledEKF, new_outputs
+from imunoise.nav.streams import Epochs, bind
 
 log = logging.getLogger(__name__)
 
@@ -107,6 +109,9 @@ class EkfResult(NavSolution):
         ``EkfConfig.scale_factors``; else None.
     gnss_vel_status : numpy.ndarray or None
         Per GNSS velocity fix (``run_ekf(gnss_vel=...)``): 1 used, 0 rejected by the χ² gate, −1 outside.
+    stream_status : dict
+        Per measurement stream of ``run_ekf(streams=...)`` (by kind): the status of each epoch, as above (2: forced
+        in after consecutive rejections).
     """
 
     gnss_t: np.ndarray
@@ -117,6 +122,7 @@ class EkfResult(NavSolution):
     cov: np.ndarray | None = None
     scale_factors: np.ndarray | None = None
     gnss_vel_status: np.ndarray | None = None
+    stream_status: dict = field(default_factory=dict)
 
 
 def check_imu(t: np.ndarray, dth: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -175,6 +181,7 @@ def run_ekf(
     store_cov: bool = False,
     zupt: np.ndarray | None = None,
     gnss_vel: GnssVelocity | None = None,
+    streams: Sequence[Epochs] = (),
 ) -> EkfResult:
     """Batch loosely coupled EKF over ``imu`` (ImuData, increments) from ``init.t`` with GNSS fixes.
 
@@ -186,6 +193,8 @@ def run_ekf(
     ``store_cov`` keeps the 9×9 navigation block of P at every epoch in ``result.cov`` (for NEES).
     ``gnss_vel``: antenna velocity fixes (:class:`~imunoise.nav.measurements.gnss_velocity.GnssVelocity`, e.g.
     from :func:`~imunoise.nav.measurements.gnss_velocity.as_gnss_velocity`), applied like the position fixes.
+    ``streams``: any other measurement streams (:class:`~imunoise.nav.streams.Epochs` of a registered kind, one
+    per kind; e.g. from :mod:`imunoise.nav.aiding_sources`), their status per epoch in ``result.stream_status``.
 
     Parameters
     ----------
@@ -281,9 +290,15 @@ def run_ekf(
     if has_sf:
         out.sf[0] = ekf.xm[L.scale_index]
     fixes = ekf.position_stream(gt, gllh, gsig)
-    streams = ekf.streams(fixes)
+    extra = list(streams)
     if gnss_vel is not None:
-        streams.add(ekf.velocity_stream(gnss_vel))
+        extra.append(Epochs("gnss_velocity", gnss_vel.t, gnss_vel.vel_ned, gnss_vel.sigma_ned, gnss_vel.gate_abs,
+                            gnss_vel.max_reject, dropped=gnss_vel.dropped))
+    streams = ekf.streams(fixes)
+    for e in extra:
+        if streams.get(e.kind) is not None:
+            raise DataError(f"run_ekf: two streams of kind {e.kind!r}; give one per kind")
+        streams.add(bind(e, ekf.lever, config.chi2_gate))
     streams.start_after(t[0])
     imu_in = ImuInput(t, dth, dv, gate_arr, zupt_arr)
     model, settings = ekf.kernel_parts()
@@ -319,6 +334,7 @@ def run_ekf(
         out.cov if store_cov else None,
         out.sf if has_sf else None,
         streams.get("gnss_velocity").status if gnss_vel is not None else None,
+        {e.kind: streams.get(e.kind).status for e in extra},
     )
     for name in ("llh", "vel_ned", "euler"):
         if not np.all(np.isfinite(getattr(res, name))):

@@ -282,18 +282,14 @@ class LooselyCoupledEKF:
         numpy.ndarray
             Boolean per GNSS position fix: whether it was used (rejected ones are logged).
         """
-        pos, vel = streams.get("gnss_position"), streams.get("gnss_velocity")
+        pos = streams.get("gnss_position")  # the other streams carry their own rejection counters
         if pos is not None:
             pos.state[S_REJECT] = self._consecutive_reject
-        if vel is not None:
-            vel.state[S_REJECT] = self._vel_reject
         carry = self.run_steps(imu, streams, span_outputs(rows, pv), row0=1,
                                carry=np.array([1, self._k, self._nhc_reject], dtype=np.int64))
         self.t = float(imu.t[-1])
         self.gate_open = bool(imu.gate[-1])
         self._k, self._nhc_reject = int(carry[C_SAMPLES]), int(carry[C_NHC_REJECT])
-        if vel is not None:
-            self._vel_reject = int(vel.state[S_REJECT])
         if pos is None:
             return np.zeros(0, dtype=bool)
         self._consecutive_reject = int(pos.state[S_REJECT])

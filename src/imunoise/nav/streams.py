@@ -24,13 +24,15 @@ from numba import njit
 from imunoise.errors import DataError
 from imunoise.nav.measurements.gnss_position import gnss_position
 from imunoise.nav.measurements.gnss_velocity import gnss_velocity
+from imunoise.nav.measurements.odometer import odometer
 
-__all__ = ["KINDS", "K_GNSS_POSITION", "K_GNSS_VELOCITY", "C_CHI2", "C_MAX_REJECT", "C_GATE_ABS", "CFG_LEN",
-           "Stream", "make_stream", "empty_stream", "measure", "StreamSet", "S_NEXT", "S_REJECT"]
+__all__ = ["KINDS", "K_GNSS_POSITION", "K_GNSS_VELOCITY", "K_ODOMETER", "C_CHI2", "C_MAX_REJECT", "C_GATE_ABS",
+           "CFG_LEN", "Stream", "make_stream", "empty_stream", "measure", "StreamSet", "S_NEXT", "S_REJECT", "Epochs",
+           "bind"]
 
-KINDS = ("gnss_position", "gnss_velocity")
+KINDS = ("gnss_position", "gnss_velocity", "odometer")
 """Registered kinds, in the order the engine applies them within one IMU sample."""
-K_GNSS_POSITION, K_GNSS_VELOCITY = range(len(KINDS))
+K_GNSS_POSITION, K_GNSS_VELOCITY, K_ODOMETER = range(len(KINDS))
 
 C_CHI2, C_MAX_REJECT, C_GATE_ABS = 0, 1, 2
 """``cfg`` columns: χ² gate (≤ 0 off), consecutive rejections before the next epoch is forced in (< 0 never),
@@ -76,6 +78,34 @@ def make_stream(kind: str, t, z, sigma, lever, *, chi2: float = 0.0, max_reject:
                   np.zeros(2, dtype=np.int64))
 
 
+class Epochs(NamedTuple):
+    """A stream as a reader or the simulator gives it, before a filter binds its lever arm and gate
+    (:func:`bind`): kind (:data:`KINDS`), times [s] (sorted, the IMU time base), values (n, d), 1σ (n, d), the
+    gate's guards (innovation floor ``gate_abs`` in value units, consecutive rejections before one is forced in,
+    < 0 never; ``chi2`` None: the filter's ``EkfConfig.chi2_gate``), rows dropped by the reader (NaN), where
+    the epochs came from (a file, a bag topic; for messages) and the sensor's lever arm (body FRD, m; None: the
+    filter's GNSS antenna lever arm)."""
+
+    kind: str
+    t: np.ndarray
+    z: np.ndarray
+    sigma: np.ndarray
+    gate_abs: float = 0.0
+    max_reject: int = -1
+    chi2: float | None = None
+    dropped: int = 0
+    source: str = ""
+    lever: tuple | None = None
+
+
+def bind(e: Epochs, lever, chi2: float) -> Stream:
+    """The stream of ``e`` in a filter with antenna lever arm ``lever`` and χ² gate ``chi2`` (``e.lever`` and
+    ``e.chi2`` win)."""
+    return make_stream(e.kind, e.t, e.z, e.sigma, lever if e.lever is None else e.lever,
+                       chi2=chi2 if e.chi2 is None else e.chi2,
+                       max_reject=e.max_reject, gate_abs=e.gate_abs)
+
+
 def empty_stream(kind: str, lever) -> Stream:
     """A stream of ``kind`` without epochs."""
     return make_stream(kind, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), lever)
@@ -94,10 +124,17 @@ def _empty(kind: str) -> Stream:
 @njit(cache=True)
 def measure(nav, n, last_dt, st, i, tk):
     """``(dz, H, R)`` of epoch ``i`` of stream ``st`` applied at filter time ``tk`` (``last_dt``: the last
-    IMU interval, for the angular rate)."""
+    IMU interval, for the angular rate). A kind without a branch raises: numba's cache follows a change of a
+    kernel's own file only, so a step sequence cached before a kind was added runs the dispatch it was compiled
+    with, and must stop there rather than hand the new kind to another measurement's function."""
     if st.kind == K_GNSS_POSITION:
         return gnss_position(nav, n, st.z[i], st.lever, tk - st.t[i], st.sigma[i])
-    return gnss_velocity(nav, n, st.z[i], st.lever, last_dt, st.sigma[i])
+    if st.kind == K_GNSS_VELOCITY:
+        return gnss_velocity(nav, n, st.z[i], st.lever, last_dt, st.sigma[i])
+    if st.kind == K_ODOMETER:
+        return odometer(nav, n, st.z[i], st.lever, last_dt, st.sigma[i])
+    raise ValueError("measurement kind unknown to the compiled filter kernels (cached before the kind was added?): "
+                     "delete numba's cache, find src -name '*.nb[ic]' -delete")
 
 
 class StreamSet:

@@ -339,7 +339,11 @@ def _filter_span(nav: Any, ts, dth, dv, gate, rec, static) -> None:
     rows = np.empty((m, SPAN_COLS))
     guard = cfg.stop_guard == "nav" and bool(rec.any())
     pv = np.empty((m if guard else 1, 3, 3))
+    if st.streams is not None:  # GNSS velocity, odometer, ...: their epochs in (filter time, span end]
+        st.streams.span(fixes, ekf.t, float(ts[-1]))
     used = ekf.run_span(imu, fixes, rows, pv)  # fixes: the filter's measurement streams
+    if st.streams is not None:
+        st.streams.after_span(fixes, float(ts[-1]))
     # the sample each fix was applied at (the first with t ≥ the fix time)
     at = np.searchsorted(ts, ft, side="left")
     t_aided = np.full(m, st.t_aided)

@@ -36,7 +36,8 @@ class EngineState:
     ``raw_t0``; ``static_raw``, ``sample_t``, ``gate_log``: per-sample detector flag, time and gate;
     ``gnss``: queued fixes (t, llh, σ) not applied yet; ``t_aided``: filter time of the last GNSS fix used;
     ``elapsed``: CPU seconds spent in the engine; ``store``: stored epochs (None: not stored);
-    ``event_sources``: extra event sources, (sorted sample indices, hook) each.
+    ``event_sources``: extra event sources, (sorted sample indices, hook) each; ``streams``: the measurement streams
+    besides GNSS position (:class:`~imunoise.online.measurement_feed.MeasurementFeed`; None: none).
     """
 
     init_t: float
@@ -59,6 +60,7 @@ class EngineState:
     t_aided: float = -math.inf
     elapsed: float = 0.0
     event_sources: list[tuple[np.ndarray, Any]] = field(default_factory=list)
+    streams: Any = None
 
     def event(self, event: str, t: float, **kw: Any) -> None:
         """Append one event to the log (:func:`~imunoise.online.result.log_event`)."""

@@ -2,8 +2,8 @@
 (docs/guide/theory.rst, 'System overview' and 'Online engine'; paper Fig. 1).
 
 Per IMU sample the navigator (1) feeds the static detector (docs/guide/theory.rst, 'Static detection'), (2) sets the
-angular-rate gate,
-(3) propagates the loosely coupled EKF (docs/guide/theory.rst, 'Navigation filter') and applies queued GNSS fixes, (4)
+angular-rate gate, (3) propagates the loosely coupled EKF (docs/guide/theory.rst, 'Navigation filter') and applies
+queued GNSS fixes and the due epochs of the other measurement streams (:meth:`OnlineNavigator.add_streams`), (4)
 optionally applies ZUPT/ZARU while the detector says "static", (5) applies a new error model whose effect time has come.
 
 Modelling (paper §2.2–2.3; held by :class:`~imunoise.online.modeller.StopModeller`, which the navigator feeds
@@ -90,12 +90,14 @@ from imunoise.detect import StaticDetector, StaticSegment
 from imunoise.errors import DataError
 from imunoise.nav.defaults import default_axis_models
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, normalize_axis_models
+from imunoise.nav.streams import Epochs
 from imunoise.noise.model import Model
 from imunoise.online.chunks import push_chunk, replay
 from imunoise.online.config import OnlineConfig, config_summary
 from imunoise.online.engine_state import EngineState
 from imunoise.online.lambda0 import DetectorFeed
 from imunoise.online.learner.host import LearnerHost
+from imunoise.online.measurement_feed import MeasurementFeed
 from imunoise.online.modeller import StopModeller
 from imunoise.online.nav_output import build_result, fork_navigator, store_epoch
 from imunoise.online.nav_parts import ModellerViews, Zupt
@@ -108,10 +110,6 @@ log = logging.getLogger(__name__)
 
 __all__ = ["OnlineNavigator", "run_online"]
 
-
-# --------------------------------------------------------------------------------------------------
-# navigator
-# --------------------------------------------------------------------------------------------------
 class OnlineNavigator(ModellerViews):
     """Online GMWM INS/GNSS navigator (docs/guide/theory.rst, 'Online engine'). See the module docstring.
 
@@ -177,7 +175,6 @@ class OnlineNavigator(ModellerViews):
         if config.modelling and config.warm_up and all(f is None for f in self.fits):
             self.modeller.start_warm_up(init.t)
 
-    # -- views ------------------------------------------------------------------------------------
     @property
     def events(self) -> list[dict]:
         """The event log so far."""
@@ -217,6 +214,11 @@ class OnlineNavigator(ModellerViews):
         (:mod:`imunoise.online.chunks`), so the kernel stops there and the sample takes the per-sample path,
         which calls the hook (as for :meth:`push_imu`)."""
         self.state.event_sources.append((np.asarray(indices, dtype=np.int64), hook))
+
+    def add_streams(self, *epochs: Epochs) -> None:
+        """Measurement streams besides GNSS position over the whole record (:class:`~imunoise.nav.streams.Epochs`, one
+        per kind), applied as the filter reaches them (:mod:`imunoise.online.measurement_feed`: ``state.streams``)."""
+        self.state.streams = MeasurementFeed(self.ekf, epochs, self.init.t)
 
     # -- streaming API ----------------------------------------------------------------------------
     def push_gnss(self, t: float, llh_rad: np.ndarray, sigma_ned_m: np.ndarray) -> None:
@@ -279,13 +281,12 @@ class OnlineNavigator(ModellerViews):
         return self.ekf.state()
 
     def fork(self, *others: Any, share: tuple = ()) -> tuple:
-        """A branch of the running navigator: an independent copy that continues from the same state, e.g. one
-        GNSS outage per window from the same aided state (the dense-window protocol of
-        :mod:`imunoise.experiments.dense`). Needs ``worker="inline"``: a thread cannot be copied. ``others`` are
-        copied together with the navigator (references between them stay consistent); ``share`` are shared
-        instead of copied (large read-only arrays; the modelling-job cache always). Returns ``(navigator,
-        *others)``; the branch's stored epochs start empty, so its result holds only the epochs after the fork.
-        """
+        """A branch of the running navigator: an independent copy that continues from the same state, e.g. one GNSS
+        outage per window from the same aided state (the dense-window protocol of :mod:`imunoise.experiments.dense`).
+        Needs ``worker="inline"``: a thread cannot be copied. ``others`` are copied together with the navigator
+        (references between them stay consistent); ``share`` are shared instead of copied (large read-only arrays;
+        the modelling-job cache always). Returns ``(navigator, *others)``; the branch's stored epochs start empty,
+        so its result holds only the epochs after the fork."""
         return fork_navigator(self, others, share)
 
     def finish(self) -> OnlineResult:
@@ -308,10 +309,9 @@ class OnlineNavigator(ModellerViews):
         st.event("end", st.t_last, static_s=self.static_s, n_updates=len(self.updates))
         return build_result(self)
 
-    # -- batch ------------------------------------------------------------------------------------
     def run(self, imu, gnss, *, progress: Any = None) -> OnlineResult:
-        """Replay a whole record (ImuData increments, GnssData); same result as pushing every sample and
-        fix in time order through the streaming API. ``progress(n_done, n_total)`` is called now and then.
+        """Replay a whole record (ImuData increments, GnssData); same result as pushing every sample and fix in
+        time order through the streaming API.
 
         Parameters
         ----------
@@ -370,6 +370,8 @@ class OnlineNavigator(ModellerViews):
                 if fix[0] > self.init.t and self.ekf.update_gnss(*fix):
                     st.t_aided = t
                     self.learner.fix_used(fix)
+            if st.streams is not None:
+                st.streams.step(self.ekf)
             if is_static and cfg.stop_guard == "nav":
                 self.guard.record(t, self.ekf)
             if cfg.zupt:
@@ -430,21 +432,19 @@ class OnlineNavigator(ModellerViews):
 
 
 def run_online(imu, gnss, init: InitialState, config: OnlineConfig | None = None, *, initial_models=None,
-               progress: Any = None, earlier_static: Sequence[np.ndarray] | None = None) -> OnlineResult:
-    """Batch convenience: ``OnlineNavigator(config, init).run(imu, gnss)``.
+               progress: Any = None, earlier_static: Sequence[np.ndarray] | None = None,
+               streams: Sequence[Epochs] = ()) -> OnlineResult:
+    """Batch convenience: ``OnlineNavigator(config, init).run(imu, gnss)`` at the rate ``imu.rate_hz``.
 
     Parameters
     ----------
-    imu, gnss, init, initial_models, progress, earlier_static
-        As for :class:`OnlineNavigator` and :meth:`OnlineNavigator.run`; the rate is ``imu.rate_hz``.
-    config : OnlineConfig, optional
-        Default ``OnlineConfig()``.
-
-    Returns
-    -------
-    OnlineResult
+    imu, gnss, init, config, initial_models, progress, earlier_static, streams
+        As for :class:`OnlineNavigator` (``config`` default ``OnlineConfig()``), :meth:`OnlineNavigator.run` and
+        :meth:`OnlineNavigator.add_streams` (``streams``).
     """
     config = config or OnlineConfig()
     nav = OnlineNavigator(config, init, imu_rate_hz=float(imu.rate_hz), initial_models=initial_models,
                           earlier_static=earlier_static)
+    if streams:
+        nav.add_streams(*streams)
     return nav.run(imu, gnss, progress=progress)

@@ -14,9 +14,10 @@ the gain K as filterpy's ``KalmanFilter.update`` keeps them).
 :mod:`.zupt`              zero velocity (ZUPT) and zero angular rate (ZARU) at stops
 :mod:`.nhc`               non-holonomic constraints: zero lateral and vertical body velocity while driving
 :mod:`.gnss_velocity`     antenna velocity (v + C_b^n (ω × l))
+:mod:`.odometer`          vehicle forward speed (wheel odometer; scale-factor error as speed-proportional noise)
 ========================  ==========================================================================
 
-Adding one (an odometer, say): a module here with its ``dz, H, R`` function (and gate), its kind in
+Adding one: a module here with its ``dz, H, R`` function (and gate), its kind in
 :mod:`imunoise.nav.streams` (a name in ``KINDS`` and a branch in ``measure``); every path into the filter then
 takes it as a stream; ``tests/nav/test_nav_measurements.py`` checks every H against a numerical
 Jacobian.
