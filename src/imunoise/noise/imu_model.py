@@ -59,6 +59,7 @@ class ImuModel:
     freq_hz: float
     axes: dict[str, dict[str, Any]]
     source: dict[str, Any] = field(default_factory=dict)
+    in_motion: dict[str, Any] | None = None  # the in-motion part (written only when present)
 
     @classmethod
     def from_fits(cls, fits: Mapping[str, GMWMFit], source: dict[str, Any] | None = None) -> ImuModel:
@@ -88,6 +89,7 @@ class ImuModel:
             "freq_hz": self.freq_hz,
             "axes": self.axes,
             "source": self.source,
+            **({"in_motion": self.in_motion} if self.in_motion is not None else {}),
         }
 
     @classmethod
@@ -98,7 +100,8 @@ class ImuModel:
         for a, fd in axes.items():
             if fd.get("kind") != FIT_KIND:
                 raise ModelError(f"axis {a!r} is not an imunoise fit dict")
-        return cls(float(d["freq_hz"]), axes, dict(d.get("source", {})))
+        im = d.get("in_motion")
+        return cls(float(d["freq_hz"]), axes, dict(d.get("source", {})), dict(im) if im is not None else None)
 
     def save(self, path: str | Path) -> Path:
         """Write the model file (atomically: complete or not at all); returns ``path``."""
