@@ -113,7 +113,7 @@ def test_each_key_says_both_values_and_the_factor_with_its_interval(model, stati
     assert float(line.split("; static ")[1].split(" ")[0]) == st.noise_density
     # the bounded axis: static value written, the bound and its reason said
     acc_k = next(ln for ln in text.splitlines() if ln.startswith("accelerometer_random_walk:"))
-    assert "accel_x (bounded (bias <= 4: no turns" in acc_k and "accel_z (no in-motion estimate)" in acc_k
+    assert "accel_x (bounded (bias <= 4 m/s^2: no turns" in acc_k and "accel_z (no in-motion estimate)" in acc_k
     assert "IN-USE values" in text and "--noise static" in text and "2 drive(s), 0.5 h moving" in text
 
 
@@ -148,7 +148,9 @@ def test_noise_static_writes_the_static_pair_and_no_part_is_unchanged(tmp_path, 
     assert apply_noise(static_model, stat, "in-use") is stat
     assert "in_motion" not in static_model.to_dict()
     mp = model.save(tmp_path / "imu_model.json")
-    assert load_model(mp).in_motion == model.in_motion  # the part survives the file
+    back = model_sensors(load_model(mp), None, "max", None)  # the part survives the file
+    assert [(x.noise_density, x.random_walk) for x in back.values()] == [
+        (x.noise_density, x.random_walk) for x in model_sensors(model, None, "max", None).values()]
     assert main(["export", str(mp), "--to", "kalibr", "--noise", "static", "--out", str(tmp_path / "s.yaml")]) == 0
     assert main(["export", str(mp), "--to", "kalibr", "--out", str(tmp_path / "u.yaml")]) == 0
     err = capsys.readouterr().err
@@ -184,5 +186,14 @@ def test_a_factor_outside_its_interval_is_refused_in_one_line(static_model):
     m.in_motion = {"axes": {"gyro_x": {"factor_N": {"value": 3.0, "ci95": [1.0, 2.0]}}}}
     with pytest.raises(ModelError, match=r"in_motion.axes.gyro_x.factor_N: in-use factor 3.0"):
         export_text(m, "kalibr")
+    # the model file's normal form (a factor not identified is null, its bound says why): static kept, said so
+    m.in_motion = {"axes": {"gyro_x": {"white_factor": {"value": 1.0, "ci95": None},
+                                       "factor_N": {"value": None, "ci95": None},
+                                       "factor_K": {"value": 2.0, "ci95": [1.5, 2.5]}}},
+                   "bounds": {"gyro_x": {"what": "white", "upper": None, "reason": "too short"}}}
+    text = export_text(m, "kalibr")
+    line = next(ln for ln in text.splitlines() if ln.startswith("gyroscope_noise_density:"))
+    assert "in-use N = static" in line and "gyro_x (bounded (white not even bounded: too short))" in line
+    assert float(line.split(": ")[1].split(" ")[0]) == sensor_noise(static_model, "gyro").noise_density
     with pytest.raises(ModelError, match="--noise must be one of"):
         model_sensors(m, None, "max", None, noise="moving")

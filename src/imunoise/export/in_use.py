@@ -31,6 +31,7 @@ import numpy as np
 
 from imunoise.errors import ModelError
 from imunoise.export.noise import SensorNoise, format_float
+from imunoise.io.imu_input import sensor_of
 
 __all__ = ["NOISE_CHOICES", "Factor", "InUse", "InUseNoise", "in_motion_part", "apply_noise", "in_use_comment",
            "in_use_header"]
@@ -127,15 +128,20 @@ def _evidence_text(ev: Mapping[str, Any]) -> str:
 
 
 def _axis_factor(part: Mapping[str, Any], axis: str, slot: str) -> tuple[Factor | None, str]:
-    """The factor of ``slot`` ("N" or "K") of ``axis``, or (None, why it stays static)."""
+    """The factor of ``slot`` ("N" or "K") of ``axis``, or (None, why it stays static). A slot whose value is
+    null is not identified; ``white_factor`` stands for a missing ``factor_N`` only when it has an interval."""
     ax = (part.get("axes") or {}).get(axis) or {}
     for key in _SLOT[slot]:
-        if ax.get(key) is not None:
-            return Factor.read(ax[key], f"in_motion.axes.{axis}.{key}"), ""
+        d = ax.get(key)
+        if isinstance(d, Mapping) and d.get("value") is not None and (key == _SLOT[slot][0] or d.get("ci95")):
+            return Factor.read(d, f"in_motion.axes.{axis}.{key}"), ""
+        if key == _SLOT[slot][0] and key in ax:
+            break  # the factor is there and null: not identified (its bound, if any, says why)
     b = (part.get("bounds") or {}).get(axis)
     if isinstance(b, Mapping) and _BOUND_SLOT.get(str(b.get("what", "bias")), "K") == slot:
-        up = b.get("upper")
-        up_text = f"{b.get('what', 'bias')} <= {float(up):.4g}" if up is not None else str(b.get("what", "bias"))
+        what, up = str(b.get("what", "bias")), b.get("upper")
+        unit = "rad/s" if sensor_of(axis, None) == "gyro" else "m/s^2"
+        up_text = f"{what} <= {float(up):.4g} {unit}" if up is not None else f"{what} not even bounded"
         return None, f"bounded ({up_text}: {b.get('reason') or 'no reason recorded'})"
     return None, "no in-motion estimate"
 
