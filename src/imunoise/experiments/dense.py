@@ -115,7 +115,7 @@ def _real_job(job: tuple[str, int, int]) -> tuple[str, int, int, dict]:
     sc = _REAL["sc"]
     regime: GnssRegime = _REAL["regimes"][ri]
     gnss = regime.apply(sc.gnss, seed)
-    res = evaluate_method(sc, name, gnss, _REAL["windows"], base=_REAL["base"], cache=_REAL["cache"])
+    res = evaluate_method(sc, name, gnss, _REAL["windows"], base=_REAL["base"], cache=_REAL["cache"], nees=True)
     return name, ri, seed, res
 
 
@@ -164,18 +164,19 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
 # simulator
 # --------------------------------------------------------------------------------------------------
 def _sim_job(args: tuple) -> dict:
-    seed, methods, regimes, noise_seeds, spec, kw, base = args
+    seed, methods, regimes, noise_seeds, spec, kw, base, vehicle_drives = args
+    from imunoise.experiments.carry_over import earlier_scenarios, vehicle_seeds
     from imunoise.experiments.common import simulate_scenario
 
     logging.getLogger("imunoise").setLevel(logging.WARNING)
+    # the scored drive: the last of the vehicle's (imunoise.experiments.carry_over), the drive of the seed itself
     sc = simulate_scenario(seed, n_outages=0, **kw)
     windows = dense_windows(sc, spec)
-    # the earlier drive of the same vehicle (same IMU, same motion law, another trajectory and noise) that the
+    # the earlier drives of the same vehicle (same IMU, same motion law, another trajectory and noise) that the
     # warm methods learn from
     n_warm = {m: WARM_METHODS[base_method(m)] for m in methods if base_method(m) in WARM_METHODS}
     n_stops = {m: STATIC_WARM_METHODS[base_method(m)][1] for m in methods if base_method(m) in STATIC_WARM_METHODS}
-    earlier = [simulate_scenario(seed + k * PRIOR_SEED_OFFSET, n_outages=0, **kw)
-               for k in range(1, max((*n_warm.values(), *n_stops.values()), default=0) + 1)]
+    earlier = earlier_scenarios(seed, max((*n_warm.values(), *n_stops.values(), vehicle_drives - 1), default=0), **kw)
     cache: dict = {}
     runs = []
     for ri, rg in enumerate(regimes):
@@ -190,9 +191,10 @@ def _sim_job(args: tuple) -> dict:
                 prior = priors[n_warm[m]] if m in n_warm else None
                 pooled = stops[n_stops[m]] if m in n_stops else None
                 runs.append((m, ri, ns, evaluate_method(sc, m, gnss, windows, base=base, cache=cache, prior=prior,
-                                                        earlier_static=pooled)))
+                                                        earlier_static=pooled, nees=True)))
                 tick()
-    return {"seed": seed, "name": sc.name, "windows": windows, "runs": runs}
+    return {"seed": seed, "name": sc.name, "windows": windows, "runs": runs,
+            "vehicle_drives": vehicle_seeds(seed, vehicle_drives)}
 
 
 def n_units(methods: Sequence[str], regimes: Sequence[GnssRegime], noise_seeds: Sequence[int]) -> int:
@@ -204,16 +206,19 @@ def run_sim(seeds: Sequence[int], *, spec: DenseSpec = _DEFAULT_SPEC, regimes: S
             noise_seeds: Sequence[int] = (1,), methods: Sequence[str] = (*EVIDENCE_METHODS, *SIM_EXTRA),
             pairs: Sequence[tuple[str, str]] = (), workers: int = 2, base: OnlineConfig | None = None,
             n_boot: int = 2000, boot_seed: int = 0, progress: Callable[[int], None] | None = None,
-            scheduler: str | None = None, **scen_kw: Any) -> dict:
+            scheduler: str | None = None, vehicle_drives: int = 1, **scen_kw: Any) -> dict:
     """Dense-window evidence over simulated drives (``seeds``; drives are the bootstrap's clusters).
+    ``vehicle_drives``: drives per vehicle (:mod:`imunoise.experiments.carry_over`), scored on the last.
 
     One job per drive (its scenario, GNSS draws and earlier drives made once for all methods), run by
     :func:`imunoise.experiments.runner.run_jobs` in ``workers`` processes or on the Dask ``scheduler``;
     ``progress(n)`` after every ``n`` runs of one method on one realisation of a drive
     (:func:`n_units` per drive). The results do not depend on ``workers`` or ``scheduler``."""
+    from imunoise.experiments.carry_over import check_vehicle_drives
     from imunoise.experiments.runner import run_jobs
 
-    jobs = [(int(s), tuple(methods), tuple(regimes), tuple(noise_seeds), spec, dict(scen_kw), base) for s in seeds]
+    k = check_vehicle_drives(vehicle_drives)
+    jobs = [(int(s), tuple(methods), tuple(regimes), tuple(noise_seeds), spec, dict(scen_kw), base, k) for s in seeds]
     drives = run_jobs(_sim_job, jobs, workers=workers, scheduler=scheduler,
                       units=n_units(methods, regimes, noise_seeds), progress=progress)
     drives.sort(key=lambda d: d["seed"])
@@ -222,4 +227,6 @@ def run_sim(seeds: Sequence[int], *, spec: DenseSpec = _DEFAULT_SPEC, regimes: S
     res["seeds"] = [d["seed"] for d in drives]
     res["noise_seeds"] = [int(s) for s in noise_seeds] if any(r.random for r in regimes) else []
     res["scenario"] = dict(scen_kw)
+    res["vehicle_drives"] = k
+    res["vehicles"] = {str(d["seed"]): d["vehicle_drives"] for d in drives}
     return res
