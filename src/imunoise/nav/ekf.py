@@ -107,6 +107,8 @@ class EkfResult(NavSolution):
         ``EkfConfig.scale_factors``; else None.
     gnss_vel_status : numpy.ndarray or None
         Per GNSS velocity fix (``run_ekf(gnss_vel=...)``): 1 used, 0 rejected by the χ² gate, −1 outside.
+    gnss_nll : numpy.ndarray or None
+        Per GNSS position fix the innovation NLL (``run_ekf(with_nll=True)``; NaN outside the run).
     """
 
     gnss_t: np.ndarray
@@ -117,6 +119,7 @@ class EkfResult(NavSolution):
     cov: np.ndarray | None = None
     scale_factors: np.ndarray | None = None
     gnss_vel_status: np.ndarray | None = None
+    gnss_nll: np.ndarray | None = None
 
 
 def check_imu(t: np.ndarray, dth: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -175,6 +178,9 @@ def run_ekf(
     store_cov: bool = False,
     zupt: np.ndarray | None = None,
     gnss_vel: GnssVelocity | None = None,
+    in_motion=None,
+    moving: np.ndarray | None = None,
+    with_nll: bool = False,
 ) -> EkfResult:
     """Batch loosely coupled EKF over ``imu`` (ImuData, increments) from ``init.t`` with GNSS fixes.
 
@@ -242,6 +248,8 @@ def run_ekf(
     if t.size < 2:
         raise DataError(f"no IMU samples between the start {init.t:.3f} and the end {t1:.3f}")
     rate = 1.0 / float(np.median(np.diff(t)))
+    if in_motion is not None:
+        axis_models = in_motion.models
     ekf = LooselyCoupledEKF(config, axis_models, init, imu_rate_hz=rate)
     ekf.prime(dth[0], dv[0])
 
@@ -280,7 +288,7 @@ def run_ekf(
     out.cov[0] = ekf.view.P_nav
     if has_sf:
         out.sf[0] = ekf.xm[L.scale_index]
-    fixes = ekf.position_stream(gt, gllh, gsig)
+    fixes = ekf.position_stream(gt, gllh, gsig, with_nll=with_nll)
     streams = ekf.streams(fixes)
     if gnss_vel is not None:
         streams.add(ekf.velocity_stream(gnss_vel))
@@ -296,8 +304,14 @@ def run_ekf(
                   model, settings, nhc, warm, np.array([1, 0, 0], dtype=np.int64),
                   Outputs(*(a[:2].copy() for a in out)), 0, 2)
     t0 = time.perf_counter()
-    run_steps(imu_in, ekf.arrays(), model, settings, nhc, streams.kernel(), np.array([1, 0, 0], dtype=np.int64), out,
-              0, n)
+    if in_motion is not None:  # the in-motion part while moving, the static part at stops
+        from imunoise.nav.moving_run import run_moving
+
+        mv = np.ones(n, dtype=np.bool_) if moving is None else _mask_for(moving, t_all, t, "moving")
+        run_moving(ekf, in_motion, imu_in, ekf.arrays(), streams, out, mv)
+    else:
+        run_steps(imu_in, ekf.arrays(), model, settings, nhc, streams.kernel(), np.array([1, 0, 0], dtype=np.int64),
+                  out, 0, n)
     elapsed = time.perf_counter() - t0
     g_status = fixes.status
     n_rej = int(np.sum(g_status == 0))
@@ -319,6 +333,7 @@ def run_ekf(
         out.cov if store_cov else None,
         out.sf if has_sf else None,
         streams.get("gnss_velocity").status if gnss_vel is not None else None,
+        fixes.nll if with_nll else None,
     )
     for name in ("llh", "vel_ned", "euler"):
         if not np.all(np.isfinite(getattr(res, name))):
