@@ -122,3 +122,38 @@ def test_cli_vehicle_drives_writes_the_nees_table(tmp_path, capsys):
     assert "NEES pos+vel (6 dof) inside its 95 % band, rtk, oracle_law" in capsys.readouterr().out
     assert "Consistency: NEES of position + velocity" in (out / "report.md").read_text()
     assert (out / "nees.csv").exists()
+
+
+@pytest.mark.slow
+def test_in_use_learns_on_the_earlier_drive_and_navigates_the_last():
+    """``in_use`` on vehicles of two drives: its model comes from the earlier drive alone (the drive of seed +
+    PRIOR_SEED_OFFSET), with the in-motion part the model file carries; the scored drive and every other row are
+    those of the run without it."""
+    kw = {"spec": SPEC, "workers": 1, "n_boot": 200, "vehicle_drives": 2, **SCEN}
+    res = dense.run_sim([4802], methods=("plain", "in_use", "oracle_law"), **kw)
+    ref = dense.run_sim([4802], methods=("plain", "oracle_law"), **kw)
+    for met in ("drift", "rms", "aided_rms"):
+        for m in ("plain", "oracle_law"):
+            assert res["per_window"]["rtk"][met][m] == ref["per_window"]["rtk"][met][m]
+        vals = [v for d in res["per_window"]["rtk"][met]["in_use"] for r in d for v in r]
+        assert vals and all(v is not None and np.isfinite(v) for v in vals)
+    assert res["nees"]["rtk"]["in_use"]["epochs"] == 140
+    job = dense._sim_job((4802, ("in_use",), (parse_gnss("rtk"),), (1,), SPEC, dict(SCEN), None, 2))
+    learned = job["runs"][0][3]["in_use"]
+    assert learned["drives"] == [f"simulated drive (seed {4802 + dense.PRIOR_SEED_OFFSET})"]
+    axes = learned["in_motion"]["axes"]
+    assert set(axes) == {"gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"}
+    assert learned["in_motion"]["evidence"]["hours_moving"] > 0 and learned["filter_runs"] > 0
+
+
+def test_in_use_needs_earlier_drives(tmp_path, capsys):
+    from imunoise.cli import main
+
+    with pytest.raises(ModelError, match="vehicle_drives must be 2 or more"):
+        dense.run_sim([4800], spec=SPEC, methods=("in_use",), workers=1, **SCEN)
+    assert main(["experiment", "online", "--sim", "--outages", "dense:30:30:60", "--methods", "plain,in_use",
+                 "--out", str(tmp_path / "a")]) == 2
+    assert "give --vehicle-drives 2 or more" in capsys.readouterr().err
+    assert main(["experiment", "online", "--sim", "--outages", "dense:30:30:60", "--learn-from-logs", "x",
+                 "--out", str(tmp_path / "b")]) == 2
+    assert "on the simulator use --vehicle-drives K" in capsys.readouterr().err

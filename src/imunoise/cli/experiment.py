@@ -108,6 +108,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--vehicle-drives", default="1", metavar="K",
                    help="simulator, dense-window evidence: K drives per seed (a vehicle: the same IMU, motion law "
                    "and vehicle; other routes, stops and noise), every method scored on the last; default 1")
+    p.add_argument("--learn-from-logs", nargs="+", default=None, metavar="DATASET",
+                   help="real data, dense-window evidence: dataset folders of the same vehicle's other drives, which "
+                   "the in_use method learns its model on (the drive of --data is only navigated)")
     p.add_argument("--out", required=True, help="output folder")
     add_deprecated_alias(p, "--imu", "--imu-model")
     add_deprecated_alias(p, "--gnss", "--gnss-regime")
@@ -130,7 +133,7 @@ def select_methods(which: str, sim: bool, methods: str | None, evidence: bool = 
     allowed = tuple(dict.fromkeys((*mod.METHODS, *default)))
     if evidence:
         extra = ("static_var_hindsight", "adaptive", "gmwm_dyn", "gmwm_lik",
-                 *(("oracle", *dense.WARM_METHODS, *dense.STATIC_WARM_METHODS) if sim else ()))
+                 "in_use", *(("oracle", *dense.WARM_METHODS, *dense.STATIC_WARM_METHODS) if sim else ()))
         allowed = tuple(dict.fromkeys((*allowed, *extra)))
     chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else default
     if evidence:  # any evidence method with the scale-factor states: NAME+sf
@@ -268,6 +271,11 @@ def _check_vehicle(args: argparse.Namespace, evidence: bool) -> None:
     if args.vehicle_drives > 1 and not (evidence and args.sim):
         raise ModelError("--vehicle-drives K > 1 simulates vehicles of K drives for the dense-window evidence: add "
                          "--sim and --outages dense:L:S")
+    if args.learn_from_logs and (args.sim or not evidence):
+        raise ModelError("--learn-from-logs gives in_use its drives on real data in the dense-window evidence "
+                         "(--data ... --outages dense:L:S); on the simulator use --vehicle-drives K")
+    if "in_use" in (args.methods or "").split(",") and args.sim and args.vehicle_drives < 2:
+        raise ModelError("--methods in_use learns on a vehicle's earlier drives: give --vehicle-drives 2 or more")
     if args.vehicle_drives > 1 and args.imu_noise:
         raise ModelError("--vehicle-drives K > 1 with --imu-noise: a replayed recording gives each seed one stretch, "
                          "not K drives of one unit; drop one of them")
@@ -369,7 +377,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float, final: Path) -
         data = args.data or str(repo_data_dir())
         n_jobs = len(methods) * sum(len(noise_seeds) if r.random else 1 for r in regimes)
         bar, step = _progress(n_jobs, "evidence")
-        res = dense.run_real(data, start=args.start, progress=step, **kw)
+        res = dense.run_real(data, start=args.start, progress=step, learn_from=args.learn_from_logs or (), **kw)
         title = f"imunoise: dense-window evidence on {data}"
     bar.close()
     res["elapsed_s"] = time.perf_counter() - t0

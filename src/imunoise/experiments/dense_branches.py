@@ -211,9 +211,18 @@ def _nees_reader(nav: OnlineNavigator, sc: Scenario, t: np.ndarray):
 
 def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfig | None = None,
                     cache: dict | None = None, prior: MotionNoisePrior | None = None,
-                    earlier_static: Sequence[np.ndarray] | None = None, nees: bool = False) -> dict:
+                    earlier_static: Sequence[np.ndarray] | None = None, nees: bool = False,
+                    in_use: Any = None) -> dict:
     """:func:`run_windows` for one method (:func:`method_setup`); ``earlier_static`` the earlier drives' stops
-    a ``gmwm_warm`` method pools (:func:`~imunoise.experiments.dense_warm.earlier_stops`)."""
+    a ``gmwm_warm`` method pools (:func:`~imunoise.experiments.dense_warm.earlier_stops`); ``in_use`` the model
+    the ``in_use`` method learned on the vehicle's earlier drives (:mod:`imunoise.experiments.in_use_method`)."""
+    if (name == "in_use") != (in_use is not None):
+        raise ModelError("in_use navigates with the model learned on the vehicle's earlier drives, and only it takes "
+                         "one: run it on the simulator with --vehicle-drives 2 or more")
+    if name == "in_use":
+        from imunoise.experiments.in_use_method import run_windows_in_use
+
+        return {**run_windows_in_use(sc, gnss, windows, in_use, base=base, nees=nees), "in_use": in_use.summary()}
     if (base_method(name) in STATIC_WARM_METHODS) != (earlier_static is not None):
         raise ModelError(f"{name}: earlier drives' stops are for {', '.join(STATIC_WARM_METHODS)} only, and those "
                          "need them (the simulator makes them: run_sim)")

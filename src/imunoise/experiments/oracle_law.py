@@ -220,15 +220,16 @@ def _run(lf: LawFilter, f: FilterArrays, fx: StreamSet, out, a: int, b: int, off
 
 
 def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models: list | None = None,
-                    nees: bool = False) -> dict[str, Any]:
+                    nees: bool = False, make=None) -> dict[str, Any]:
     """:func:`imunoise.experiments.dense.run_windows` for ``oracle_law``: the same keys (``windows`` with
     ``drift``, ``rms``, ``drift_v``, ``aided_rms``; ``horizontal_rms_m``, ``vertical_rms_m``; ``nees`` with
-    ``nees``). ``models``: a constant-model filter instead (:func:`law_filter`)."""
+    ``nees``). ``models``: a constant-model filter instead (:func:`law_filter`); ``make(sc, starts, base)``:
+    another :class:`LawFilter` (``in_use``: :mod:`imunoise.experiments.in_use_method`)."""
     from imunoise.experiments.window_errors import branch_errors, window_metrics
     from imunoise.nav.metrics import nav_errors
 
     starts = [s for s, _ in windows]
-    lf = law_filter(sc, starts, base, models=models)
+    lf = law_filter(sc, starts, base, models=models) if make is None else make(sc, starts, base)
     ekf, t = lf.ekf, lf.imu.t
     n = t.size
     has_sf = bool(np.all(ekf.layout.scale_index >= 0))
