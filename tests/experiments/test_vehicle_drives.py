@@ -138,6 +138,7 @@ def test_in_use_learns_on_the_earlier_drive_and_navigates_the_last():
         vals = [v for d in res["per_window"]["rtk"][met]["in_use"] for r in d for v in r]
         assert vals and all(v is not None and np.isfinite(v) for v in vals)
     assert res["nees"]["rtk"]["in_use"]["epochs"] == 140
+    assert list(res["in_use_models"]) == ["4802/rtk/0"] and "in_motion" in res["in_use_models"]["4802/rtk/0"]
     job = dense._sim_job((4802, ("in_use",), (parse_gnss("rtk"),), (1,), SPEC, dict(SCEN), None, 2))
     learned = job["runs"][0][3]["in_use"]
     assert learned["drives"] == [f"simulated drive (seed {4802 + dense.PRIOR_SEED_OFFSET})"]
@@ -157,3 +158,22 @@ def test_in_use_needs_earlier_drives(tmp_path, capsys):
     assert main(["experiment", "online", "--sim", "--outages", "dense:30:30:60", "--learn-from-logs", "x",
                  "--out", str(tmp_path / "b")]) == 2
     assert "on the simulator use --vehicle-drives K" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_learn_from_logs_gives_in_use_its_drives_on_real_data():
+    """On real data ``in_use`` learns on the dataset folders of ``learn_from`` (here the shipped drive itself: the
+    plumbing, not a carry-over claim) and navigates the drive of ``data_dir``; without them it is refused."""
+    from conftest import REPO
+
+    data = REPO / "data" / "drive_0708"
+    if not (data / "dataset.json").exists():
+        pytest.skip(f"the shipped drive is absent: {data.relative_to(REPO)}")
+    kw = {"spec": dense.DenseSpec(60.0, 120.0, 60.0), "workers": 1, "n_boot": 200, "paper_windows": False}
+    with pytest.raises(ModelError, match="--learn-from-logs DATASET"):
+        dense.run_real(data, methods=("in_use",), **kw)
+    res = dense.run_real(data, methods=("plain", "in_use"), learn_from=[data], **kw)
+    assert res["learn_from_logs"] == [str(data)]
+    vals = [v for d in res["per_window"]["rtk"]["drift"]["in_use"] for r in d for v in r]
+    assert vals and all(np.isfinite(v) for v in vals)
+    assert res["nees"]["rtk"]["in_use"]["epochs"] > 300 and res["nees"]["rtk"]["plain"]["epochs"] > 300

@@ -173,6 +173,7 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
     res["noise_seeds"] = [int(s) for s in noise_seeds] if any(r.random for r in regimes) else []  # the seed label
     res["paper_windows"] = [list(w) for w in paper]
     res["learn_from_logs"] = [str(p) for p in learn_from]
+    res["in_use_models"] = _in_use_models(drives, regimes)
     return res
 
 
@@ -251,4 +252,11 @@ def run_sim(seeds: Sequence[int], *, spec: DenseSpec = _DEFAULT_SPEC, regimes: S
     res["scenario"] = dict(scen_kw)
     res["vehicle_drives"] = k
     res["vehicles"] = {str(d["seed"]): d["vehicle_drives"] for d in drives}
+    res["in_use_models"] = _in_use_models(drives, regimes)
     return res
+
+
+def _in_use_models(drives: Sequence[dict], regimes: Sequence[GnssRegime]) -> dict:
+    """What ``in_use`` learned per drive and GNSS realisation (the in-motion part, the estimate's CPU time)."""
+    return {f"{d.get('seed', d.get('name'))}/{regimes[r[1]].label}/{r[2]}": r[3]["in_use"]
+            for d in drives for r in d["runs"] if r[0] == "in_use" and "in_use" in r[3]}
