@@ -197,13 +197,13 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
 
 def _nees_reader(nav: OnlineNavigator, sc: Scenario, t: np.ndarray):
     """(scored sample indices, the reader that appends the NEES of ``nav``'s state at a sample, the values)."""
-    epochs = scored_epochs(sc)
-    idx = np.array([i for i, x in enumerate(np.round(t, 6)) if float(x) in epochs], dtype=int)
+    idx, ref = scored_epochs(sc, t)
+    of = dict(zip(idx.tolist(), ref.tolist(), strict=True))
     values: list[float] = []
 
     def read(i: int) -> None:
         st = nav.ekf.state()
-        e = epoch_error(sc, epochs[round(float(t[i]), 6)], st["llh"], st["euler"], st["vel_ned"])
+        e = epoch_error(sc, of[int(i)], st["llh"], st["euler"], st["vel_ned"])
         values.append(nees6(e, nav.ekf.P))
 
     return idx, read, values

@@ -25,12 +25,19 @@ BAND6 = (1.2373442457912036, 14.449375335447922)
 """The two-sided 95 % band of χ² with 6 degrees of freedom (scipy.stats.chi2.ppf([0.025, 0.975], 6))."""
 
 
-def scored_epochs(sc: Any, skip_s: float = SKIP_S) -> dict[float, int]:
-    """The scored epochs of scenario ``sc``: ``{time rounded to 1 µs: reference index}`` for the 1 Hz reference
-    epochs at least ``skip_s`` after the start (``sc.init.t``)."""
+def scored_epochs(sc: Any, t: np.ndarray, skip_s: float = SKIP_S) -> tuple[np.ndarray, np.ndarray]:
+    """The scored epochs of scenario ``sc`` on the filter's samples ``t``: (sample indices, reference indices),
+    one reference epoch per second (the first of each whole second: the integer one of the simulator's 10 Hz
+    reference) at least ``skip_s`` after the start (``sc.init.t``), each with the first sample at or after it
+    (as :func:`imunoise.nav.metrics.nav_errors` pairs them; 1 µs tolerance)."""
     rt = np.asarray(sc.ref.t, dtype=float)
-    pick = (np.abs(rt - np.round(rt)) < 1e-6) & (rt >= float(sc.init.t) + skip_s)
-    return {round(float(x), 6): int(j) for j, x in zip(np.flatnonzero(pick), rt[pick], strict=True)}
+    t = np.asarray(t, dtype=float)
+    sec = np.floor(rt + 1e-6)
+    first = np.concatenate([[True], sec[1:] != sec[:-1]])
+    j = np.flatnonzero(first & (rt >= float(sc.init.t) + skip_s) & (rt <= t[-1] + 1e-6))
+    i = np.searchsorted(t, rt[j] - 1e-6, side="left")
+    ok = i < t.size
+    return i[ok].astype(int), j[ok].astype(int)
 
 
 def epoch_error(sc: Any, j: int, llh: np.ndarray, euler: np.ndarray, vel: np.ndarray) -> np.ndarray:

@@ -272,9 +272,8 @@ def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models:
     if nees:
         from imunoise.experiments.nees import drive_nees, epoch_error, nees6, scored_epochs
 
-        ep = scored_epochs(sc)
-        res["nees"] = drive_nees([nees6(epoch_error(sc, ep[x], out.pos[k], out.att[k], out.vel[k]), out.cov[k])
-                                  for k, x in enumerate(np.round(t, 6)) if float(x) in ep])
+        res["nees"] = drive_nees([nees6(epoch_error(sc, j, out.pos[k], out.att[k], out.vel[k]), out.cov[k])
+                                  for k, j in zip(*scored_epochs(sc, t), strict=True)])
     if keep:
         res["_full"] = full
     return res
