@@ -88,27 +88,16 @@ def run_sim(args) -> list:
 
 
 def _half(sc, lo: float, hi: float, name: str):
-    """The drive restricted to [lo, hi]: IMU, GNSS and stops sliced; the first half starts from the drive's own
-    alignment, the second from the RTK reference state at ``lo`` (its position, velocity and attitude; the
-    biases of the drive's alignment)."""
+    """The drive cut at ``hi`` whose likelihood scores only the fixes from ``lo`` on: the filter runs from the
+    drive's own alignment (a stop), so the second half starts from a converged state; the in-motion noise
+    applies over the whole run, the fixes of the other half are not scored."""
     from dataclasses import replace
 
-    from imunoise.nav.ekf import InitialState
-
-    ref = sc.ref
-    if lo <= sc.init.t:
-        init, lo = sc.init, float(sc.imu.t[0])
-    else:
-        k = int(np.searchsorted(ref.t, lo))
-        init = InitialState(t=float(ref.t[k]), llh=np.asarray(ref.llh[k], dtype=float),
-                            vel_ned=np.asarray(ref.vel_ned[k], dtype=float),
-                            euler=np.asarray(ref.euler[k], dtype=float),
-                            gyro_bias=sc.init.gyro_bias, accel_bias=sc.init.accel_bias)
-        lo = float(ref.t[k]) - 0.5
-    imu = sc.imu.slice(lo, hi)
-    m = (np.asarray(sc.imu.t) >= lo) & (np.asarray(sc.imu.t) <= hi)
+    imu = sc.imu.slice(float(sc.imu.t[0]), hi)
+    m = np.asarray(sc.imu.t) <= hi
     st = None if sc.static_truth is None else np.asarray(sc.static_truth)[m]
-    return replace(sc, name=name, imu=imu, gnss=sc.gnss.slice(init.t, hi), init=init, static_truth=st)
+    return replace(sc, name=name, imu=imu, gnss=sc.gnss.slice(float(sc.gnss.t[0]), hi), static_truth=st,
+                   extra={**sc.extra, "score_after_s": lo})
 
 
 def run_real(args) -> list:

@@ -2,18 +2,22 @@
 (docs/guide/theory.rst, 'In-use noise'; the likelihood: :mod:`imunoise.inuse.likelihood`).
 
 Per sensor group g (gyros, accelerometers) three parameters, log-parametrised: the white factor f_g (σ scale of
-the static white density while moving), the moving Gauss–Markov σ_g and τ_g (evolving while moving, frozen at
-stops). The group's axes share them: one group at a time is fitted by Nelder–Mead on (log f, log σ, log τ), the
-other group held at its current values (gyros first, then accelerometers). Then:
+the static white density while moving) and the moving Gauss–Markov's driving density K_g = σ_g√(2/τ_g) and
+correlation time τ_g (the GM evolves while moving and is frozen at stops; K rather than σ because a drive
+shorter than τ sees the driving density, and σ, τ alone would lie on a ridge). The group's axes share them.
+One group at a time, the other held at its current values (gyros first): the white factor without wander
+(bounded golden search), then (log f, log K, log τ) by Nelder–Mead from f = 1 (the static model). Then:
 
-* the wander's test: LR = 2(NLL(f̂, σ = 0) − NLL(f̂, σ̂, τ̂)) against χ²₂(0.95) = 5.99 (σ and τ enter together;
-  τ is not defined at σ = 0, so the test is conservative). Below it the wander is not identified: its value is
-  null and the bound says up to which σ (at τ̂) the fixes still fit (ΔNLL ≤ 1.92) and why;
+* the wander's test: LR = 2(NLL(no wander, f searched again at the other group's final values) − NLL(θ̂))
+  against χ²₂(0.95) = 5.99. Below it the wander is not given as a number: the bound says up to which σ (at
+  τ = 60 s) the fixes still fit (ΔNLL ≤ 1.92) and why;
 * intervals from the observed information: the Hessian of the NLL in the log parameters by central
-  differences (step ``h``), Wald intervals exp(θ̂ ± 1.96 sd) (positive by construction). A parameter whose sd
-  exceeds ln 10 / 1.96 (a 95 % interval wider than ×/÷ 10) is not identified: a bound with the reason;
-* τ̂ at its upper limit (longer than the drives' moving time): the wander is reported as a random walk
-  k = σ√(2/τ) (what the data support), its interval from σ's.
+  differences (step ``h``). A parameter whose curvature alone gives a 95 % interval wider than ×/÷ 10 is flat
+  (not identified: a bound with the reason) and left out; the rest is inverted (:func:`_cov`); Wald intervals
+  exp(θ̂ ± 1.96 sd), positive by construction; log σ = log K + ½ log τ − ½ log 2 takes its variance from both;
+* the wander is reported as a GM (σ, τ) when both are identified and τ̂ is below its limit (three times the
+  drives' moving time), as a random walk k = K when only K is (the data support a random walk), else as a
+  bound.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize
 
+from imunoise.errors import DataError
 from imunoise.imu import AXES
 from imunoise.inuse.likelihood import DriveLikelihood, Theta
 from imunoise.noise.in_motion import AxisInMotion, BiasWander, Bound, InMotionPart, Interval, gm_equivalent_k
@@ -233,6 +238,9 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     tau_max = max(3600.0 * lik.hours_moving() * 3.0, 10.0 * TAU_MIN_S)
     th = Theta()
     nll_static = lik.nll(th)
+    if not math.isfinite(nll_static):
+        raise DataError("the in-motion estimate: the GNSS-aided filter diverges on the drive(s) with the static "
+                        "model alone; check the start (alignment at a stop), the lever arm and the GNSS file")
     logp: dict[str, np.ndarray] = {}
     nll0: dict[str, float] = {}
     u0: dict[str, float] = {}
