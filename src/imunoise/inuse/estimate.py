@@ -212,8 +212,10 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     ----------
     drives : sequence
         Drives as the experiments' scenarios carry them (:mod:`imunoise.inuse.likelihood`); pooled.
-    static_model : ImuModel, dict, path or list of (Model, freq)
-        The static part (the stops' model), mapped to the filter by the door.
+    static_model : object
+        The static part (the stops' model), mapped to the filter by the door: an
+        :class:`~imunoise.noise.imu_model.ImuModel`, its parsed JSON, a model file's path, or the six
+        (model, rate) filter pairs as they are.
     freq : float
         IMU rate [Hz] (the static model's parameters per sample at its own rate).
     seed : int, optional
