@@ -2,18 +2,22 @@
 (docs/guide/theory.rst, 'In-use noise'; the likelihood: :mod:`imunoise.inuse.likelihood`).
 
 Per sensor group g (gyros, accelerometers) three parameters, log-parametrised: the white factor f_g (σ scale of
-the static white density while moving), the moving Gauss–Markov σ_g and τ_g (evolving while moving, frozen at
-stops). The group's axes share them: one group at a time is fitted by Nelder–Mead on (log f, log σ, log τ), the
-other group held at its current values (gyros first, then accelerometers). Then:
+the static white density while moving) and the moving Gauss–Markov's driving density K_g = σ_g√(2/τ_g) and
+correlation time τ_g (the GM evolves while moving and is frozen at stops; K rather than σ because a drive
+shorter than τ sees the driving density, and σ, τ alone would lie on a ridge). The group's axes share them.
+One group at a time, the other held at its current values (gyros first): the white factor without wander
+(bounded golden search), then (log f, log K, log τ) by Nelder–Mead from f = 1 (the static model). Then:
 
-* the wander's test: LR = 2(NLL(f̂, σ = 0) − NLL(f̂, σ̂, τ̂)) against χ²₂(0.95) = 5.99 (σ and τ enter together;
-  τ is not defined at σ = 0, so the test is conservative). Below it the wander is not identified: its value is
-  null and the bound says up to which σ (at τ̂) the fixes still fit (ΔNLL ≤ 1.92) and why;
+* the wander's test: LR = 2(NLL(no wander, f searched again at the other group's final values) − NLL(θ̂))
+  against χ²₂(0.95) = 5.99. Below it the wander is not given as a number: the bound says up to which σ (at
+  τ = 60 s) the fixes still fit (ΔNLL ≤ 1.92) and why;
 * intervals from the observed information: the Hessian of the NLL in the log parameters by central
-  differences (step ``h``), Wald intervals exp(θ̂ ± 1.96 sd) (positive by construction). A parameter whose sd
-  exceeds ln 10 / 1.96 (a 95 % interval wider than ×/÷ 10) is not identified: a bound with the reason;
-* τ̂ at its upper limit (longer than the drives' moving time): the wander is reported as a random walk
-  k = σ√(2/τ) (what the data support), its interval from σ's.
+  differences (step ``h``). A parameter whose curvature alone gives a 95 % interval wider than ×/÷ 10 is flat
+  (not identified: a bound with the reason) and left out; the rest is inverted (:func:`_cov`); Wald intervals
+  exp(θ̂ ± 1.96 sd), positive by construction; log σ = log K + ½ log τ − ½ log 2 takes its variance from both;
+* the wander is reported as a GM (σ, τ) when both are identified and τ̂ is below its limit (three times the
+  drives' moving time), as a random walk k = K when only K is (the data support a random walk), else as a
+  bound.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import minimize
 
+from imunoise.errors import DataError
 from imunoise.imu import AXES
 from imunoise.inuse.likelihood import DriveLikelihood, Theta
 from imunoise.noise.in_motion import AxisInMotion, BiasWander, Bound, InMotionPart, Interval, gm_equivalent_k
@@ -84,16 +89,26 @@ def static_nk(pairs: list, horizon_s: float) -> list[tuple[float, float]]:
     return out
 
 
-def _factor_k(k_static: float, bias: BiasWander, ci_sigma, tau: float) -> Interval:
-    """The in-use / static factor of K: √(K² + K_w²)/K, its interval from σ's at τ̂ (None when K = 0)."""
-    kw = bias.equivalent_k()
-    if not k_static > 0 or bias.model == "none":
-        return Interval(1.0 if k_static > 0 and bias.model == "none" else None)
+def _factor_k(k_static: float, kw: float, kw_ci) -> Interval:
+    """The in-use / static factor of K: √(K² + K_w²)/K with K_w the wander's driving density, its interval from
+    K_w's (None when the static K is 0)."""
+    if not k_static > 0:
+        return Interval(None)
     val = math.hypot(k_static, kw) / k_static
-    if ci_sigma is None:
-        return Interval(val)
-    lo, hi = (math.hypot(k_static, gm_equivalent_k(x, tau)) / k_static for x in ci_sigma)
-    return Interval(val, (lo, hi))
+    if kw_ci is None:
+        return Interval(val, (val, val) if kw == 0 else None)
+    return Interval(val, tuple(math.hypot(k_static, x) / k_static for x in kw_ci))
+
+
+def _ci(x: float, sd: float) -> tuple[float, float] | None:
+    """Wald interval of a positive parameter from the sd of its log."""
+    return (x * math.exp(-1.96 * sd), x * math.exp(1.96 * sd)) if math.isfinite(sd) else None
+
+
+def _unlog(p: np.ndarray) -> tuple[float, float, float]:
+    """(f, σ, τ) of the search parameters (log f, log K, log τ), σ = K√(τ/2) (:func:`gm_equivalent_k`)."""
+    f, k, tau = (float(x) for x in np.exp(p))
+    return f, k * math.sqrt(tau / 2.0), tau
 
 
 def _theta_with(th: Theta, idx: Sequence[int], f: float, s: float, tau: float) -> Theta:
@@ -103,23 +118,45 @@ def _theta_with(th: Theta, idx: Sequence[int], f: float, s: float, tau: float) -
     return replace(th, white=tuple(w), sigma=tuple(sg), tau_s=tuple(ta))
 
 
-def _fit_group(lik: DriveLikelihood, th: Theta, g: str, tau_max: float, maxfev: int) -> tuple[Theta, np.ndarray]:
-    idx = GROUPS[g]
+def _box(g: str, tau_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of (log f, log K, log τ) of group ``g``."""
     lo_s, hi_s = SIGMA_RANGE[g]
-    lo = np.array([math.log(WHITE_RANGE[0]), math.log(lo_s), math.log(TAU_MIN_S)])
-    hi = np.array([math.log(WHITE_RANGE[1]), math.log(hi_s), math.log(tau_max)])
+    lo = np.array([math.log(WHITE_RANGE[0]), math.log(gm_equivalent_k(lo_s, tau_max)), math.log(TAU_MIN_S)])
+    hi = np.array([math.log(WHITE_RANGE[1]), math.log(gm_equivalent_k(hi_s, TAU_MIN_S)), math.log(tau_max)])
+    return lo, hi
+
+
+def _white_search(lik: DriveLikelihood, th: Theta, idx: Sequence[int], lo: float, hi: float, s: float, tau: float,
+                  iters: int) -> float:
+    """The group's log white factor in [lo, hi] at wander (σ, τ), bounded golden search."""
+    from scipy.optimize import minimize_scalar
+
+    r = minimize_scalar(lambda u: lik.nll(_theta_with(th, idx, math.exp(u), s, tau)), bounds=(lo, hi),
+                        method="bounded", options={"xatol": 0.03, "maxiter": iters})
+    return float(r.x)
+
+
+def _fit_group(lik: DriveLikelihood, th: Theta, g: str, tau_max: float,
+               maxfev: int) -> tuple[np.ndarray, float, float]:
+    """Search of group ``g``: the white factor without wander (bounded golden search; its NLL is the no-wander
+    model's), then (log f, log K, log τ) by Nelder–Mead from f = 1 (the static model). Returns
+    (log f, log K, log τ), the no-wander NLL and the no-wander log f."""
+    idx = GROUPS[g]
+    lo, hi = _box(g, tau_max)
+    u0 = _white_search(lik, th, idx, lo[0], hi[0], 0.0, 60.0, 14)
+    nll0 = lik.nll(_theta_with(th, idx, math.exp(u0), 0.0, 60.0))
 
     def f(p: np.ndarray) -> float:
-        q = np.clip(p, lo, hi)
-        pen = 10.0 * float(np.sum((p - q) ** 2))  # a smooth wall: Nelder–Mead stays inside the box
-        return lik.nll(_theta_with(th, idx, *np.exp(q))) + pen
+        c = np.clip(p, lo, hi)
+        return lik.nll(_theta_with(th, idx, *_unlog(c))) + 10.0 * float(np.sum((p - c) ** 2))  # smooth wall
 
-    x0 = np.array([0.0, math.log(SIGMA0[g]), math.log(min(60.0, tau_max))])
-    simplex = np.array([x0, x0 + [0.5, 0, 0], x0 + [0, 1.5, 0], x0 + [0, 0, 1.2]])
-    res = minimize(f, x0, method="Nelder-Mead",
-                   options={"initial_simplex": simplex, "xatol": 0.05, "fatol": 0.05, "maxfev": maxfev})
+    tau0 = min(60.0, tau_max)
+    x0 = np.array([0.0, math.log(gm_equivalent_k(SIGMA0[g], tau0)), math.log(tau0)])
+    simplex = [x0, x0 + [0.5, 0, 0], x0 + [0, 1.5, 0], x0 + [0, 0, 1.2]]
+    res = minimize(f, x0, method="Nelder-Mead", options={"initial_simplex": simplex, "xatol": 0.05, "fatol": 0.05,
+                                                         "maxfev": maxfev})
     p = np.clip(res.x, lo, hi)
-    return _theta_with(th, idx, *np.exp(p)), p
+    return p, nll0, u0
 
 
 def _hessian(fun, p: np.ndarray, h: float) -> np.ndarray:
@@ -135,45 +172,39 @@ def _hessian(fun, p: np.ndarray, h: float) -> np.ndarray:
     return H
 
 
-def _wald(H: np.ndarray) -> np.ndarray | None:
-    """Covariance H⁻¹ when H is positive definite, else None."""
-    try:
-        np.linalg.cholesky(H)
-    except np.linalg.LinAlgError:
-        return None
-    return np.linalg.inv(H)
+def _cov(H: np.ndarray) -> np.ndarray:
+    """Covariance of the log parameters from the observed information ``H``: a parameter whose curvature alone
+    gives an interval wider than ×/÷ 10 (flat) is left out (variance inf) and the rest inverted; if that block is
+    not positive definite either, the least curved parameter is left out too, and so on."""
+    n = H.shape[0]
+    keep = [i for i in range(n) if H[i, i] > 1.0 / WIDE_SD**2]
+    while keep:
+        sub = H[np.ix_(keep, keep)]
+        try:
+            np.linalg.cholesky(sub)
+        except np.linalg.LinAlgError:
+            keep.remove(min(keep, key=lambda i: H[i, i]))
+            continue
+        cov = np.full((n, n), math.inf)
+        cov[np.ix_(keep, keep)] = np.linalg.inv(sub)
+        return cov
+    return np.full((n, n), math.inf)
 
 
-def _white_only(lik: DriveLikelihood, th: Theta, idx: Sequence[int], h: float = 0.25) -> tuple[float, float | None]:
-    """The group's white factor with no wander (bounded 1-D search in log f) and the variance of log f from
-    the NLL's second difference (None when not positive)."""
-    from scipy.optimize import minimize_scalar
-
-    def fun(u: float) -> float:
-        return lik.nll(_theta_with(th, idx, math.exp(u), 0.0, 60.0))
-
-    r = minimize_scalar(fun, bounds=(math.log(WHITE_RANGE[0]), math.log(WHITE_RANGE[1])), method="bounded",
-                        options={"xatol": 0.03, "maxiter": 14})
-    u = float(r.x)
-    d2 = (fun(u + h) - 2 * fun(u) + fun(u - h)) / (h * h)
-    return math.exp(u), (1.0 / d2 if d2 > 0 else None)
-
-
-def _sigma_upper(lik: DriveLikelihood, th: Theta, g: str, f: float, tau: float, nll_min: float) -> float | None:
-    """Largest σ (×1.6 steps from the group's lower edge, at f and τ) with NLL ≤ min + 1.92, or None if never
-    exceeded below the range's top."""
-    s, hi = SIGMA_RANGE[g][0] * 10, SIGMA_RANGE[g][1]
-    last = None
-    while s <= hi:
-        if lik.nll(_theta_with(th, GROUPS[g], f, s, tau)) > nll_min + HALF_LR1:
-            return last if last is not None else s
-        last = s
-        s *= 1.6 if last > SIGMA0[g] / 10 else 10.0
+def _scan_up(fun, x0: float, limit: float, level: float, step: float = 1.6) -> float | None:
+    """The last x (×``step`` from ``x0``) with fun(x) ≤ ``level`` before it is exceeded, or None if not below
+    ``limit``."""
+    x, last = x0, None
+    while x <= limit:
+        if fun(x) > level:
+            return last if last is not None else x
+        last = x
+        x *= step
     return None
 
 
 def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float, seed: int | None = None,
-                       groups: Sequence[str] = ("gyro", "accel"), maxfev: int = 36, h: float = 0.25,
+                       groups: Sequence[str] = ("gyro", "accel"), maxfev: int = 40, h: float = 0.25,
                        names: Sequence[str] | None = None) -> InMotionEstimate:
     """Estimate the in-motion noise from whole GNSS-aided drives (module docstring).
 
@@ -181,8 +212,10 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     ----------
     drives : sequence
         Drives as the experiments' scenarios carry them (:mod:`imunoise.inuse.likelihood`); pooled.
-    static_model : ImuModel, dict, path or list of (Model, freq)
-        The static part (the stops' model), mapped to the filter by the door.
+    static_model : object
+        The static part (the stops' model), mapped to the filter by the door: an
+        :class:`~imunoise.noise.imu_model.ImuModel`, its parsed JSON, a model file's path, or the six
+        (model, rate) filter pairs as they are.
     freq : float
         IMU rate [Hz] (the static model's parameters per sample at its own rate).
     seed : int, optional
@@ -207,10 +240,15 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     tau_max = max(3600.0 * lik.hours_moving() * 3.0, 10.0 * TAU_MIN_S)
     th = Theta()
     nll_static = lik.nll(th)
+    if not math.isfinite(nll_static):
+        raise DataError("the in-motion estimate: the GNSS-aided filter diverges on the drive(s) with the static "
+                        "model alone; check the start (alignment at a stop), the lever arm and the GNSS file")
     logp: dict[str, np.ndarray] = {}
+    nll0: dict[str, float] = {}
+    u0: dict[str, float] = {}
     for g in groups:
-        th, logp[g] = _fit_group(lik, th, g, tau_max, maxfev)
-    nll_hat = lik.nll(th)
+        logp[g], nll0[g], u0[g] = _fit_group(lik, th, g, tau_max, maxfev)
+        th = _theta_with(th, GROUPS[g], *_unlog(logp[g]))
     nk = static_nk(lik.pairs, max(float(d.imu.t[-1] - d.init.t) for d in lik.drives) / 2.0)
     axes: dict[str, AxisInMotion] = {}
     bounds: dict[str, Bound] = {}
@@ -218,58 +256,74 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     lrs: dict[str, float] = {}
     for g in groups:
         idx = GROUPS[g]
-        f, s, tau = (float(x) for x in np.exp(logp[g]))
-        lr = 2.0 * (lik.nll(_theta_with(th, idx, f, 0.0, tau)) - nll_hat)
+        nll_hat = lik.nll(th)
+        # the no-wander model of this group at the other groups' final values (its white factor searched again
+        # near the first search's): the LR compares two models that differ in this group's wander alone
+        lo, hi = _box(g, tau_max)
+        u0[g] = _white_search(lik, th, idx, max(lo[0], u0[g] - 0.7), min(hi[0], u0[g] + 0.7), 0.0, 60.0, 8)
+        nll0[g] = lik.nll(_theta_with(th, idx, math.exp(u0[g]), 0.0, 60.0))
+        lr = 2.0 * (nll0[g] - nll_hat)
         lrs[g] = lr
         wander = lr > LR_WANDER
-        if wander:
-            fun = lambda p, idx=idx, th=th: lik.nll(_theta_with(th, idx, *np.exp(p)))  # noqa: E731
-            cov = _wald(_hessian(fun, logp[g], h))
-        else:  # no wander: the white factor alone, refitted with σ = 0
-            f, c1 = _white_only(lik, th, idx)
-            th = _theta_with(th, idx, f, 0.0, tau)
-            logp[g] = np.array([math.log(f), math.log(SIGMA_RANGE[g][0]), math.log(tau)])
-            cov = None if c1 is None else np.diag([c1, math.inf, math.inf])
+        if not wander:  # the no-wander model: the white factor of the first search, σ = 0
+            th = _theta_with(th, idx, math.exp(u0[g]), 0.0, 60.0)
+            logp[g][0] = u0[g]
             nll_hat = lik.nll(th)
-        cov_log[g] = None if cov is None else cov.tolist()
-        sd = np.sqrt(np.diag(cov)) if cov is not None else np.full(3, math.inf)
-        ci = [(math.exp(logp[g][i] - 1.96 * sd[i]), math.exp(logp[g][i] + 1.96 * sd[i])) if math.isfinite(sd[i])
-              else None for i in range(3)]
-        white = Interval(f if ci[0] is not None and sd[0] <= WIDE_SD else None,
-                         ci[0] if ci[0] is not None and sd[0] <= WIDE_SD else None)
+            fun = lambda p, idx=idx, th=th: lik.nll(_theta_with(th, idx, math.exp(p[0]), 0.0, 60.0))  # noqa: E731
+            c1 = _cov(_hessian(fun, logp[g][:1], h))
+            cov = np.diag([c1[0, 0], math.inf, math.inf])
+        else:
+            fun = lambda p, idx=idx, th=th: lik.nll(_theta_with(th, idx, *_unlog(p)))  # noqa: E731
+            cov = _cov(_hessian(fun, logp[g], h))
+        cov_log[g] = cov.tolist()
+        f, s, tau = _unlog(logp[g])
+        k_hat = float(np.exp(logp[g][1]))
+        sd_f, sd_k, sd_t = np.sqrt(np.diag(cov))
+        # log σ = log K + ½ log τ − ½ log 2
+        var_s = cov[1, 1] + 0.25 * cov[2, 2] + cov[1, 2] if np.all(np.isfinite(cov[1:, 1:])) else math.inf
+        sd_s = math.sqrt(var_s) if var_s >= 0 else math.inf
+        white = Interval(f, _ci(f, sd_f)) if sd_f <= WIDE_SD else Interval(None)
+        up, reason, kw, kw_ci = None, "", 0.0, None
         if not wander:
-            up = _sigma_upper(lik, th, g, f, tau, nll_hat)
             bias = BiasWander("none")
+            up = _scan_up(lambda x, idx=idx, f=f, th=th: lik.nll(_theta_with(th, idx, f, x, 60.0)),
+                          SIGMA_RANGE[g][0] * 100, SIGMA_RANGE[g][1], nll_hat + HALF_LR1)
             reason = (f"bias wander while moving not distinguishable from none: LR {lr:.2f} < {LR_WANDER:.2f} "
-                      "(χ²₂ 95 %)")
-        elif sd[1] > WIDE_SD or sd[2] > WIDE_SD:
-            up = ci[1][1] if ci[1] is not None else None
+                      "(χ²₂ 95 %); upper: σ at τ = 60 s")
+        elif sd_t <= WIDE_SD and sd_s <= WIDE_SD and tau < 0.999 * tau_max:
+            bias = BiasWander("gm", sigma=s, tau_s=tau, ci95={"sigma": _ci(s, sd_s), "tau_s": _ci(tau, sd_t)})
+            kw, kw_ci = k_hat, _ci(k_hat, sd_k)
+        elif sd_k <= WIDE_SD:  # τ not identified (or longer than the drives): the data support a random walk
+            bias = BiasWander("rw", k=k_hat, ci95={"k": _ci(k_hat, sd_k)})
+            kw, kw_ci = k_hat, _ci(k_hat, sd_k)
+        else:
             bias = BiasWander("none")
-            reason = (f"bias wander present (LR {lr:.1f}) but σ and τ not separable on these drives "
-                      f"(95 % interval of σ or τ wider than ×/÷ 10)")
+            up = s * math.exp(1.96 * sd_s) if math.isfinite(sd_s) else None
+            reason = (f"bias wander present (LR {lr:.1f}) but neither its σ, τ nor its driving density are "
+                      "identified on these drives (95 % interval wider than ×/÷ 10)")
             if g == "accel":
                 reason += "; accelerometer bias against attitude error needs turns and speed changes"
-        elif tau >= tau_max * 0.999:
-            k = gm_equivalent_k(s, tau)
-            bias = BiasWander("rw", k=k, ci95={"k": (gm_equivalent_k(ci[1][0], tau), gm_equivalent_k(ci[1][1], tau))})
-            up, reason = None, ""
-        else:
-            bias = BiasWander("gm", sigma=s, tau_s=tau, ci95={"sigma": ci[1], "tau_s": ci[2]})
-            up, reason = None, ""
+        if white.value is None:
+            sw = s if wander else 0.0
+            wu = _scan_up(lambda x, idx=idx, th=th, sw=sw, tau=tau: lik.nll(_theta_with(th, idx, x, sw, tau)), f,
+                          WHITE_RANGE[1], nll_hat + HALF_LR1, 1.5)
+            text = "white factor not identified (95 % interval wider than ×/÷ 10)"
+            if not reason:
+                up = wu
+            elif wu is not None:
+                text += f", ≤ {wu:.3g}"
+            reason = (reason + "; " if reason else "") + text
         for i in idx:
             a = AXES[i]
-            fk = _factor_k(nk[i][1], bias, ci[1], tau) if wander else Interval(1.0 if nk[i][1] > 0 else None)
-            axes[a] = AxisInMotion(white, bias, Interval(white.value, white.ci95), fk)
+            axes[a] = AxisInMotion(white, bias, Interval(white.value, white.ci95), _factor_k(nk[i][1], kw, kw_ci))
             if reason:
-                bounds[a] = Bound("bias", up, reason)
-            elif white.value is None:
-                bounds[a] = Bound("white", ci[0][1] if ci[0] else None, "white factor not identified (flat likelihood)")
+                bounds[a] = Bound("bias" if bias.model == "none" else "white", up, reason)
     evidence = {"drives": list(names) if names is not None else [getattr(d, "name", f"drive {k}")
                                                                   for k, d in enumerate(lik.drives)],
                 "hours_moving": lik.hours_moving(), "gnss_sigma_m": lik.gnss_sigma_m(),
                 "method": "maximum likelihood of the GNSS innovations over the whole drives (prediction-error "
                           "decomposition), per sensor group; 95 % Wald intervals from the observed information",
-                "freq_hz": float(freq), "groups": list(groups), "nll": nll_hat, "nll_static": nll_static,
+                "freq_hz": float(freq), "groups": list(groups), "nll": lik.nll(th), "nll_static": nll_static,
                 "lr_wander": lrs}
     part = InMotionPart(axes, bounds, evidence)
-    return InMotionEstimate(part, th, nll_hat, nll_static, cov_log, lrs, lik.runs, time.process_time() - t0)
+    return InMotionEstimate(part, th, lik.nll(th), nll_static, cov_log, lrs, lik.runs, time.process_time() - t0)

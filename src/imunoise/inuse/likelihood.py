@@ -8,7 +8,9 @@ drives add. Every evaluation is one filter run per drive (:func:`imunoise.nav.ek
 :class:`~imunoise.nav.filter_model.InMotionFilter` and the drive's moving flag); results are cached by θ.
 
 A drive is any object with what the experiments' :class:`~imunoise.experiments.common.Scenario` carries:
-``imu`` (increments), ``gnss`` (fixes), ``init`` (the start state), ``ekf_config()`` and optionally a stop mask
+``imu`` (increments), ``gnss`` (fixes), ``init`` (the start state), ``ekf_config()``, optionally
+``extra["score_after_s"]`` (only the fixes from that time on are scored: the filter runs from the start, the
+likelihood is that of a later part of the drive) and optionally a stop mask
 per IMU sample ``static_truth`` (else the static detector finds the stops: :func:`imunoise.inuse.stops.
 moving_flag`).
 """
@@ -79,10 +81,11 @@ class DriveLikelihood:
         for d, mv in zip(self.drives, self.moving, strict=True):
             try:
                 r = run_ekf(d.imu, d.gnss, d.init, d.ekf_config(), in_motion=imf, moving=mv, with_nll=True)
-            except DataError:
+            except (DataError, np.linalg.LinAlgError):  # a filter that diverges under θ: θ explains nothing
                 total = math.inf
                 break
-            total += float(np.nansum(r.gnss_nll))
+            t_after = (getattr(d, "extra", None) or {}).get("score_after_s", -math.inf)
+            total += float(np.nansum(r.gnss_nll[np.asarray(r.gnss_t) >= t_after]))
         self.runs += len(self.drives)
         self.cpu_s += time.process_time() - t0
         self.cache[k] = total
