@@ -177,3 +177,11 @@ def test_learn_from_logs_gives_in_use_its_drives_on_real_data():
     vals = [v for d in res["per_window"]["rtk"]["drift"]["in_use"] for r in d for v in r]
     assert vals and all(np.isfinite(v) for v in vals)
     assert res["nees"]["rtk"]["in_use"]["epochs"] > 300 and res["nees"]["rtk"]["plain"]["epochs"] > 300
+
+
+def test_in_use_has_no_filter_variants():
+    sc = simulate_scenario(4800, n_outages=0, **SCEN)
+    with pytest.raises(ModelError, match="in_use\\+sf: in_use runs the in-motion batch filter"):
+        dense.evaluate_method(sc, "in_use+sf", sc.gnss, [], in_use=object())
+    with pytest.raises(ModelError, match="--vehicle-drives 2 or more"):
+        dense.evaluate_method(sc, "in_use", sc.gnss, [])

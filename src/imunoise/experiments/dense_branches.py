@@ -216,6 +216,9 @@ def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfi
     """:func:`run_windows` for one method (:func:`method_setup`); ``earlier_static`` the earlier drives' stops
     a ``gmwm_warm`` method pools (:func:`~imunoise.experiments.dense_warm.earlier_stops`); ``in_use`` the model
     the ``in_use`` method learned on the vehicle's earlier drives (:mod:`imunoise.experiments.in_use_method`)."""
+    if base_method(name) == "in_use" and name != "in_use":
+        raise ModelError(f"{name}: in_use runs the in-motion batch filter, which has no scale-factor or NHC variant; "
+                         "use in_use")
     if (name == "in_use") != (in_use is not None):
         raise ModelError("in_use navigates with the model learned on the vehicle's earlier drives, and only it takes "
                          "one: run it on the simulator with --vehicle-drives 2 or more")
