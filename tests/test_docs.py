@@ -168,7 +168,7 @@ STAGE = {
     "detect": 2, "lines": 2,
     "noise": 3, "export": 3,
     "nav": 4,
-    "online": 5,
+    "online": 5, "inuse": 5,
     "sim": 6,
     "experiments": 7, "batch": 7, "calibrate": 7,
     "cli": 8, "__main__": 8,

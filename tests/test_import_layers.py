@@ -32,6 +32,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("imunoise.nav",),
     ("imunoise.online",),
     ("imunoise.sim",),
+    ("imunoise.inuse",),
     ("imunoise.calibrate", "imunoise.batch"),
     ("imunoise.experiments",),
     ("imunoise.cli", "imunoise.__main__"),

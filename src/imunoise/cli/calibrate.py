@@ -9,6 +9,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+from imunoise.cli.calibrate_in_motion import add_in_motion_options, check_in_motion, in_motion_stage
 from imunoise.cli.export_gate import add_force, refusal, write_exports
 from imunoise.cli.fit import STREAM_ABOVE
 from imunoise.cli.options import (
@@ -99,6 +100,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_force(p)
     add_target(p)
     p.add_argument("--out", help="output folder (default <first log name>_calib)")
+    add_in_motion_options(p)
     p.set_defaults(func=run)
 
 
@@ -158,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError(f"--learn-s must be a positive number of seconds, got {args.learn_s:g}")
     _refuse_repeated_paths(args.logs)
     check_target(args)
+    check_in_motion(args)
     final = prepare_out_dir(args.out or f"{Path(args.logs[0]).name.split('.')[0]}_calib")
     cfg = DetectorConfig(window=args.window, min_duration_s=args.min_duration, margin_s=args.margin)
     columns = parse_column_map(args.columns) if args.columns else None
@@ -190,6 +193,8 @@ def run(args: argparse.Namespace) -> int:
                     max_stops_per_min=args.max_stop_rate)
     print(res.summary())
     calibrate_record_lengths(res, args)  # how long to record (stdout, imu_model.json, calibration.json, report)
+    if args.in_motion:  # the noise while moving, from the whole GNSS-aided drive(s), on top of the static model
+        in_motion_stage(args, res.model)
     if read_warnings:
         res.model.source["warnings"] = read_warnings
     checks = {ax: (a.model, a.gate) for ax, a in res.axes.items()}
@@ -209,7 +214,9 @@ def run(args: argparse.Namespace) -> int:
             from imunoise.noise.imu_model import ImuModel
 
             force_readings(res.fits, checks)
+            in_motion = res.model.in_motion
             res.model = ImuModel.from_fits(res.fits, source=res.model.source)
+            res.model.in_motion = in_motion
         if args.export:
             from imunoise.cli.export import report
             from imunoise.export import model_sensors
@@ -227,6 +234,7 @@ def calibrate_outputs() -> tuple[str, ...]:
 
     return ("imu_model.json", "calibration.json", "report.html", "report.md", "detection_*.png", "wv_*.png",
             "record_length.png",
+            "in_motion.png",
             *sorted(set(DEFAULT_FILENAMES.values())))
 
 
@@ -249,6 +257,8 @@ def _write_outputs(res, out: Path, path: Path, forced: list[str]) -> list[Path]:
     with atomic_path(path) as tmp:
         res.model.save(tmp)
     summary = res.to_dict()
+    if res.model.in_motion is not None:
+        summary["in_motion"] = res.model.in_motion
     if res.model.source.get("warnings"):
         summary["warnings"] = list(res.model.source["warnings"])
     if forced:
@@ -361,6 +371,14 @@ def write_report(res, out: Path) -> Path:
     rep.table(["log", "start [s]", "end [s]", "duration [s]"],
               [[Path(ls.log.name).name, f"{s.t0:.2f}", f"{s.t1:.2f}", f"{s.duration:.2f}"]
                for ls in res.logs for s in ls.stops])
+    if res.model.in_motion is not None:  # calibrate --in-motion
+        from imunoise.cli.calibrate_in_motion import plot_factors
+        from imunoise.inuse import InMotionPart, summary_lines
+
+        part = InMotionPart.from_dict(res.model.in_motion)
+        rep.heading("In motion")
+        rep.figure(plot_factors(part, out / "in_motion.png"), "in-use / static white factor per axis, 95 % interval")
+        rep.log(summary_lines(part))
     html_path, _ = rep.write(out, "report")
     return html_path
 

@@ -108,6 +108,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="what the seeds are for, recorded in results.json and named in the report: dev "
                    "(development, default) or report (fresh seeds, run once per method version)")
     add_aiding_options(p)  # here without FILE: the simulator simulates the stream, --data reads the manifest's
+    p.add_argument("--vehicle-drives", default="1", metavar="K",
+                   help="simulator, dense-window evidence: K drives per seed (a vehicle: the same IMU, motion law "
+                   "and vehicle; other routes, stops and noise), every method scored on the last; default 1")
+    p.add_argument("--learn-from-logs", nargs="+", default=None, metavar="DATASET",
+                   help="real data, dense-window evidence: dataset folders of the same vehicle's other drives, which "
+                   "the in_use method learns its model on (the drive of --data is only navigated)")
     p.add_argument("--out", required=True, help="output folder")
     add_deprecated_alias(p, "--imu", "--imu-model")
     add_deprecated_alias(p, "--gnss", "--gnss-regime")
@@ -130,7 +136,7 @@ def select_methods(which: str, sim: bool, methods: str | None, evidence: bool = 
     allowed = tuple(dict.fromkeys((*mod.METHODS, *default)))
     if evidence:
         extra = ("static_var_hindsight", "adaptive", "gmwm_dyn", "gmwm_lik",
-                 *(("oracle", *dense.WARM_METHODS, *dense.STATIC_WARM_METHODS) if sim else ()))
+                 "in_use", *(("oracle", *dense.WARM_METHODS, *dense.STATIC_WARM_METHODS) if sim else ()))
         allowed = tuple(dict.fromkeys((*allowed, *extra)))
     chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else default
     if evidence:  # any evidence method with the scale-factor states: NAME+sf
@@ -170,6 +176,7 @@ def run(args: argparse.Namespace) -> int:
 
     form, outages = parse_outages(args.outages)
     evidence = form == "dense" or bool(args.gnss_regime) or bool(args.pairs) or args.nhc
+    _check_vehicle(args, evidence)
     if args.seed_role == "report":  # refused before anything is made: a report label must be true
         from imunoise.experiments.gnss_regimes import parse_gnss
         from imunoise.experiments.report_tables import seed_role_problem
@@ -258,6 +265,24 @@ def _run_in(args: argparse.Namespace, out: Path, final: Path, form, outages, evi
     print_headline(headline_rows(res), fmt)
     print(f"\nreport: {(final / html.relative_to(out)).resolve()}  ({time.perf_counter() - t0:.1f} s)")
     return 0
+
+
+def _check_vehicle(args: argparse.Namespace, evidence: bool) -> None:
+    """``--vehicle-drives`` read (an int >= 1, one-line error otherwise) and refused where it has no meaning."""
+    from imunoise.experiments.carry_over import check_vehicle_drives
+
+    args.vehicle_drives = check_vehicle_drives(args.vehicle_drives)
+    if args.vehicle_drives > 1 and not (evidence and args.sim):
+        raise ModelError("--vehicle-drives K > 1 simulates vehicles of K drives for the dense-window evidence: add "
+                         "--sim and --outages dense:L:S")
+    if args.learn_from_logs and (args.sim or not evidence):
+        raise ModelError("--learn-from-logs gives in_use its drives on real data in the dense-window evidence "
+                         "(--data ... --outages dense:L:S); on the simulator use --vehicle-drives K")
+    if "in_use" in (args.methods or "").split(",") and args.sim and args.vehicle_drives < 2:
+        raise ModelError("--methods in_use learns on a vehicle's earlier drives: give --vehicle-drives 2 or more")
+    if args.vehicle_drives > 1 and args.imu_noise:
+        raise ModelError("--vehicle-drives K > 1 with --imu-noise: a replayed recording gives each seed one stretch, "
+                         "not K drives of one unit; drop one of them")
 
 
 def _base_config(args: argparse.Namespace):
@@ -349,13 +374,15 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float, final: Path) -
         from imunoise.experiments.common import imu_noise_kwargs
 
         scen.update(imu_noise_kwargs(args.imu_noise, args.seed0, imu=args.imu_model))
-        res = dense.run_sim(seeds, progress=step, scheduler=args.scheduler, **kw, **scen)
+        res = dense.run_sim(seeds, progress=step, scheduler=args.scheduler, vehicle_drives=args.vehicle_drives,
+                            **kw, **scen)
         title = f"imunoise: dense-window evidence, {len(seeds)} simulated drives"
     else:
         data = args.data or str(repo_data_dir())
         n_jobs = len(methods) * sum(len(noise_seeds) if r.random else 1 for r in regimes)
         bar, step = _progress(n_jobs, "evidence")
-        res = dense.run_real(data, start=args.start, progress=step, streams=stream_keys(args), **kw)
+        res = dense.run_real(data, start=args.start, progress=step, streams=stream_keys(args),
+                             learn_from=args.learn_from_logs or (), **kw)
         title = f"imunoise: dense-window evidence on {data}"
     bar.close()
     res["elapsed_s"] = time.perf_counter() - t0
@@ -369,5 +396,10 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float, final: Path) -
     print("  ".join(h.ljust(w[i]) for i, h in enumerate(heads)))
     for t in table:
         print("  ".join(c.ljust(w[i]) for i, c in enumerate(t)))
+    from imunoise.experiments.evidence_report import nees_rows
+
+    for r in nees_rows(res):
+        print(f"NEES pos+vel (6 dof) inside its 95 % band, {r[0]}, {r[1]}: {r[2]} [{r[3]}] over {r[5]} epochs of "
+              f"{r[6]} drive(s); mean NEES {r[4]}")
     print(f"\nreport: {(final / html.relative_to(out)).resolve()}  ({time.perf_counter() - t0:.1f} s)")
     return 0

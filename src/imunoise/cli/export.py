@@ -23,6 +23,7 @@ EXAMPLES = """examples:
   imunoise export fit_gz/model.json --to kalibr --sensor gyro         # the gyro block alone (one-sensor fit)
   imunoise export fit_gz/model.json --to json                         # a single-axis fit (sensor from its unit)
   imunoise export fit/imu_model.json --horizon 60                     # match up to 60 s only
+  imunoise export calib/imu_model.json --to openvins --noise static   # the stops' values of an in-use model
 
 Values written are continuous-time densities (the format's convention) [rad/s/sqrt(Hz), rad/s^2/sqrt(Hz);
 m/s^2/sqrt(Hz), m/s^3/sqrt(Hz)]. The fitted model is mapped to the pair (N, K) by what the filter will
@@ -58,7 +59,13 @@ or forced with --legacy. OpenVINS: the intrinsics >= v2.7 requires (Tw, R_IMUtoG
 model) are added as identity/zero when absent and never overwritten.
 A model with one sensor (gyro-only or accel-only) has no values for the other sensor's keys, which Kalibr,
 OpenVINS and ORB-SLAM3 all require: such an export is refused unless --sensor asks for that block alone,
---into merges it into a file that has the other keys, or --to json."""
+--into merges it into a file that has the other keys, or --to json.
+
+A model with an in-motion part (calibrate --in-motion) writes the IN-USE values by default: per axis the static
+pair times the in-use/static factor estimated from whole GNSS-aided drives, combined as above; each key's comment
+gives the factor with its 95 % CI and the static value. An axis whose in-use value the drives bound but do not
+identify keeps its static value, and the comment gives the bound and its reason. --noise static writes the
+static values; a model without the part writes its static values either way, exactly as before."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -111,6 +118,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="ORB-SLAM3: write IMU.Frequency as an integer, as legacy settings (no File.version, ORB-SLAM3 <= 0.4) "
         "need; --into detects such files by itself",
     )
+    p.add_argument("--noise", choices=("in-use", "static"), default="in-use",
+                   help="in-use (default): the values while moving where the model has an in-motion part (calibrate "
+                   "--in-motion; each key's comment gives the in-use/static factor with its 95 %% CI and the static "
+                   "value); static: the stops' values. A model without the part writes its static values either way")
     add_force(p)
     p.set_defaults(func=run)
 
@@ -150,6 +161,7 @@ def gate(model, sensor: str | None, force: bool, where: str) -> list[str]:
 def report(sensors, file=None) -> None:
     """Per axis: the pair, its τ range, worst AV ratio and which process went where; notes and warnings."""
     from imunoise.export import axis_lines
+    from imunoise.export.in_use import in_use_comment
 
     file = file or sys.stderr
     for sn in sensors:
@@ -160,6 +172,10 @@ def report(sensors, file=None) -> None:
             print(f"note: {n}", file=file)
         for w in sn.warnings:
             print(f"warning: {w}", file=file)
+        n_txt, k_txt = in_use_comment(sn, "N"), in_use_comment(sn, "K")
+        if n_txt:  # an in-use pair (imunoise.export.in_use); "" for a static one
+            print(f"{sn.sensor}: in-use pair written: N = {sn.noise_density:.4g} ({n_txt[2:]}); "
+                  f"K = {sn.random_walk:.4g} ({k_txt[2:]})", file=file)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -204,8 +220,9 @@ def run(args: argparse.Namespace) -> int:
         horizon_s=args.horizon,
         partial=args.sensor is not None,
         legacy=args.legacy,
+        noise=args.noise,
     )
-    sensors = model_sensors(model, args.sensor, args.combine, inflate, args.horizon)
+    sensors = model_sensors(model, args.sensor, args.combine, inflate, args.horizon, args.noise)
     if isinstance(model, ImuModel):
         for s in ("gyro", "accel"):
             if args.sensor in (None, s) and not model.sensor_axes(s):
@@ -226,8 +243,9 @@ def _run_into(args: argparse.Namespace, model) -> int:
 
     inflate = parse_inflate(args.inflate)
     res = update_into(model, args.fmt, args.into, sensor=args.sensor, topic=args.topic, combine=args.combine,
-                      inflate=inflate, horizon_s=args.horizon, legacy=True if args.legacy else None)
-    report(model_sensors(model, args.sensor, args.combine, inflate, args.horizon).values())
+                      inflate=inflate, horizon_s=args.horizon, legacy=True if args.legacy else None,
+                      noise=args.noise)
+    report(model_sensors(model, args.sensor, args.combine, inflate, args.horizon, args.noise).values())
     for n in res.notes:
         print(f"note: {n}", file=sys.stderr)
     if res.duplicates_removed:

@@ -166,6 +166,7 @@ def run(args: argparse.Namespace) -> int:
 
     zupt = zupt_mask(imu, args.static_duration) if args.zupt else None
     args.aiding = read_aiding(args, inp, log)  # GNSS velocity, ...: (source, epochs) each
+    args.in_motion_kw = in_motion_kw(args.imu_model, models, imu, args.static_duration)
     out = Path(args.out)
     # every output of this run appears at once when it completes (Ctrl-C leaves --out as it was); the files
     # an earlier nav run left (outage_<k>/ of more windows, plots of a run with plots) are removed then
@@ -197,11 +198,12 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
 
     base_gnss = gnss if args.outage_runs else gnss.without(windows)
     streams = [e for _, e in args.aiding]
-    res = run_ekf(imu, base_gnss, init, config, models, t_end=args.end, zupt=zupt, streams=streams)
+    im = getattr(args, "in_motion_kw", {})
+    res = run_ekf(imu, base_gnss, init, config, models, t_end=args.end, zupt=zupt, streams=streams, **im)
     duration = float(res.t[-1] - res.t[0])
     write_trajectory(out / "trajectory.nav", res, ref)
     metrics: dict = {"model": model_name, "start": float(res.t[0]), "duration_s": duration, "zupt": bool(args.zupt),
-                     "nhc": bool(args.nhc)}
+                     "nhc": bool(args.nhc), "in_motion": bool(im)}
     run, err = run_metrics(res, ref, lever, [] if args.outage_runs else windows, duration)
     metrics.update(run)
     metrics["warnings"] = notes
@@ -218,7 +220,8 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
 
         outs = []
         for k, w in enumerate(tqdm(windows, desc="outage runs", disable=not sys.stderr.isatty())):
-            r = run_ekf(imu, gnss.without([w]), init, config, models, t_end=args.end, zupt=zupt, streams=streams)
+            r = run_ekf(imu, gnss.without([w]), init, config, models, t_end=args.end, zupt=zupt, streams=streams,
+                        **im)
             sub = out / f"outage_{k + 1}"
             sub.mkdir(exist_ok=True)
             write_trajectory(sub / "trajectory.nav", r, ref)
@@ -236,6 +239,25 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
     if not args.no_plots:
         _plots(out, res, ref, err, windows, runs, lever)
     _print_summary(metrics)
+
+
+def in_motion_kw(model_path: str | None, models: list, imu, static_duration: float) -> dict:
+    """``run_ekf``'s in-motion arguments for a model file with an in-motion part (the in-motion noise while the
+    static detector sees the car moving, the static part at its stops: :func:`imunoise.inuse.stops.
+    moving_flag`, the stop logic ``online`` shares); {} otherwise (the run is exactly the static model's)."""
+    if not model_path:
+        return {}
+    from imunoise.nav.filter_model import in_motion_of
+
+    imf = in_motion_of(model_path, models)
+    if imf is None:
+        return {}
+    from imunoise.inuse.stops import moving_flag
+
+    moving = moving_flag(imu, static_duration)
+    log.info("in-motion part: white factors %s while moving (%.0f %% of the samples), static part at stops",
+             [round(w ** 0.5, 2) for w in imf.white], 100.0 * float(moving.mean()))
+    return {"in_motion": imf, "moving": moving}
 
 
 def zupt_mask(imu, static_duration: float) -> np.ndarray:

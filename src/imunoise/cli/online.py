@@ -165,6 +165,11 @@ def run(args: argparse.Namespace) -> int:
     status: dict = {}  # the last run's status per epoch, by kind
     rate = imu.rate_hz
     models = load_axis_models(args.imu_model, rate) if args.imu_model else None
+    in_motion = _in_motion(args, imu, models, rate)  # (part, static pairs, moving flag) or None
+    if in_motion is not None:
+        from imunoise.online.in_motion import initial_models
+
+        models = initial_models(in_motion[0], in_motion[1], rate)
     detector = DetectorConfig(lambda0=args.lambda0) if args.lambda0 is not None else None
     config = OnlineConfig(
         ekf=EkfConfig(lever_arm=tuple(lever), scale_factors=args.scale_factors),
@@ -187,6 +192,10 @@ def run(args: argparse.Namespace) -> int:
         nav = OnlineNavigator(config, init, imu_rate_hz=rate, initial_models=models, earlier_static=earlier)
         if aiding:
             nav.add_streams(*(e for _, e in aiding))
+        if in_motion is not None:  # the in-motion noise while moving, the static part at stops
+            from imunoise.online.in_motion import attach_in_motion
+
+            attach_in_motion(nav, *in_motion)
         r = nav.run(imu, g, progress=prog)
         status.update(nav.state.streams.status() if aiding else {})
         bar.close()
@@ -293,3 +302,20 @@ def _print(m: dict, res) -> None:
     cpu = (f", CPU {m['cpu_s']:.2f} s ({m['cpu_realtime_factor']:.0f}× real time by CPU time)"
            if m.get("cpu_realtime_factor") else "")
     print(f"online run: wall clock {m['elapsed_s']:.2f} s ({m['realtime_factor']:.0f}× real time){cpu}")
+
+
+def _in_motion(args: argparse.Namespace, imu, models, rate: float):
+    """(in-motion part, static pairs, moving flag per IMU sample) of a model file with an in-motion part, else
+    None. The moving flag is ``nav``'s (:func:`imunoise.inuse.stops.moving_flag`)."""
+    if not args.imu_model:
+        return None
+    from imunoise.noise.imu_model import read_model_json
+    from imunoise.noise.in_motion import InMotionPart
+
+    d = read_model_json(args.imu_model)
+    if not isinstance(d, dict) or d.get("in_motion") is None:
+        return None
+    from imunoise.inuse.stops import moving_flag
+
+    log.info("in-motion part of %s: used while moving, the static part at stops", args.imu_model)
+    return InMotionPart.from_dict(d["in_motion"]), models, moving_flag(imu, args.static_duration)

@@ -65,6 +65,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from imunoise.errors import ModelError
 from imunoise.experiments.dense_branches import evaluate_method, run_windows
 from imunoise.experiments.dense_methods import (
     EVIDENCE_METHODS,
@@ -115,7 +116,8 @@ def _real_job(job: tuple[str, int, int]) -> tuple[str, int, int, dict]:
     sc = _REAL["sc"]
     regime: GnssRegime = _REAL["regimes"][ri]
     gnss = regime.apply(sc.gnss, seed)
-    res = evaluate_method(sc, name, gnss, _REAL["windows"], base=_REAL["base"], cache=_REAL["cache"])
+    res = evaluate_method(sc, name, gnss, _REAL["windows"], base=_REAL["base"], cache=_REAL["cache"], nees=True,
+                          in_use=_REAL["in_use"].get((ri, seed)) if name == "in_use" else None)
     return name, ri, seed, res
 
 
@@ -124,9 +126,11 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
              pairs: Sequence[tuple[str, str]] = (), workers: int = 2, start: float | None = None,
              base: OnlineConfig | None = None, n_boot: int = 2000, boot_seed: int = 0,
              paper_windows: bool = True, progress: Callable[[str], None] | None = None,
-             streams: Sequence[str] = ()) -> dict:
+             streams: Sequence[str] = (), learn_from: Sequence[str | Path] = ()) -> dict:
     """Dense-window evidence on a real drive: every method × regime × noise seed (``rtk`` once); ``streams``: the
     manifest's measurement sources every run applies (:func:`~imunoise.experiments.common.load_real`).
+    ``learn_from``: the dataset folders of the same vehicle's other drives that ``in_use`` learns on
+    (``--learn-from-logs``), each in the run's GNSS regime and noise seed.
 
     Returns the results dict (``paired`` list, per-window values, per-regime summaries)."""
     from imunoise.experiments.common import load_real
@@ -135,7 +139,17 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
     sc = load_real(data_dir, start=start, streams=streams)
     dense = dense_windows(sc, spec)
     paper = list(sc.windows) if paper_windows else []
-    _REAL.update(sc=sc, regimes=list(regimes), windows=dense + paper, base=base, cache={})
+    _REAL.update(sc=sc, regimes=list(regimes), windows=dense + paper, base=base, cache={}, in_use={})
+    if "in_use" in methods:  # learned once per GNSS realisation, before forking
+        from imunoise.experiments.in_use_method import learn_in_use
+
+        if not learn_from:
+            raise ModelError("in_use on real data learns on other drives of the same vehicle: give them with "
+                             "--learn-from-logs DATASET...")
+        others = [load_real(p) for p in learn_from]
+        for ri, rg in enumerate(regimes):
+            for s in (noise_seeds if rg.random else [0]):
+                _REAL["in_use"][(ri, s)] = learn_in_use([(o, rg.apply(o.gnss, s)) for o in others], base)
     for m in methods:  # fixed fits once, before forking: the workers inherit them
         if base_method(m) in ("av", "em", "gmwm_hindsight", "static_var_hindsight"):
             hindsight_fits(sc, base_method(m), _REAL["cache"])
@@ -159,6 +173,8 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
     res["data"] = str(data_dir)
     res["noise_seeds"] = [int(s) for s in noise_seeds] if any(r.random for r in regimes) else []  # the seed label
     res["paper_windows"] = [list(w) for w in paper]
+    res["learn_from_logs"] = [str(p) for p in learn_from]
+    res["in_use_models"] = _in_use_models(drives, regimes)
     return res
 
 
@@ -166,18 +182,20 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
 # simulator
 # --------------------------------------------------------------------------------------------------
 def _sim_job(args: tuple) -> dict:
-    seed, methods, regimes, noise_seeds, spec, kw, base = args
+    seed, methods, regimes, noise_seeds, spec, kw, base, vehicle_drives = args
+    from imunoise.experiments.carry_over import earlier_scenarios, learning_drives, vehicle_seeds
     from imunoise.experiments.common import simulate_scenario
+    from imunoise.experiments.in_use_method import learn_in_use
 
     logging.getLogger("imunoise").setLevel(logging.WARNING)
+    # the scored drive: the last of the vehicle's (imunoise.experiments.carry_over), the drive of the seed itself
     sc = simulate_scenario(seed, n_outages=0, **kw)
     windows = dense_windows(sc, spec)
-    # the earlier drive of the same vehicle (same IMU, same motion law, another trajectory and noise) that the
+    # the earlier drives of the same vehicle (same IMU, same motion law, another trajectory and noise) that the
     # warm methods learn from
     n_warm = {m: WARM_METHODS[base_method(m)] for m in methods if base_method(m) in WARM_METHODS}
     n_stops = {m: STATIC_WARM_METHODS[base_method(m)][1] for m in methods if base_method(m) in STATIC_WARM_METHODS}
-    earlier = [simulate_scenario(seed + k * PRIOR_SEED_OFFSET, n_outages=0, **kw)
-               for k in range(1, max((*n_warm.values(), *n_stops.values()), default=0) + 1)]
+    earlier = earlier_scenarios(seed, max((*n_warm.values(), *n_stops.values(), vehicle_drives - 1), default=0), **kw)
     cache: dict = {}
     runs = []
     for ri, rg in enumerate(regimes):
@@ -188,13 +206,17 @@ def _sim_job(args: tuple) -> dict:
                       for n in sorted(set(n_warm.values()))}
             stops = {n: earlier_stops(seed, rg, ns, n_drives=n, base=base, earlier=earlier)
                      for n in sorted(set(n_stops.values()))}
+            learned = (learn_in_use(learning_drives(seed, vehicle_drives, earlier, rg, ns), base)
+                       if "in_use" in methods else None)
             for m in methods:
                 prior = priors[n_warm[m]] if m in n_warm else None
                 pooled = stops[n_stops[m]] if m in n_stops else None
                 runs.append((m, ri, ns, evaluate_method(sc, m, gnss, windows, base=base, cache=cache, prior=prior,
-                                                        earlier_static=pooled)))
+                                                        earlier_static=pooled, nees=True,
+                                                        in_use=learned if m == "in_use" else None)))
                 tick()
-    return {"seed": seed, "name": sc.name, "windows": windows, "runs": runs}
+    return {"seed": seed, "name": sc.name, "windows": windows, "runs": runs,
+            "vehicle_drives": vehicle_seeds(seed, vehicle_drives)}
 
 
 def n_units(methods: Sequence[str], regimes: Sequence[GnssRegime], noise_seeds: Sequence[int]) -> int:
@@ -206,16 +228,21 @@ def run_sim(seeds: Sequence[int], *, spec: DenseSpec = _DEFAULT_SPEC, regimes: S
             noise_seeds: Sequence[int] = (1,), methods: Sequence[str] = (*EVIDENCE_METHODS, *SIM_EXTRA),
             pairs: Sequence[tuple[str, str]] = (), workers: int = 2, base: OnlineConfig | None = None,
             n_boot: int = 2000, boot_seed: int = 0, progress: Callable[[int], None] | None = None,
-            scheduler: str | None = None, **scen_kw: Any) -> dict:
+            scheduler: str | None = None, vehicle_drives: int = 1, **scen_kw: Any) -> dict:
     """Dense-window evidence over simulated drives (``seeds``; drives are the bootstrap's clusters).
+    ``vehicle_drives``: drives per vehicle (:mod:`imunoise.experiments.carry_over`), scored on the last.
 
     One job per drive (its scenario, GNSS draws and earlier drives made once for all methods), run by
     :func:`imunoise.experiments.runner.run_jobs` in ``workers`` processes or on the Dask ``scheduler``;
     ``progress(n)`` after every ``n`` runs of one method on one realisation of a drive
     (:func:`n_units` per drive). The results do not depend on ``workers`` or ``scheduler``."""
+    from imunoise.experiments.carry_over import check_vehicle_drives
     from imunoise.experiments.runner import run_jobs
 
-    jobs = [(int(s), tuple(methods), tuple(regimes), tuple(noise_seeds), spec, dict(scen_kw), base) for s in seeds]
+    k = check_vehicle_drives(vehicle_drives)
+    if "in_use" in methods and k < 2:
+        raise ModelError("the in_use method learns on a vehicle's earlier drives: vehicle_drives must be 2 or more")
+    jobs = [(int(s), tuple(methods), tuple(regimes), tuple(noise_seeds), spec, dict(scen_kw), base, k) for s in seeds]
     drives = run_jobs(_sim_job, jobs, workers=workers, scheduler=scheduler,
                       units=n_units(methods, regimes, noise_seeds), progress=progress)
     drives.sort(key=lambda d: d["seed"])
@@ -224,4 +251,13 @@ def run_sim(seeds: Sequence[int], *, spec: DenseSpec = _DEFAULT_SPEC, regimes: S
     res["seeds"] = [d["seed"] for d in drives]
     res["noise_seeds"] = [int(s) for s in noise_seeds] if any(r.random for r in regimes) else []
     res["scenario"] = dict(scen_kw)
+    res["vehicle_drives"] = k
+    res["vehicles"] = {str(d["seed"]): d["vehicle_drives"] for d in drives}
+    res["in_use_models"] = _in_use_models(drives, regimes)
     return res
+
+
+def _in_use_models(drives: Sequence[dict], regimes: Sequence[GnssRegime]) -> dict:
+    """What ``in_use`` learned per drive and GNSS realisation (the in-motion part, the estimate's CPU time)."""
+    return {f"{d.get('seed', d.get('name'))}/{regimes[r[1]].label}/{r[2]}": r[3]["in_use"]
+            for d in drives for r in d["runs"] if r[0] == "in_use" and "in_use" in r[3]}

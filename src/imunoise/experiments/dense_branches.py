@@ -14,6 +14,7 @@ from imunoise.errors import ModelError
 from imunoise.experiments.common import Scenario
 from imunoise.experiments.dense_methods import STATIC_WARM_METHODS, Updater, base_method, method_setup
 from imunoise.experiments.dense_spec import BRANCH_MARGIN_S
+from imunoise.experiments.nees import drive_nees, epoch_error, nees6, scored_epochs
 from imunoise.experiments.window_errors import (
     branch_errors,
     navigator_window_metrics,
@@ -38,10 +39,31 @@ def _fork(nav: OnlineNavigator, upd: Updater | None, shared: Sequence[Any]):
     return nav2, upd2
 
 
-def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, shared, out: list) -> None:
+def _push_scored(nav: OnlineNavigator, data, i0: int, i: int, k: int, ks: int, scored, read) -> None:
+    """push_chunk of samples [i0, i) and fixes [k, ks), split after every scored sample inside (``scored``:
+    sorted sample indices, None: no split), where ``read(q)`` takes the state; a split changes nothing, since
+    push_chunk equals push_imu/push_gnss in time order to the bit. The chunk's last sample is read after it."""
+    t, dth, dv, gt, gllh, gsig = data
+    a = i0
+    for q in ([] if scored is None else scored[(scored >= i0) & (scored < i)]):
+        if q < i - 1:
+            kq = min(max(int(np.searchsorted(gt, t[q], side="right")), k), ks)  # the fixes at or before t[q]
+            nav.push_chunk(t[a:q + 1], dth[a:q + 1], dv[a:q + 1], gt[k:kq], gllh[k:kq], gsig[k:kq])
+            a, k = q + 1, kq
+        else:
+            nav.push_chunk(t[a:i], dth[a:i], dv[a:i], gt[k:ks], gllh[k:ks], gsig[k:ks])
+            a, k = i, ks
+        read(int(q))
+    if a < i or k < ks:
+        nav.push_chunk(t[a:i], dth[a:i], dv[a:i], gt[k:ks], gllh[k:ks], gsig[k:ks])
+
+
+def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, shared, out: list,
+                  scored=None, read=None) -> None:
     """The aided run and its branches in kernel spans (:meth:`OnlineNavigator.push_chunk`): the aided run is
     pushed from one window start to the next and each branch in one chunk, with the fixes :func:`_aided_samples`
-    pushes in the same places (push_chunk equals push_imu/push_gnss in time order to the bit)."""
+    pushes in the same places (push_chunk equals push_imu/push_gnss in time order to the bit); ``scored`` /
+    ``read``: the NEES epochs of the aided run (:func:`_push_scored`)."""
     t, dth, dv, gt, gllh, gsig = data
     n = t.size
     ref_t = np.asarray(sc.ref.t, dtype=float)
@@ -58,7 +80,7 @@ def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, sh
         if i >= n:
             break
         ks = max(int(np.searchsorted(gt, s, side="left")), k)  # the fixes before the window start
-        nav.push_chunk(t[i0:i], dth[i0:i], dv[i0:i], gt[k:ks], gllh[k:ks], gsig[k:ks])
+        _push_scored(nav, data, i0, i, k, ks, scored, read)
         i0, k = i, ks
         br, _ = _fork(nav, None, shared)
         ie = int(np.searchsorted(t, s + length + BRANCH_MARGIN_S, side="left"))
@@ -69,13 +91,14 @@ def _aided_chunks(nav: OnlineNavigator, sc: Scenario, windows, order_w, data, sh
         br.push_chunk(t[i:ie], dth[i:ie], dv[i:ie], gt[kb:ke], gllh[kb:ke], gsig[kb:ke])
         out[j] = navigator_window_metrics(br, sc, s, length)
     ke = max(int(np.searchsorted(gt, t[-1], side="right")), k)  # fixes after the last sample are never pushed
-    nav.push_chunk(t[i0:], dth[i0:], dv[i0:], gt[k:ke], gllh[k:ke], gsig[k:ke])
+    _push_scored(nav, data, i0, n, k, ke, scored, read)
 
 
 def _aided_samples(nav: OnlineNavigator, updater: Updater, sc: Scenario, windows, order_w, data,
-                   shared, out: list) -> None:
+                   shared, out: list, scored=None, read=None) -> None:
     """The aided run and its branches sample by sample, the ``updater`` after every sample (its policy acts
-    between samples)."""
+    between samples); ``read(i)`` after each sample of ``scored``."""
+    score = set() if scored is None else {int(q) for q in scored}
     t, dth, dv, gt, gllh, gsig = data
     n, ng = t.size, gt.size
     k = 0
@@ -105,6 +128,8 @@ def _aided_samples(nav: OnlineNavigator, updater: Updater, sc: Scenario, windows
             k += 1
         nav.push_imu(ti, dth[i], dv[i])
         updater.step(nav)
+        if i in score:
+            read(i)
 
 
 def _unguarded(config: OnlineConfig, updater: Updater | None) -> OnlineConfig:
@@ -120,12 +145,13 @@ def _unguarded(config: OnlineConfig, updater: Updater | None) -> OnlineConfig:
 
 def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tuple[float, float]], *,
                 initial_models=None, updater: Updater | None = None, keep: bool = False,
-                earlier_static: Sequence[np.ndarray] | None = None) -> dict:
+                earlier_static: Sequence[np.ndarray] | None = None, nees: bool = False) -> dict:
     """One aided run (``gnss`` everywhere) with a GNSS-free branch per window (module docstring);
     ``earlier_static``: the navigator's (static pieces of earlier drives of the same IMU).
 
     Returns ``windows`` (per window ``drift``, ``rms``, ``drift_v``, ``aided_rms``) and the aided run's
-    ``horizontal_rms_m``/``vertical_rms_m``; ``_full`` (the aided OnlineResult) when ``keep``."""
+    ``horizontal_rms_m``/``vertical_rms_m``; ``_full`` (the aided OnlineResult) when ``keep``; with ``nees`` the
+    aided run's NEES of position + velocity (``nees``: :func:`imunoise.experiments.nees.drive_nees`)."""
     if not keep:  # a kept result reports its stops as guarded
         config = _unguarded(config, updater)
     t = np.asarray(sc.imu.t, dtype=float)
@@ -144,10 +170,11 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
     order_w = sorted(range(len(windows)), key=lambda j: windows[j][0])
     out: list[dict | None] = [None] * len(windows)
     data = (t, dth, dv, gt, gllh, gsig)
+    scored, read, values = _nees_reader(nav, sc, t) if nees else (None, None, [])
     if updater is None:
-        _aided_chunks(nav, sc, windows, order_w, data, shared, out)
+        _aided_chunks(nav, sc, windows, order_w, data, shared, out, scored, read)
     else:
-        _aided_samples(nav, updater, sc, windows, order_w, data, shared, out)
+        _aided_samples(nav, updater, sc, windows, order_w, data, shared, out, scored, read)
     full = err = None
     if not keep:  # the errors from the stored epochs they read, the result over the whole drive not built
         err = stored_errors(nav, sc)
@@ -163,22 +190,51 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
     res: dict[str, Any] = {"windows": out,
                            "horizontal_rms_m": float(np.sqrt(np.mean(err.horizontal ** 2))),
                            "vertical_rms_m": float(np.sqrt(np.mean(err.vertical ** 2)))}
+    if nees:
+        res["nees"] = drive_nees(values)
     if keep:
         res["_full"] = full
     return res
 
 
+def _nees_reader(nav: OnlineNavigator, sc: Scenario, t: np.ndarray):
+    """(scored sample indices, the reader that appends the NEES of ``nav``'s state at a sample, the values)."""
+    idx, ref = scored_epochs(sc, t)
+    of = dict(zip(idx.tolist(), ref.tolist(), strict=True))
+    values: list[float] = []
+
+    def read(i: int) -> None:
+        st = nav.ekf.state()
+        e = epoch_error(sc, of[int(i)], st["llh"], st["euler"], st["vel_ned"])
+        values.append(nees6(e, nav.ekf.P))
+
+    return idx, read, values
+
+
 def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfig | None = None,
                     cache: dict | None = None, prior: MotionNoisePrior | None = None,
-                    earlier_static: Sequence[np.ndarray] | None = None) -> dict:
+                    earlier_static: Sequence[np.ndarray] | None = None, nees: bool = False,
+                    in_use: Any = None) -> dict:
     """:func:`run_windows` for one method (:func:`method_setup`); ``earlier_static`` the earlier drives' stops
-    a ``gmwm_warm`` method pools (:func:`~imunoise.experiments.dense_warm.earlier_stops`)."""
+    a ``gmwm_warm`` method pools (:func:`~imunoise.experiments.dense_warm.earlier_stops`); ``in_use`` the model
+    the ``in_use`` method learned on the vehicle's earlier drives (:mod:`imunoise.experiments.in_use_method`)."""
+    if base_method(name) == "in_use" and name != "in_use":
+        raise ModelError(f"{name}: in_use runs the in-motion batch filter, which has no scale-factor or NHC variant; "
+                         "use in_use")
+    if (name == "in_use") != (in_use is not None):
+        raise ModelError("in_use navigates with the model learned on the vehicle's earlier drives, and only it takes "
+                         "one: run it on the simulator with --vehicle-drives 2 or more")
+    if name == "in_use":
+        from imunoise.experiments.in_use_method import run_windows_in_use
+
+        return {**run_windows_in_use(sc, gnss, windows, in_use, base=base, nees=nees), "in_use": in_use.summary()}
     if (base_method(name) in STATIC_WARM_METHODS) != (earlier_static is not None):
         raise ModelError(f"{name}: earlier drives' stops are for {', '.join(STATIC_WARM_METHODS)} only, and those "
                          "need them (the simulator makes them: run_sim)")
     if name == "oracle_law":  # the batch filter told the law's schedule (imunoise.experiments.oracle_law)
         from imunoise.experiments.oracle_law import run_windows_law
 
-        return run_windows_law(sc, gnss, windows, base=base)
+        return run_windows_law(sc, gnss, windows, base=base, nees=nees)
     cfg, models, upd = method_setup(name, sc, base, cache, prior=prior)
-    return run_windows(sc, cfg, gnss, windows, initial_models=models, updater=upd, earlier_static=earlier_static)
+    return run_windows(sc, cfg, gnss, windows, initial_models=models, updater=upd, earlier_static=earlier_static,
+                       nees=nees)

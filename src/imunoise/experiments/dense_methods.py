@@ -38,6 +38,7 @@ LABELS = {
     "gmwm_warm": "GMWM pooling the stops of an earlier drive of the same vehicle",
     "gmwm_warm3": "GMWM pooling the stops of three earlier drives of the same vehicle",
     "gmwm_dyn_warm3_stops": "gmwm_dyn_warm3 also pooling the stops of its three earlier drives",
+    "in_use": "static + in-motion model learned on the vehicle's earlier drives, from the first sample",
 }
 # method → earlier drives whose learner evidence it carries
 WARM_METHODS: dict[str, int] = {"gmwm_dyn_warm": 1, "gmwm_dyn_warm3": 3, "gmwm_dyn_warm3_stops": 3}

@@ -12,6 +12,7 @@ import numpy as np
 from imunoise.errors import ModelError
 from imunoise.experiments.dense_spec import DenseSpec
 from imunoise.experiments.gnss_regimes import GnssRegime
+from imunoise.experiments.nees import nees_summary
 from imunoise.experiments.stats import default_block, n_independent, paired_entry
 
 __all__ = ["METRICS", "assemble", "paired_list", "significance_text", "parse_pairs"]
@@ -58,13 +59,24 @@ def assemble(drives: list[dict], methods: Sequence[str], regimes: Sequence[GnssR
         per[rg.label] = vals
         summary[rg.label] = s
     paired = paired_list(per, methods, pairs, block=block, n_indep=n_ind, n_boot=n_boot, boot_seed=boot_seed)
+    nees = {rg.label: {m: nees_summary([_drive_nees(d, ri, m) for d in drives], n_boot=n_boot, seed=boot_seed)
+                       for m in methods} for ri, rg in enumerate(regimes)}
     return {"experiment": "online", "protocol": {"outages": spec.label, "length_s": spec.length_s,
                                                   "step_s": spec.step_s, "lead_s": spec.lead_s, "block": block,
                                                   "n_boot": n_boot, "boot_seed": boot_seed},
             "methods": list(methods), "gnss": [rg.label for rg in regimes],
             "windows": {d["name"]: [list(w) for w in d["windows"]] for d in drives},
             "n_windows": sum(len(d["windows"]) for d in drives), "n_independent": n_ind, "n_drives": len(drives),
-            "summary": summary, "per_window": per, "paired": paired}
+            "summary": summary, "per_window": per, "paired": paired, "nees": nees}
+
+
+def _drive_nees(d: dict, ri: int, m: str) -> dict | None:
+    """One drive's NEES counts of method ``m`` in regime ``ri``, summed over its GNSS noise seeds (realisations
+    of one drive, not more drives); None when the runs measured none."""
+    got = [r[3]["nees"] for r in d["runs"] if r[0] == m and r[1] == ri and r[3].get("nees")]
+    if not got:
+        return None
+    return {k: sum(g[k] for g in got) for k in ("n", "inside", "sum")}
 
 
 def paired_list(per: dict, methods: Sequence[str], pairs: Sequence[tuple[str, str]], *, block: int, n_indep: int,

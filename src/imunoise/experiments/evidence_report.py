@@ -94,6 +94,22 @@ def paired_rows(results: dict) -> list[list[Any]]:
     return rows
 
 
+NEES_HEADS = ["GNSS", "method", "share inside [%]", "95 % CI [%]", "mean NEES", "epochs", "drives"]
+
+
+def nees_rows(results: dict) -> list[list]:
+    """The NEES table (:func:`imunoise.experiments.nees.nees_summary` per regime and method): shares in %."""
+    rows = []
+    for g, per in (results.get("nees") or {}).items():
+        for m, s in per.items():
+            if s.get("share_inside") is None:
+                continue
+            lo, hi = s["ci95"]
+            rows.append([g, m, f"{100 * s['share_inside']:.1f}", f"{100 * lo:.1f}-{100 * hi:.1f}",
+                         f"{s['mean_nees']:.3g}", s["epochs"], s["drives"]])
+    return rows
+
+
 def write_evidence(results: dict, out: Path, *, title: str) -> Path:
     """Report of the dense-window evidence (:mod:`imunoise.experiments.dense`): the paired log-ratio table is
     the headline; the per-method means and the official-windows table follow as the paper-style view."""
@@ -126,6 +142,12 @@ def write_evidence(results: dict, out: Path, *, title: str) -> Path:
 
     rep.figure(plots.paired_figure(results.get("paired", []), out / "paired_drift.png"),
                "end-drift ratios: filled = the CI excludes 1 (significant), hollow = it does not")
+    if nrows := nees_rows(results):
+        rep.heading("Consistency: NEES of position + velocity", 2)
+        rep.table(NEES_HEADS, nrows, "share of the GNSS-aided run's 1 Hz epochs (from 60 s after the start) whose "
+                  "NEES (6 dof) is inside the two-sided 95 % chi-square band; a consistent filter: about 95 %. "
+                  "95 % CI: percentile bootstrap over the drives")
+        write_csv(out / "nees.csv", NEES_HEADS, nrows)
     rep.heading("Paper-style view", 2)
     labels = {**METHOD_LABELS, **DENSE_LABELS}
     heads = ["GNSS", "method", "horiz. RMS, aided [m]", "vert. RMS, aided [m]", "mean end drift, dense [m]",

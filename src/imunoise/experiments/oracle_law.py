@@ -219,22 +219,26 @@ def _run(lf: LawFilter, f: FilterArrays, fx: StreamSet, out, a: int, b: int, off
         run_pieces(ekf, lf.imu, f, fx, out, bounds, lambda k: lf.before_piece(f, k))
 
 
-def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models: list | None = None) -> dict[str, Any]:
+def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models: list | None = None,
+                    nees: bool = False, make=None) -> dict[str, Any]:
     """:func:`imunoise.experiments.dense.run_windows` for ``oracle_law``: the same keys (``windows`` with
-    ``drift``, ``rms``, ``drift_v``, ``aided_rms``; ``horizontal_rms_m``, ``vertical_rms_m``). ``models``: a
-    constant-model filter instead (:func:`law_filter`)."""
+    ``drift``, ``rms``, ``drift_v``, ``aided_rms``; ``horizontal_rms_m``, ``vertical_rms_m``; ``nees`` with
+    ``nees``). ``models``: a constant-model filter instead (:func:`law_filter`); ``make(sc, starts, base)``:
+    another :class:`LawFilter` (``in_use``: :mod:`imunoise.experiments.in_use_method`)."""
     from imunoise.experiments.window_errors import branch_errors, window_metrics
     from imunoise.nav.metrics import nav_errors
 
     starts = [s for s, _ in windows]
-    lf = law_filter(sc, starts, base, models=models)
+    lf = law_filter(sc, starts, base, models=models) if make is None else make(sc, starts, base)
     ekf, t = lf.ekf, lf.imu.t
     n = t.size
     has_sf = bool(np.all(ekf.layout.scale_index >= 0))
-    out = new_outputs(n, store_cov=False, has_sf=has_sf)
+    out = new_outputs(n, store_cov=nees, has_sf=has_sf)  # the covariance at every sample only for the NEES
     out.pos[0], out.vel[0], out.att[0] = sc.init.llh, sc.init.vel_ned, sc.init.euler
     out.err[0] = ekf.sensor_errors()
     out.std[0] = np.sqrt(np.diag(ekf.P)[:N_NAV])
+    if nees:
+        out.cov[0] = ekf.P[:N_NAV, :N_NAV]
     fx = _fixes(gnss, ekf)
     f = ekf.arrays()
     res_w: list[dict | None] = [None] * len(windows)
@@ -265,6 +269,11 @@ def run_windows_law(sc, gnss, windows, *, base=None, keep: bool = False, models:
         res_w[j]["aided_rms"] = float(np.sqrt(np.mean(h * h))) if h.size else None
     res: dict[str, Any] = {"windows": res_w, "horizontal_rms_m": float(np.sqrt(np.mean(err.horizontal ** 2))),
                            "vertical_rms_m": float(np.sqrt(np.mean(err.vertical ** 2)))}
+    if nees:
+        from imunoise.experiments.nees import drive_nees, epoch_error, nees6, scored_epochs
+
+        res["nees"] = drive_nees([nees6(epoch_error(sc, j, out.pos[k], out.att[k], out.vel[k]), out.cov[k])
+                                  for k, j in zip(*scored_epochs(sc, t), strict=True)])
     if keep:
         res["_full"] = full
     return res

@@ -32,6 +32,10 @@ VINS-Mono/VINS-Fusion, LIO-SAM and FAST-LIO take the same pair under their own c
 (:mod:`~imunoise.export.vins_lio`): VINS discrete standard deviations per sample (N·√(2f), K·√f), LIO-SAM the
 continuous (N, K), FAST-LIO discrete variances per sample (N²·f, K²·f).
 
+A model with an in-motion part writes its **in-use** pair (the static pair times the in-use/static factors
+estimated from whole drives, each key's comment with the factor, its 95 % interval and the static value;
+:mod:`~imunoise.export.in_use`); ``noise="static"`` (``--noise static``) writes the static pair.
+
 The package: :mod:`~imunoise.export.noise` (the (N, K) per axis and per sensor), :mod:`~imunoise.export.formats`
 (the text of each format), :mod:`~imunoise.export.vins_lio` (VINS, LIO-SAM, FAST-LIO) and
 :mod:`~imunoise.export.files` (writing, reading back, updating in place).

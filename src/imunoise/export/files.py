@@ -20,6 +20,7 @@ from imunoise.export.formats import (
     noise_keys,
     required_keys,
 )
+from imunoise.export.in_use import in_use_comment
 from imunoise.export.noise import BASE_UNIT, SensorNoise, density_units, format_float, parse_inflate
 from imunoise.export.vins_lio import TOOL_FORMATS, tool_comment, tool_values
 from imunoise.io.atomic import atomic_write_text
@@ -31,9 +32,9 @@ def _into_comment(sn: SensorNoise, which: str) -> str:
     n_unit, k_unit = density_units(sn.sensor)
     if which == "N":
         return (f"[{n_unit}] continuous-time, imunoise {__version__}; discrete sigma at {sn.freq_hz:g} Hz = "
-                f"{sn.discrete_sigma:.4e} {BASE_UNIT[sn.sensor]}")
+                f"{sn.discrete_sigma:.4e} {BASE_UNIT[sn.sensor]}{in_use_comment(sn, 'N')}")
     return (f"[{k_unit}] continuous-time, imunoise {__version__}; discrete bias step = {sn.discrete_bias_step:.4e} "
-            f"{BASE_UNIT[sn.sensor]}")
+            f"{BASE_UNIT[sn.sensor]}{in_use_comment(sn, 'K')}")
 
 
 def update_into(
@@ -47,6 +48,7 @@ def update_into(
     inflate: Mapping[str, float] | str | None = None,
     horizon_s: float | None = None,
     legacy: bool | None = None,
+    noise: str = "in-use",
 ) -> Any:
     """Set the IMU keys of the existing file ``into`` (``--into``) in place (:mod:`imunoise.io.tool_settings`).
 
@@ -62,6 +64,8 @@ def update_into(
         own rostopic stays.
     legacy : bool, optional
         ORB-SLAM3: integer ``IMU.Frequency``; default: detected (no ``File.version: "1.0"`` = legacy).
+    noise : {"in-use", "static"}
+        As for :func:`export_text`.
 
     Returns
     -------
@@ -82,7 +86,7 @@ def update_into(
     if isinstance(inflate, str) or inflate is None:
         inflate = parse_inflate(inflate)
     sf = inspect_settings(into, fmt)
-    sensors = model_sensors(model, sensor, combine, inflate, horizon_s)
+    sensors = model_sensors(model, sensor, combine, inflate, horizon_s, noise)
     freq = next(iter(sensors.values())).freq_hz
     keys = noise_keys(fmt)
     scalars: dict[str, tuple[str, str | None]] = {}

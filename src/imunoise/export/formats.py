@@ -10,6 +10,7 @@ from pathlib import Path
 
 from imunoise._version import __version__
 from imunoise.errors import ModelError
+from imunoise.export.in_use import apply_noise, in_use_comment, in_use_header
 from imunoise.export.noise import (
     BASE_UNIT,
     SENSORS,
@@ -53,7 +54,7 @@ def noise_keys(fmt: str) -> dict[str, tuple[str, str]]:
 # text formats
 # ----------------------------------------------------------------------------------------------
 def model_sensors(model: ImuModel | GMWMFit, sensor: str | None, combine: str, inflate,
-                  horizon_s: float | None = None) -> dict[str, SensorNoise]:
+                  horizon_s: float | None = None, noise: str = "in-use") -> dict[str, SensorNoise]:
     """The exported (N, K) of every sensor a model holds.
 
     Parameters
@@ -68,6 +69,9 @@ def model_sensors(model: ImuModel | GMWMFit, sensor: str | None, combine: str, i
         Visible inflation factors (:func:`parse_inflate`).
     horizon_s : float, optional
         Longest averaging time of the match [s] (default: the data's longest scale).
+    noise : {"in-use", "static"}
+        ``--noise``: the in-use pair where the model has an in-motion part (:mod:`imunoise.export.in_use`), or the
+        static pair.
 
     Returns
     -------
@@ -80,14 +84,15 @@ def model_sensors(model: ImuModel | GMWMFit, sensor: str | None, combine: str, i
             raise ModelError(
                 "a single-axis fit whose unit and column name do not say gyro or accel needs --sensor gyro|accel"
             )
-        return {sensor: sensor_noise(model, sensor, combine=combine, inflate=inflate, horizon_s=horizon_s)}
+        return apply_noise(model, {sensor: sensor_noise(model, sensor, combine=combine, inflate=inflate,
+                                                         horizon_s=horizon_s)}, noise)
     out = {}
     for s in SENSORS:
         if model.sensor_axes(s) and sensor in (None, s):
             out[s] = sensor_noise(model, s, combine=combine, inflate=inflate, horizon_s=horizon_s)
     if not out:
         raise ModelError(f"no gyro or accel axes in the model (axes: {', '.join(model.axes)})")
-    return out
+    return apply_noise(model, out, noise)
 
 
 def _value_comments(sn: SensorNoise) -> tuple[str, str]:
@@ -106,7 +111,7 @@ def _value_comments(sn: SensorNoise) -> tuple[str, str]:
     if capped:
         k_c += f"; capped at the data's Allan bound on {','.join(capped)} (per-axis lines above)"
     k_c += f"; discrete bias step per sample = {sn.discrete_bias_step:.4e} {base}"
-    return n_c, k_c
+    return n_c + in_use_comment(sn, "N"), k_c + in_use_comment(sn, "K")
 
 
 def axis_lines(a: AxisNoise, prefix: str = "") -> list[str]:
@@ -152,7 +157,7 @@ def _header(model: ImuModel | GMWMFit, sensors: dict[str, SensorNoise], what: st
             lines += axis_lines(a, "#   ")
         lines += [f"# note: {n}" for n in sn.notes]
         lines += [f"# WARNING: {w}" for w in sn.warnings]
-    return lines
+    return lines + in_use_header(sensors)
 
 
 def _missing_lines(sensors: dict[str, SensorNoise], keys: dict[str, tuple[str, str]], indent: str = "") -> list[str]:
@@ -279,6 +284,7 @@ def export_text(
     horizon_s: float | None = None,
     partial: bool = False,
     legacy: bool = False,
+    noise: str = "in-use",
 ) -> str:
     """The file text of ``fmt`` (kalibr, openvins, orbslam3, vins, lio-sam, fast-lio, json) for a multi-axis
     model or a single fit (``sensor`` when its unit and column name do not say). ``topic`` defaults to the
@@ -306,6 +312,8 @@ def export_text(
         one-sensor export to kalibr/openvins/orbslam3, which each tool refuses, raises :class:`ModelError`.
     legacy : bool
         ORB-SLAM3: write ``IMU.Frequency`` as the integer legacy settings (no ``File.version``) need.
+    noise : {"in-use", "static"}
+        ``--noise``: the in-use values where the model has an in-motion part (default), or the static ones.
 
     Returns
     -------
@@ -319,7 +327,7 @@ def export_text(
         model = load_model(model)
     if isinstance(inflate, str) or inflate is None:
         inflate = parse_inflate(inflate)
-    sensors = model_sensors(model, sensor, combine, inflate, horizon_s)
+    sensors = model_sensors(model, sensor, combine, inflate, horizon_s, noise)
     if fmt != "json" and len(sensors) < len(SENSORS) and not partial:
         raise _one_sensor_error(sensors, fmt, source or "the model")
     freq = next(iter(sensors.values())).freq_hz

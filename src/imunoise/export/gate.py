@@ -16,6 +16,13 @@ A refusal names its cause (a narrowband line kept in the data, or the range of T
 pair) and offers the data's own Allan reading (N = AD(1 s)·√1 s, K = min AD(T)·√(3/T)) as the pair ``--force``
 writes instead (:func:`data_reading`). How :data:`TOLERANCE` was chosen (false refusals on in-family simulation,
 power on vibration and departure leaks) is in docs/guide/exports.rst.
+
+The in-use pair (:mod:`imunoise.export.in_use`, a model with an in-motion part) is **not** gated against the data:
+the data of the gate are the stops, and the in-use pair describes the drive, where the noise is meant to exceed
+the stops' (a factor > 1 reads "above the data" at every T). The gate checks the static pair, as for a model
+without the part, and the in-use pair carries its own evidence: each factor must be positive and finite and lie
+inside its 95 % interval (:meth:`imunoise.export.in_use.Factor.read` refuses the file otherwise), the interval is
+written beside every key, and an interval that holds 1 is said to show no difference while moving.
 """
 
 from __future__ import annotations

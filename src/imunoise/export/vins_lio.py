@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 
 from imunoise.errors import ModelError
+from imunoise.export.in_use import InUseNoise, in_use_comment
 from imunoise.export.noise import BASE_UNIT, SensorNoise, density_units, format_float
 
 __all__ = ["TOOL_FORMATS", "TOOL_FILENAMES", "TOOL_KEYS", "TOOL_BLOCK", "tool_values", "tool_comment",
@@ -98,6 +99,7 @@ def tool_comment(sn: SensorNoise, fmt: str, which: str) -> str:
     n_unit, k_unit = density_units(sn.sensor)
     wn_unit, rw_unit = _units(sn.sensor, fmt)
     f = f"{sn.freq_hz:g} Hz"
+    static = tool_values(sn.in_use.static, fmt) if isinstance(sn, InUseNoise) and sn.in_use else (None, None)
     how_axes = f"{sn.combine} over {','.join(a.axis for a in sn.axes)}"
     if which == "N":
         how = {"vins": f"DISCRETE per-sample std = N*sqrt(2f) at f = {f}",
@@ -105,13 +107,13 @@ def tool_comment(sn: SensorNoise, fmt: str, which: str) -> str:
                "fast-lio": f"DISCRETE per-sample variance = N^2*f at f = {f}"}[fmt]
         val = "" if fmt == "lio-sam" else f"; N = {format_float(sn.noise_density)} {n_unit}"
         infl = f" x {sn.inflate_white:g} (--inflate white)" if sn.inflate_white != 1.0 else ""
-        return f"[{wn_unit}] {how}{val} ({how_axes}{infl})"
+        return f"[{wn_unit}] {how}{val} ({how_axes}{infl}){in_use_comment(sn, 'N', static[0])}"
     how = {"vins": f"DISCRETE bias-rate std per sample = K*sqrt(f) at f = {f}",
            "lio-sam": "CONTINUOUS bias random-walk density K",
            "fast-lio": f"DISCRETE bias-rate variance per sample = K^2*f at f = {f}"}[fmt]
     val = "" if fmt == "lio-sam" else f"; K = {format_float(sn.random_walk)} {k_unit}"
     infl = f" x {sn.inflate_rw:g} (--inflate rw)" if sn.inflate_rw != 1.0 else ""
-    return f"[{rw_unit}] {how}{val} ({how_axes}{infl})"
+    return f"[{rw_unit}] {how}{val} ({how_axes}{infl}){in_use_comment(sn, 'K', static[1])}"
 
 
 def tool_text(fmt: str, sensors: dict[str, SensorNoise], header: list[str]) -> str:

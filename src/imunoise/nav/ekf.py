@@ -112,6 +112,8 @@ class EkfResult(NavSolution):
     stream_status : dict
         Per measurement stream of ``run_ekf(streams=...)`` (by kind): the status of each epoch, as above (2: forced
         in after consecutive rejections).
+    gnss_nll : numpy.ndarray or None
+        Per GNSS position fix the innovation NLL (``run_ekf(with_nll=True)``; NaN outside the run).
     """
 
     gnss_t: np.ndarray
@@ -123,6 +125,7 @@ class EkfResult(NavSolution):
     scale_factors: np.ndarray | None = None
     gnss_vel_status: np.ndarray | None = None
     stream_status: dict = field(default_factory=dict)
+    gnss_nll: np.ndarray | None = None
 
 
 def check_imu(t: np.ndarray, dth: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -182,6 +185,9 @@ def run_ekf(
     zupt: np.ndarray | None = None,
     gnss_vel: GnssVelocity | None = None,
     streams: Sequence[Epochs] = (),
+    in_motion=None,
+    moving: np.ndarray | None = None,
+    with_nll: bool = False,
 ) -> EkfResult:
     """Batch loosely coupled EKF over ``imu`` (ImuData, increments) from ``init.t`` with GNSS fixes.
 
@@ -251,6 +257,8 @@ def run_ekf(
     if t.size < 2:
         raise DataError(f"no IMU samples between the start {init.t:.3f} and the end {t1:.3f}")
     rate = 1.0 / float(np.median(np.diff(t)))
+    if in_motion is not None:
+        axis_models = in_motion.models
     ekf = LooselyCoupledEKF(config, axis_models, init, imu_rate_hz=rate)
     ekf.prime(dth[0], dv[0])
 
@@ -289,7 +297,7 @@ def run_ekf(
     out.cov[0] = ekf.view.P_nav
     if has_sf:
         out.sf[0] = ekf.xm[L.scale_index]
-    fixes = ekf.position_stream(gt, gllh, gsig)
+    fixes = ekf.position_stream(gt, gllh, gsig, with_nll=with_nll)
     extra = list(streams)
     if gnss_vel is not None:
         extra.append(Epochs("gnss_velocity", gnss_vel.t, gnss_vel.vel_ned, gnss_vel.sigma_ned, gnss_vel.gate_abs,
@@ -311,8 +319,14 @@ def run_ekf(
                   model, settings, nhc, warm, np.array([1, 0, 0], dtype=np.int64),
                   Outputs(*(a[:2].copy() for a in out)), 0, 2)
     t0 = time.perf_counter()
-    run_steps(imu_in, ekf.arrays(), model, settings, nhc, streams.kernel(), np.array([1, 0, 0], dtype=np.int64), out,
-              0, n)
+    if in_motion is not None:  # the in-motion part while moving, the static part at stops
+        from imunoise.nav.moving_run import run_moving
+
+        mv = np.ones(n, dtype=np.bool_) if moving is None else _mask_for(moving, t_all, t, "moving")
+        run_moving(ekf, in_motion, imu_in, ekf.arrays(), streams, out, mv)
+    else:
+        run_steps(imu_in, ekf.arrays(), model, settings, nhc, streams.kernel(), np.array([1, 0, 0], dtype=np.int64),
+                  out, 0, n)
     elapsed = time.perf_counter() - t0
     g_status = fixes.status
     n_rej = int(np.sum(g_status == 0))
@@ -335,6 +349,7 @@ def run_ekf(
         out.sf if has_sf else None,
         streams.get("gnss_velocity").status if gnss_vel is not None else None,
         {e.kind: streams.get(e.kind).status for e in extra},
+        fixes.nll if with_nll else None,
     )
     for name in ("llh", "vel_ned", "euler"):
         if not np.all(np.isfinite(getattr(res, name))):

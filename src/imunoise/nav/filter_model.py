@@ -35,7 +35,8 @@ from imunoise.noise.equivalent_noise import data_horizon, dr_equivalent_rw, equi
 from imunoise.noise.model import Model
 from imunoise.noise.processes import AR1, DR, RW, WN, Process, StateBlock
 
-__all__ = ["NEGLIGIBLE", "AxisFit", "filter_model", "filter_axis_models", "data_horizon", "dr_equivalent_rw"]
+__all__ = ["NEGLIGIBLE", "AxisFit", "InMotionFilter", "filter_model", "filter_axis_models", "in_motion_filter",
+           "in_motion_of", "data_horizon", "dr_equivalent_rw"]
 
 NEGLIGIBLE = 1e-12  # relative stationary variance below which a fitted part is treated as absent
 
@@ -180,3 +181,58 @@ def filter_axis_models(fits: list, freq: float, floor: list[Model | None], *, fo
         fl = floor[a] if rate == freq else None
         out.append((filter_model(model, rate, fl, fold_tau_s=fold_tau_s, dr=dr, horizon=horizon, qn=qn), rate))
     return out
+
+
+class InMotionFilter(NamedTuple):
+    """What the door gives the filter for a model with an in-motion part: the six (model, freq) pairs of the
+    static part, each axis with a moving bias wander plus its Gauss–Markov as the last AR1 (the moving state,
+    evolving while moving, frozen at stops: :class:`imunoise.nav.noise_schedule.NoiseControl`); ``white``: per
+    axis the white-PSD scale while moving (the white factor squared); ``gm_axes``: per axis whether it has the
+    moving state; ``gm_phi``: its φ per sample (0 where none; :class:`~imunoise.noise.model.Model` orders its AR1s,
+    so the state is found by φ)."""
+
+    models: list
+    white: tuple[float, ...]
+    gm_axes: tuple[bool, ...]
+    gm_phi: tuple[float, ...]
+
+
+def in_motion_filter(pairs: list, white_factor, gm_sigma, gm_tau_s) -> InMotionFilter:
+    """The filter of the in-motion part (docs/guide/theory.rst, 'In-use noise') on top of the static pairs the
+    door mapped (:func:`filter_axis_models`): per axis j with σ_j > 0 an AR1 φ = e^{−1/(τ_j f)}, q = σ_j²(1 − φ²)
+    appended (P0 = σ_j²), and the white scale ``white_factor_j²`` while moving.
+
+    Parameters
+    ----------
+    pairs : list of (Model, float)
+        The six static filter pairs.
+    white_factor, gm_sigma, gm_tau_s : sequence of 6 floats
+        The white factor (σ scale), the moving GM σ [unit] and τ [s] per axis (σ = 0: no moving state).
+    """
+    out, gm, phis = [], [], []
+    for (m, f), s, tau in zip(pairs, gm_sigma, gm_tau_s, strict=True):
+        phi = 0.0
+        if s > 0:
+            phi = math.exp(-1.0 / (float(tau) * f))
+            m = Model([*m.components, AR1(phi=phi, sigma2=float(s) ** 2 * (1.0 - phi * phi))])
+        out.append((m, f))
+        gm.append(bool(s > 0))
+        phis.append(phi)
+    return InMotionFilter(out, tuple(float(w) ** 2 for w in white_factor), tuple(gm), tuple(phis))
+
+
+def in_motion_of(src, pairs: list) -> InMotionFilter | None:
+    """The in-motion filter of a model file (path or parsed JSON) on top of its static ``pairs``
+    (:func:`imunoise.nav.defaults.load_axis_models`), or None when the file has no in-motion part (the filter is
+    then the static model's, unchanged)."""
+    from collections.abc import Mapping
+
+    from imunoise.noise.imu_model import read_model_json
+    from imunoise.noise.in_motion import InMotionPart
+
+    d = src if isinstance(src, Mapping) else read_model_json(src)
+    if not isinstance(d, Mapping) or d.get("in_motion") is None:
+        return None
+    part = InMotionPart.from_dict(d["in_motion"])
+    sig, tau = part.moving_gm()
+    return in_motion_filter(pairs, part.white_factors(), sig, tau)

@@ -228,6 +228,12 @@ class LooselyCoupledEKF:
         the last propagation, so P refers to the current epoch. Updates and swaps call it themselves."""
         flush(self.arrays(), *self.kernel_parts())
 
+    def set_noise(self, model: ModelArrays) -> None:
+        """Propagate P with the current noise, then take ``model`` (arrays of this layout, e.g. a moving/stopped
+        schedule's, :class:`~imunoise.nav.noise_schedule.NoiseControl`) until the next call or swap."""
+        self.flush()
+        self._parts = (self.layout, model, self.kernel_parts()[1])
+
     def set_gate(self, open_: bool) -> None:
         """Angular-rate gate (docs/guide/theory.rst, 'Static detection'): open = conservative model noise."""
         self.gate_open = bool(open_)

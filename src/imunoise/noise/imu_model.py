@@ -5,7 +5,10 @@ JSON layout::
 
     {"kind": "imunoise.noise.imu_model", "imunoise_version": "...", "freq_hz": f,
      "axes": {"gyro_x": <GMWMFit.to_dict()>, ..., "accel_z": <GMWMFit.to_dict()>},
-     "source": {...}}
+     "source": {...}, "in_motion": {...}}
+
+``in_motion`` (optional): the noise while moving (:mod:`imunoise.noise.in_motion`); a file without it is the
+static model alone and reads, writes and navigates exactly as before.
 
 The per-axis dicts are exactly :meth:`imunoise.noise.estimator.GMWMFit.to_dict` output (discrete and continuous
 parameters with units, rate, data span, WV), so any reader of single-axis fits reads them.
@@ -59,6 +62,7 @@ class ImuModel:
     freq_hz: float
     axes: dict[str, dict[str, Any]]
     source: dict[str, Any] = field(default_factory=dict)
+    in_motion: dict[str, Any] | None = None  # the in-motion part (imunoise.noise.in_motion); None: static only
 
     @classmethod
     def from_fits(cls, fits: Mapping[str, GMWMFit], source: dict[str, Any] | None = None) -> ImuModel:
@@ -82,13 +86,22 @@ class ImuModel:
         return {a: dict(d["continuous"]) for a, d in self.axes.items()}
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        d = {
             "kind": KIND,
             "imunoise_version": __version__,
             "freq_hz": self.freq_hz,
             "axes": self.axes,
             "source": self.source,
         }
+        if self.in_motion is not None:  # absent key: the file of a static model is unchanged
+            d["in_motion"] = self.in_motion
+        return d
+
+    def in_motion_part(self):
+        """The in-motion part as an :class:`~imunoise.noise.in_motion.InMotionPart`, or None."""
+        from imunoise.noise.in_motion import InMotionPart
+
+        return None if self.in_motion is None else InMotionPart.from_dict(self.in_motion)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> ImuModel:
@@ -98,7 +111,12 @@ class ImuModel:
         for a, fd in axes.items():
             if fd.get("kind") != FIT_KIND:
                 raise ModelError(f"axis {a!r} is not an imunoise fit dict")
-        return cls(float(d["freq_hz"]), axes, dict(d.get("source", {})))
+        im = d.get("in_motion")
+        if im is not None:
+            from imunoise.noise.in_motion import InMotionPart
+
+            im = InMotionPart.from_dict(im).to_dict()  # checked and normalised
+        return cls(float(d["freq_hz"]), axes, dict(d.get("source", {})), im)
 
     def save(self, path: str | Path) -> Path:
         """Write the model file (atomically: complete or not at all); returns ``path``."""

@@ -24,8 +24,7 @@ model → (white, random walk) mapping the export uses too (with ``white_below_s
 * WN → white noise of δv/φ (density N² = σ²/f);
 * AR1 with T_c ≥ ``fold_tau_s`` → an augmented Gauss–Markov state; faster AR1 → white noise with the
   same low-frequency density (per sample σ²/(1 − φ)², the AR1 spectrum at f = 0): a state that decorrelates
-  between two covariance steps carries no information the filter can use, and folding keeps the
-  state vector small;
+  between two covariance steps carries no information the filter can use, and folding keeps the state vector small;
 * QN → white noise with the per-sample variance 2Q² (as ``Model.white_variance``), by default
   (``qn="white"``). True quantisation noise has zero density at f = 0 (its integral is bounded), which
   ``qn="drop"`` models; but on a car standing with its engine running the τ⁻² part of the WV is engine
@@ -67,13 +66,12 @@ effect at that time plus ``latency`` (a fixed delay; ``None`` = the measured com
 Table 6 time-taken). ``worker="thread"`` (live use): the fit runs in a background thread and the filter
 never waits; the model takes effect at the first sample after the thread finished.
 
-``run(imu, gnss)`` (batch) and ``push_imu``/``push_gnss``/``solution`` (streaming) run the same code: both feed
-the one streaming :class:`~imunoise.detect.StaticDetector`, batch in chunks (:meth:`StaticDetector.push_chunk`,
-which also says at which sample each segment was completed; identical to per-sample pushes, checked in
-tests/test_detect_paths.py), and batch interleaves the GNSS fixes by time (a fix at t_g is applied after the
-first IMU sample with t ≥ t_g, as in :func:`imunoise.nav.ekf.run_ekf`). Batch runs the filter between events
-(stop ends, swaps, ZUPT candidates, the first sample) in one kernel call (:mod:`imunoise.online.chunks`),
-identical to the per-sample path to the bit.
+``run(imu, gnss)`` (batch) and ``push_imu``/``push_gnss``/``solution`` (streaming) run the same code: both feed the one
+streaming :class:`~imunoise.detect.StaticDetector`, batch in chunks (:meth:`StaticDetector.push_chunk`, which also says
+at which sample each segment was completed; identical to per-sample pushes, checked in tests/test_detect_paths.py), and
+batch interleaves the GNSS fixes by time (a fix at t_g is applied after the first IMU sample with t ≥ t_g, as in
+:func:`imunoise.nav.ekf.run_ekf`). Batch runs the filter between events (stop ends, swaps, ZUPT candidates, the first
+sample) in one kernel call (:mod:`imunoise.online.chunks`), identical to the per-sample path to the bit.
 """
 
 from __future__ import annotations
@@ -169,6 +167,7 @@ class OnlineNavigator(ModellerViews):
         self.detected_segments: list[StaticSegment] = []  # every completed detector segment, before the guard
         self.modeller = StopModeller(config, self.rate, self.state.events, job_cache)
         self.current_models = models
+        self.in_motion: Any = None  # a model file's in-motion part: imunoise.online.in_motion (with its swaps)
         self.state.event("start", init.t, lambda0=self.lambda0, config=config_summary(config))
         if earlier_static is not None:
             self.modeller.add_earlier(earlier_static, init.t)
@@ -425,7 +424,8 @@ class OnlineNavigator(ModellerViews):
         if motion is not None:
             motion.static_changed(t, models)
             models = motion.compose(models)
-        counts = self.ekf.swap_model(models, preserve=self.config.swap == "preserve", imu_rate_hz=self.rate)
+        swap = self.ekf.swap_model if self.in_motion is None else self.in_motion.swap_into(self.ekf)
+        counts = swap(models, preserve=self.config.swap == "preserve", imu_rate_hz=self.rate)
         self.current_models = models
         self.state.event("swap", t, job=upd.kind, t_stop=upd.t_stop, filter_models=[str(m) for m, _ in models],
                          **counts)

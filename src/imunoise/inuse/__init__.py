@@ -1,0 +1,16 @@
+"""In-use noise: the noise the filter sees while the vehicle moves, estimated from whole GNSS-aided drives and
+carried in the model file (docs/guide/theory.rst, 'In-use noise').
+
+* :class:`InMotionPart` (with :class:`AxisInMotion`, :class:`BiasWander`, :class:`Interval`, :class:`Bound`):
+  the model file's ``in_motion`` part (:mod:`imunoise.noise.in_motion`);
+* :func:`estimate_in_motion`: maximum likelihood of the GNSS innovations over whole drives
+  (:mod:`imunoise.inuse.estimate`), returning an :class:`InMotionEstimate`;
+* :func:`summary_lines`: the per-axis factors with intervals and units, as ``calibrate`` prints them.
+"""
+
+from imunoise.inuse.estimate import InMotionEstimate, estimate_in_motion, static_nk, static_pairs
+from imunoise.inuse.summary import summary_lines
+from imunoise.noise.in_motion import AxisInMotion, BiasWander, Bound, InMotionPart, Interval, gm_equivalent_k
+
+__all__ = ["AxisInMotion", "BiasWander", "Bound", "InMotionEstimate", "InMotionPart", "Interval",
+           "estimate_in_motion", "gm_equivalent_k", "static_nk", "static_pairs", "summary_lines"]

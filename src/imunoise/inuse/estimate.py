@@ -1,0 +1,329 @@
+"""The in-motion noise of an IMU from whole GNSS-aided drives: maximum likelihood of the GNSS innovations
+(docs/guide/theory.rst, 'In-use noise'; the likelihood: :mod:`imunoise.inuse.likelihood`).
+
+Per sensor group g (gyros, accelerometers) three parameters, log-parametrised: the white factor f_g (σ scale of
+the static white density while moving) and the moving Gauss–Markov's driving density K_g = σ_g√(2/τ_g) and
+correlation time τ_g (the GM evolves while moving and is frozen at stops; K rather than σ because a drive
+shorter than τ sees the driving density, and σ, τ alone would lie on a ridge). The group's axes share them.
+One group at a time, the other held at its current values (gyros first): the white factor without wander
+(bounded golden search), then (log f, log K, log τ) by Nelder–Mead from f = 1 (the static model). Then:
+
+* the wander's test: LR = 2(NLL(no wander, f searched again at the other group's final values) − NLL(θ̂))
+  against χ²₂(0.95) = 5.99. Below it the wander is not given as a number: the bound says up to which σ (at
+  τ = 60 s) the fixes still fit (ΔNLL ≤ 1.92) and why;
+* intervals from the observed information: the Hessian of the NLL in the log parameters by central
+  differences (step ``h``). A parameter whose curvature alone gives a 95 % interval wider than ×/÷ 10 is flat
+  (not identified: a bound with the reason) and left out; the rest is inverted (:func:`_cov`); Wald intervals
+  exp(θ̂ ± 1.96 sd), positive by construction; log σ = log K + ½ log τ − ½ log 2 takes its variance from both;
+* the wander is reported as a GM (σ, τ) when both are identified and τ̂ is below its limit (three times the
+  drives' moving time), as a random walk k = K when only K is (the data support a random walk), else as a
+  bound.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from scipy.optimize import minimize
+
+from imunoise.errors import DataError
+from imunoise.imu import AXES
+from imunoise.inuse.likelihood import DriveLikelihood, Theta
+from imunoise.noise.in_motion import AxisInMotion, BiasWander, Bound, InMotionPart, Interval, gm_equivalent_k
+
+__all__ = ["GROUPS", "InMotionEstimate", "estimate_in_motion", "static_nk", "static_pairs"]
+
+GROUPS = {"gyro": (0, 1, 2), "accel": (3, 4, 5)}
+SIGMA0 = {"gyro": 1e-4, "accel": 5e-3}  # start of σ [rad/s, m/s²]
+SIGMA_RANGE = {"gyro": (1e-7, 1e-1), "accel": (1e-5, 1.0)}
+WHITE_RANGE = (0.2, 50.0)
+TAU_MIN_S = 2.0
+LR_WANDER = 5.991  # χ²₂(0.95)
+HALF_LR1 = 1.92  # ½ χ²₁(0.95)
+WIDE_SD = math.log(10.0) / 1.96
+
+
+@dataclass
+class InMotionEstimate:
+    """The estimate: the model file's ``part``, the pooled NLL at the optimum and with no in-motion noise
+    (``nll_static``), the optimum per group (``theta``), the covariance of the log parameters per group, and
+    the cost (filter runs, CPU seconds)."""
+
+    part: InMotionPart
+    theta: Theta
+    nll: float
+    nll_static: float
+    cov_log: dict[str, Any] = field(default_factory=dict)
+    lr_wander: dict[str, float] = field(default_factory=dict)
+    runs: int = 0
+    cpu_s: float = 0.0
+
+
+def static_pairs(static_model: Any, freq: float) -> list:
+    """The six static filter pairs through the door: a model file / :class:`~imunoise.noise.imu_model.ImuModel` /
+    parsed dict (:func:`imunoise.nav.defaults.load_axis_models`), or six (model, freq) pairs as they are."""
+    from imunoise.nav.defaults import load_axis_models
+
+    if isinstance(static_model, list | tuple):
+        return list(static_model)
+    if hasattr(static_model, "to_dict"):
+        static_model = static_model.to_dict()
+    return load_axis_models(static_model, freq)
+
+
+def static_nk(pairs: list, horizon_s: float) -> list[tuple[float, float]]:
+    """Per axis the static (N [unit/√Hz], K [unit/√s]) of the filter pairs
+    (:func:`imunoise.noise.equivalent_noise.equivalent_noise`, the mapping the exports use), slow AR1s matched
+    over scales up to ``horizon_s`` [s]."""
+    from imunoise.noise.equivalent_noise import equivalent_noise
+
+    out = []
+    for m, f in pairs:
+        eq = equivalent_noise(m, f, horizon_s=horizon_s)
+        out.append((eq.N, eq.K))
+    return out
+
+
+def _factor_k(k_static: float, kw: float, kw_ci) -> Interval:
+    """The in-use / static factor of K: √(K² + K_w²)/K with K_w the wander's driving density, its interval from
+    K_w's (None when the static K is 0)."""
+    if not k_static > 0:
+        return Interval(None)
+    val = math.hypot(k_static, kw) / k_static
+    if kw_ci is None:
+        return Interval(val, (val, val) if kw == 0 else None)
+    return Interval(val, tuple(math.hypot(k_static, x) / k_static for x in kw_ci))
+
+
+def _ci(x: float, sd: float) -> tuple[float, float] | None:
+    """Wald interval of a positive parameter from the sd of its log."""
+    return (x * math.exp(-1.96 * sd), x * math.exp(1.96 * sd)) if math.isfinite(sd) else None
+
+
+def _unlog(p: np.ndarray) -> tuple[float, float, float]:
+    """(f, σ, τ) of the search parameters (log f, log K, log τ), σ = K√(τ/2) (:func:`gm_equivalent_k`)."""
+    f, k, tau = (float(x) for x in np.exp(p))
+    return f, k * math.sqrt(tau / 2.0), tau
+
+
+def _theta_with(th: Theta, idx: Sequence[int], f: float, s: float, tau: float) -> Theta:
+    w, sg, ta = list(th.white), list(th.sigma), list(th.tau_s)
+    for i in idx:
+        w[i], sg[i], ta[i] = f, s, tau
+    return replace(th, white=tuple(w), sigma=tuple(sg), tau_s=tuple(ta))
+
+
+def _box(g: str, tau_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of (log f, log K, log τ) of group ``g``."""
+    lo_s, hi_s = SIGMA_RANGE[g]
+    lo = np.array([math.log(WHITE_RANGE[0]), math.log(gm_equivalent_k(lo_s, tau_max)), math.log(TAU_MIN_S)])
+    hi = np.array([math.log(WHITE_RANGE[1]), math.log(gm_equivalent_k(hi_s, TAU_MIN_S)), math.log(tau_max)])
+    return lo, hi
+
+
+def _white_search(lik: DriveLikelihood, th: Theta, idx: Sequence[int], lo: float, hi: float, s: float, tau: float,
+                  iters: int) -> float:
+    """The group's log white factor in [lo, hi] at wander (σ, τ), bounded golden search."""
+    from scipy.optimize import minimize_scalar
+
+    r = minimize_scalar(lambda u: lik.nll(_theta_with(th, idx, math.exp(u), s, tau)), bounds=(lo, hi),
+                        method="bounded", options={"xatol": 0.03, "maxiter": iters})
+    return float(r.x)
+
+
+def _fit_group(lik: DriveLikelihood, th: Theta, g: str, tau_max: float,
+               maxfev: int) -> tuple[np.ndarray, float, float]:
+    """Search of group ``g``: the white factor without wander (bounded golden search; its NLL is the no-wander
+    model's), then (log f, log K, log τ) by Nelder–Mead from f = 1 (the static model). Returns
+    (log f, log K, log τ), the no-wander NLL and the no-wander log f."""
+    idx = GROUPS[g]
+    lo, hi = _box(g, tau_max)
+    u0 = _white_search(lik, th, idx, lo[0], hi[0], 0.0, 60.0, 14)
+    nll0 = lik.nll(_theta_with(th, idx, math.exp(u0), 0.0, 60.0))
+
+    def f(p: np.ndarray) -> float:
+        c = np.clip(p, lo, hi)
+        return lik.nll(_theta_with(th, idx, *_unlog(c))) + 10.0 * float(np.sum((p - c) ** 2))  # smooth wall
+
+    tau0 = min(60.0, tau_max)
+    x0 = np.array([0.0, math.log(gm_equivalent_k(SIGMA0[g], tau0)), math.log(tau0)])
+    simplex = [x0, x0 + [0.5, 0, 0], x0 + [0, 1.5, 0], x0 + [0, 0, 1.2]]
+    res = minimize(f, x0, method="Nelder-Mead", options={"initial_simplex": simplex, "xatol": 0.05, "fatol": 0.05,
+                                                         "maxfev": maxfev})
+    p = np.clip(res.x, lo, hi)
+    return p, nll0, u0
+
+
+def _hessian(fun, p: np.ndarray, h: float) -> np.ndarray:
+    n = p.size
+    f0 = fun(p)
+    H = np.zeros((n, n))
+    e = np.eye(n) * h
+    for i in range(n):
+        H[i, i] = (fun(p + e[i]) - 2 * f0 + fun(p - e[i])) / (h * h)
+        for j in range(i):
+            H[i, j] = H[j, i] = (fun(p + e[i] + e[j]) - fun(p + e[i] - e[j]) - fun(p - e[i] + e[j])
+                                 + fun(p - e[i] - e[j])) / (4 * h * h)
+    return H
+
+
+def _cov(H: np.ndarray) -> np.ndarray:
+    """Covariance of the log parameters from the observed information ``H``: a parameter whose curvature alone
+    gives an interval wider than ×/÷ 10 (flat) is left out (variance inf) and the rest inverted; if that block is
+    not positive definite either, the least curved parameter is left out too, and so on."""
+    n = H.shape[0]
+    keep = [i for i in range(n) if H[i, i] > 1.0 / WIDE_SD**2]
+    while keep:
+        sub = H[np.ix_(keep, keep)]
+        try:
+            np.linalg.cholesky(sub)
+        except np.linalg.LinAlgError:
+            keep.remove(min(keep, key=lambda i: H[i, i]))
+            continue
+        cov = np.full((n, n), math.inf)
+        cov[np.ix_(keep, keep)] = np.linalg.inv(sub)
+        return cov
+    return np.full((n, n), math.inf)
+
+
+def _scan_up(fun, x0: float, limit: float, level: float, step: float = 1.6) -> float | None:
+    """The last x (×``step`` from ``x0``) with fun(x) ≤ ``level`` before it is exceeded, or None if not below
+    ``limit``."""
+    x, last = x0, None
+    while x <= limit:
+        if fun(x) > level:
+            return last if last is not None else x
+        last = x
+        x *= step
+    return None
+
+
+def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float, seed: int | None = None,
+                       groups: Sequence[str] = ("gyro", "accel"), maxfev: int = 40, h: float = 0.25,
+                       names: Sequence[str] | None = None) -> InMotionEstimate:
+    """Estimate the in-motion noise from whole GNSS-aided drives (module docstring).
+
+    Parameters
+    ----------
+    drives : sequence
+        Drives as the experiments' scenarios carry them (:mod:`imunoise.inuse.likelihood`); pooled.
+    static_model : object
+        The static part (the stops' model), mapped to the filter by the door: an
+        :class:`~imunoise.noise.imu_model.ImuModel`, its parsed JSON, a model file's path, or the six
+        (model, rate) filter pairs as they are.
+    freq : float
+        IMU rate [Hz] (the static model's parameters per sample at its own rate).
+    seed : int, optional
+        Unused by the deterministic search; accepted so every estimate takes a seed as the project's other
+        random-capable paths do.
+    groups : sequence of {"gyro", "accel"}
+        The sensor groups to estimate (the others keep factor 1 and no wander).
+    maxfev : int
+        Likelihood evaluations per group in the search.
+    h : float
+        Step of the Hessian's differences in the log parameters.
+    names : sequence of str, optional
+        The drives' names for the evidence.
+
+    Returns
+    -------
+    InMotionEstimate
+    """
+    del seed
+    t0 = time.process_time()
+    lik = DriveLikelihood(list(drives), static_pairs(static_model, freq))
+    tau_max = max(3600.0 * lik.hours_moving() * 3.0, 10.0 * TAU_MIN_S)
+    th = Theta()
+    nll_static = lik.nll(th)
+    if not math.isfinite(nll_static):
+        raise DataError("the in-motion estimate: the GNSS-aided filter diverges on the drive(s) with the static "
+                        "model alone; check the start (alignment at a stop), the lever arm and the GNSS file")
+    logp: dict[str, np.ndarray] = {}
+    nll0: dict[str, float] = {}
+    u0: dict[str, float] = {}
+    for g in groups:
+        logp[g], nll0[g], u0[g] = _fit_group(lik, th, g, tau_max, maxfev)
+        th = _theta_with(th, GROUPS[g], *_unlog(logp[g]))
+    nk = static_nk(lik.pairs, max(float(d.imu.t[-1] - d.init.t) for d in lik.drives) / 2.0)
+    axes: dict[str, AxisInMotion] = {}
+    bounds: dict[str, Bound] = {}
+    cov_log: dict[str, Any] = {}
+    lrs: dict[str, float] = {}
+    for g in groups:
+        idx = GROUPS[g]
+        nll_hat = lik.nll(th)
+        # the no-wander model of this group at the other groups' final values (its white factor searched again
+        # near the first search's): the LR compares two models that differ in this group's wander alone
+        lo, hi = _box(g, tau_max)
+        u0[g] = _white_search(lik, th, idx, max(lo[0], u0[g] - 0.7), min(hi[0], u0[g] + 0.7), 0.0, 60.0, 8)
+        nll0[g] = lik.nll(_theta_with(th, idx, math.exp(u0[g]), 0.0, 60.0))
+        lr = 2.0 * (nll0[g] - nll_hat)
+        lrs[g] = lr
+        wander = lr > LR_WANDER
+        if not wander:  # the no-wander model: the white factor of the first search, σ = 0
+            th = _theta_with(th, idx, math.exp(u0[g]), 0.0, 60.0)
+            logp[g][0] = u0[g]
+            nll_hat = lik.nll(th)
+            fun = lambda p, idx=idx, th=th: lik.nll(_theta_with(th, idx, math.exp(p[0]), 0.0, 60.0))  # noqa: E731
+            c1 = _cov(_hessian(fun, logp[g][:1], h))
+            cov = np.diag([c1[0, 0], math.inf, math.inf])
+        else:
+            fun = lambda p, idx=idx, th=th: lik.nll(_theta_with(th, idx, *_unlog(p)))  # noqa: E731
+            cov = _cov(_hessian(fun, logp[g], h))
+        cov_log[g] = cov.tolist()
+        f, s, tau = _unlog(logp[g])
+        k_hat = float(np.exp(logp[g][1]))
+        sd_f, sd_k, sd_t = np.sqrt(np.diag(cov))
+        # log σ = log K + ½ log τ − ½ log 2
+        var_s = cov[1, 1] + 0.25 * cov[2, 2] + cov[1, 2] if np.all(np.isfinite(cov[1:, 1:])) else math.inf
+        sd_s = math.sqrt(var_s) if var_s >= 0 else math.inf
+        white = Interval(f, _ci(f, sd_f)) if sd_f <= WIDE_SD else Interval(None)
+        up, reason, kw, kw_ci = None, "", 0.0, None
+        if not wander:
+            bias = BiasWander("none")
+            up = _scan_up(lambda x, idx=idx, f=f, th=th: lik.nll(_theta_with(th, idx, f, x, 60.0)),
+                          SIGMA_RANGE[g][0] * 100, SIGMA_RANGE[g][1], nll_hat + HALF_LR1)
+            reason = (f"bias wander while moving not distinguishable from none: LR {lr:.2f} < {LR_WANDER:.2f} "
+                      "(χ²₂ 95 %); upper: σ at τ = 60 s")
+        elif sd_t <= WIDE_SD and sd_s <= WIDE_SD and tau < 0.999 * tau_max:
+            bias = BiasWander("gm", sigma=s, tau_s=tau, ci95={"sigma": _ci(s, sd_s), "tau_s": _ci(tau, sd_t)})
+            kw, kw_ci = k_hat, _ci(k_hat, sd_k)
+        elif sd_k <= WIDE_SD:  # τ not identified (or longer than the drives): the data support a random walk
+            bias = BiasWander("rw", k=k_hat, ci95={"k": _ci(k_hat, sd_k)})
+            kw, kw_ci = k_hat, _ci(k_hat, sd_k)
+        else:
+            bias = BiasWander("none")
+            up = s * math.exp(1.96 * sd_s) if math.isfinite(sd_s) else None
+            reason = (f"bias wander present (LR {lr:.1f}) but neither its σ, τ nor its driving density are "
+                      "identified on these drives (95 % interval wider than ×/÷ 10)")
+            if g == "accel":
+                reason += "; accelerometer bias against attitude error needs turns and speed changes"
+        if white.value is None:
+            sw = s if wander else 0.0
+            wu = _scan_up(lambda x, idx=idx, th=th, sw=sw, tau=tau: lik.nll(_theta_with(th, idx, x, sw, tau)), f,
+                          WHITE_RANGE[1], nll_hat + HALF_LR1, 1.5)
+            text = "white factor not identified (95 % interval wider than ×/÷ 10)"
+            if not reason:
+                up = wu
+            elif wu is not None:
+                text += f", ≤ {wu:.3g}"
+            reason = (reason + "; " if reason else "") + text
+        for i in idx:
+            a = AXES[i]
+            axes[a] = AxisInMotion(white, bias, Interval(white.value, white.ci95), _factor_k(nk[i][1], kw, kw_ci))
+            if reason:
+                bounds[a] = Bound("bias" if bias.model == "none" else "white", up, reason)
+    evidence = {"drives": list(names) if names is not None else [getattr(d, "name", f"drive {k}")
+                                                                  for k, d in enumerate(lik.drives)],
+                "hours_moving": lik.hours_moving(), "gnss_sigma_m": lik.gnss_sigma_m(),
+                "method": "maximum likelihood of the GNSS innovations over the whole drives (prediction-error "
+                          "decomposition), per sensor group; 95 % Wald intervals from the observed information",
+                "freq_hz": float(freq), "groups": list(groups), "nll": lik.nll(th), "nll_static": nll_static,
+                "lr_wander": lrs}
+    part = InMotionPart(axes, bounds, evidence)
+    return InMotionEstimate(part, th, lik.nll(th), nll_static, cov_log, lrs, lik.runs, time.process_time() - t0)

@@ -1,0 +1,38 @@
+"""`imunoise calibrate --in-motion`: refused without GNSS before any work; on the real drive (slow) the model
+file and calibration.json carry the in-motion part and the summary prints the factors with intervals."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from imunoise.cli import main
+
+DRIVE = Path(__file__).resolve().parents[2] / "data" / "drive_0708"
+
+
+def test_in_motion_without_gnss_is_one_line_exit_2(tmp_path, capsys):
+    imu = tmp_path / "imu.txt"
+    imu.write_text("0 0 0 0 0 0 0\n")
+    code = main(["calibrate", str(imu), "--in-motion", "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len(err) == 1 and "--in-motion" in err[0] and "--gnss" in err[0]
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+def test_in_motion_on_the_real_drive_writes_the_part(tmp_path, capsys):
+    if not (DRIVE / "dataset.json").exists():
+        pytest.skip("data/drive_0708 is not in this checkout")
+    out = tmp_path / "calib"
+    assert main(["calibrate", str(DRIVE), "--complete", "WN+RW", "--in-motion", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    model = json.loads((out / "imu_model.json").read_text())
+    part = model["in_motion"]
+    assert set(part["axes"]) == {"gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"}
+    assert json.loads((out / "calibration.json").read_text())["in_motion"] == part
+    assert part["evidence"]["hours_moving"] > 0.05 and part["evidence"]["freq_hz"] == pytest.approx(100.0, rel=1e-3)
+    assert "gyro_x: in-use N " in text and (out / "in_motion.png").exists()
