@@ -1,5 +1,6 @@
 """In-use noise: the noise the filter sees while the vehicle moves, estimated from whole GNSS-aided drives and
-carried in the model file (docs/guide/theory.rst, 'In-use noise').
+carried in the model file (docs/guide/theory.rst, 'In-use noise'). It sits on the filter end of the data path
+IMU → detection → modelling → filter: it runs the aided filter over whole drives and may import every stage below.
 
 * :class:`InMotionPart` (with :class:`AxisInMotion`, :class:`BiasWander`, :class:`Interval`, :class:`Bound`):
   the model file's ``in_motion`` part (:mod:`imunoise.noise.in_motion`);
