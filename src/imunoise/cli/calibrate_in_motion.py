@@ -29,11 +29,11 @@ def add_in_motion_options(p: argparse.ArgumentParser) -> None:
                    help="also estimate the noise while moving (white factor, bias wander with 95 %% intervals) "
                         "from the whole GNSS-aided drive(s); needs GNSS: --gnss for one log or dataset folders")
     g.add_argument("--lever-arm", type=float, nargs=3, metavar=("X", "Y", "Z"),
-                   help="GNSS antenna position in body FRD from the IMU [m], for --in-motion (default: the "
+                   help="GNSS antenna position in body FRD from the IMU [m] (for --in-motion; default: the "
                         "dataset's, else 0 0 0)")
     g.add_argument("--static-duration", type=float, default=30.0, metavar="S",
-                   help="seconds of still data at the IMU path start for levelling and gyro bias, for --in-motion "
-                        "(also λ0); default 30")
+                   help="seconds of still data at the IMU path start for levelling and gyro bias (for --in-motion "
+                        "and its λ0; default 30)")
 
 
 def _drive_files(args: argparse.Namespace) -> list[tuple[str, str, str, Any, float]]:
