@@ -133,7 +133,7 @@ def measure(nav, n, last_dt, st, i, tk):
         return gnss_velocity(nav, n, st.z[i], st.lever, last_dt, st.sigma[i])
     if st.kind == K_ODOMETER:
         return odometer(nav, n, st.z[i], st.lever, last_dt, st.sigma[i])
-    raise ValueError("measurement kind unknown to the compiled filter kernels (cached before the kind was added?): "
+    raise DataError("measurement kind unknown to the compiled filter kernels (cached before the kind was added?): "
                      "delete numba's cache, find src -name '*.nb[ic]' -delete")
 
 
