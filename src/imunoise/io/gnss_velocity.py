@@ -25,7 +25,8 @@ from imunoise.io.bag_topics import is_bag
 from imunoise.io.bag_twist import read_twist_topic
 from imunoise.io.files import read_text
 
-__all__ = ["VelocityFile", "read_gnss_velocity", "check_velocity_track", "UNIX_T0"]
+__all__ = ["VelocityFile", "read_gnss_velocity", "check_velocity_track", "check_time_base", "track_speed_ratio",
+           "UNIX_T0"]
 
 
 class VelocityFile(NamedTuple):
@@ -109,30 +110,32 @@ def _checked(d: np.ndarray, path: Path, option: str, imu_t, gnss, sigma: float |
     vel = VelocityFile(np.ascontiguousarray(d[ok, 0][order]), np.ascontiguousarray(d[ok, 1:4][order]),
                        np.ascontiguousarray(s[ok][order]), int(np.sum(~ok)))
     if imu_t is not None and vel.t.size:
-        _check_time_base(vel.t, np.asarray(imu_t, dtype=float), path, option)
+        check_time_base(vel.t, np.asarray(imu_t, dtype=float), f"{path} ({option})")
     if gnss is not None:
         check_velocity_track(vel, gnss, f"{path} ({option})")
     return vel
 
 
-def _check_time_base(t: np.ndarray, imu_t: np.ndarray, path: Path, option: str) -> None:
+def check_time_base(t: np.ndarray, imu_t: np.ndarray, what: str, noun: str = "fixes") -> None:
+    """Refuse stamps ``t`` of an aiding file (``what``: its name in the message; ``noun``: what its rows are)
+    that are Unix time against an IMU in GPS seconds of week, or that do not overlap the IMU at all."""
     if t[0] > UNIX_T0 and imu_t[-1] < UNIX_T0:
-        raise DataError(f"{path} ({option}): stamps {t[0]:.0f} s look like Unix time while the IMU is in GPS seconds "
+        raise DataError(f"{what}: stamps {t[0]:.0f} s look like Unix time while the IMU is in GPS seconds "
                         f"of week ({imu_t[0]:.0f}–{imu_t[-1]:.0f} s); convert them to GPS seconds of week")
     if t[-1] < imu_t[0] or t[0] > imu_t[-1]:
-        raise DataError(f"{path} ({option}): fixes {t[0]:.1f}–{t[-1]:.1f} s do not overlap the IMU "
+        raise DataError(f"{what}: {noun} {t[0]:.1f}–{t[-1]:.1f} s do not overlap the IMU "
                         f"{imu_t[0]:.1f}–{imu_t[-1]:.1f} s; use the IMU's time base")
 
 
-def check_velocity_track(vel: VelocityFile, gnss, what: str, min_speed: float = 3.0) -> None:
-    """Refuse velocities whose horizontal speed is not the GNSS track's: the median ratio of |v_h| to the speed of
-    the position fixes (finite differences) where the track is faster than ``min_speed`` (m/s) must lie in
-    [0.7, 1.4]; 3.6× is named as km/h."""
+def track_speed_ratio(t: np.ndarray, speed: np.ndarray, gnss, min_speed: float = 3.0) -> float | None:
+    """The median ratio of the horizontal ``speed`` at ``t`` to the speed of the GNSS position fixes' track (finite
+    differences) where the track is faster than ``min_speed`` (m/s); None with fewer than 3 finite fixes or 5
+    moving epochs (too little to judge)."""
     gt, llh = np.asarray(gnss.t, dtype=float), np.asarray(gnss.llh, dtype=float)
     ok = np.isfinite(gt) & np.all(np.isfinite(llh), axis=1)
     gt, llh = gt[ok], llh[ok]
-    if gt.size < 3 or vel.t.size < 3:
-        return
+    if gt.size < 3:
+        return None
     r = 6378137.0 + llh[1:, 2]  # a sphere: the ratio test needs 1 %, the Earth's radii differ by < 0.7 %
     dn = np.diff(llh[:, 0]) * r
     de = np.diff(llh[:, 1]) * r * np.cos(llh[1:, 0])
@@ -140,13 +143,22 @@ def check_velocity_track(vel: VelocityFile, gnss, what: str, min_speed: float = 
     good = dt > 0
     tm = 0.5 * (gt[1:] + gt[:-1])[good]
     track = np.hypot(dn, de)[good] / dt[good]
-    inside = (vel.t > tm[0]) & (vel.t < tm[-1])
-    sp_track = np.interp(vel.t[inside], tm, track)
-    sp_vel = np.hypot(vel.vel_ned[inside, 0], vel.vel_ned[inside, 1])
+    inside = (t > tm[0]) & (t < tm[-1])
+    sp_track = np.interp(t[inside], tm, track)
     moving = sp_track > min_speed
     if moving.sum() < 5:
+        return None
+    return float(np.median(speed[inside][moving] / sp_track[moving]))
+
+
+def check_velocity_track(vel: VelocityFile, gnss, what: str, min_speed: float = 3.0) -> None:
+    """Refuse velocities whose horizontal speed is not the GNSS track's: the median ratio of |v_h| to the speed of
+    the position fixes (:func:`track_speed_ratio`) must lie in [0.7, 1.4]; 3.6× is named as km/h."""
+    if vel.t.size < 3:
         return
-    ratio = float(np.median(sp_vel[moving] / sp_track[moving]))
+    ratio = track_speed_ratio(vel.t, np.hypot(vel.vel_ned[:, 0], vel.vel_ned[:, 1]), gnss, min_speed)
+    if ratio is None:
+        return
     if 3.0 <= ratio <= 4.3:
         raise DataError(f"{what}: speeds are {ratio:.2f}× the GNSS track's: the values look like km/h; divide by 3.6 "
                         "(velocities in m/s, NED)")

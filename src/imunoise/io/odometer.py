@@ -22,7 +22,7 @@ from imunoise.errors import DataError
 from imunoise.io.bag_topics import is_bag
 from imunoise.io.bag_twist import read_twist_topic
 from imunoise.io.files import is_number, read_text
-from imunoise.io.gnss_velocity import UNIX_T0
+from imunoise.io.gnss_velocity import check_time_base, track_speed_ratio
 
 __all__ = ["SpeedFile", "read_odometer", "UNITS"]
 
@@ -82,7 +82,7 @@ def read_odometer(path: str | Path, *, unit: str = "m/s", scale: float = 1.0, im
     if out.t.size < 2:
         raise DataError(f"{where}: {out.t.size} finite speed(s); an odometer file needs a speed per epoch")
     if imu_t is not None:
-        _check_time_base(out.t, np.asarray(imu_t, dtype=float), where)
+        check_time_base(out.t, np.asarray(imu_t, dtype=float), where, "speeds")
     if gnss is not None:
         _check_track(out, gnss, where)
     return out
@@ -101,34 +101,12 @@ def _table(path: Path, where: str) -> np.ndarray:
         raise DataError(f"{where}: not a numeric table of t speed [σ] ({exc})") from exc
 
 
-def _check_time_base(t: np.ndarray, imu_t: np.ndarray, where: str) -> None:
-    if t[0] > UNIX_T0 and imu_t[-1] < UNIX_T0:
-        raise DataError(f"{where}: stamps {t[0]:.0f} s look like Unix time while the IMU is in GPS seconds of week "
-                        f"({imu_t[0]:.0f}–{imu_t[-1]:.0f} s); convert them to GPS seconds of week")
-    if t[-1] < imu_t[0] or t[0] > imu_t[-1]:
-        raise DataError(f"{where}: speeds {t[0]:.1f}–{t[-1]:.1f} s do not overlap the IMU {imu_t[0]:.1f}–"
-                        f"{imu_t[-1]:.1f} s; use the IMU's time base")
-
-
 def _check_track(f: SpeedFile, gnss, where: str, min_speed: float = 3.0) -> None:
-    """The median ratio of the speeds to the GNSS track's (finite differences of the fixes, where faster than
-    ``min_speed`` m/s) must lie in [0.7, 1.4]; 3.6× is named as km/h."""
-    gt, llh = np.asarray(gnss.t, dtype=float), np.asarray(gnss.llh, dtype=float)
-    ok = np.isfinite(gt) & np.all(np.isfinite(llh), axis=1)
-    gt, llh = gt[ok], llh[ok]
-    if gt.size < 3:
+    """The median ratio of the speeds to the GNSS track's (:func:`~imunoise.io.gnss_velocity.track_speed_ratio`)
+    must lie in [0.7, 1.4]; 3.6× is named as km/h."""
+    ratio = track_speed_ratio(f.t, f.speed, gnss, min_speed)
+    if ratio is None:
         return
-    r = 6378137.0 + llh[1:, 2]  # a sphere: the test needs 1 %, the Earth's radii differ by < 0.7 %
-    dt = np.diff(gt)
-    good = dt > 0
-    track = np.hypot(np.diff(llh[:, 0]) * r, np.diff(llh[:, 1]) * r * np.cos(llh[1:, 0]))[good] / dt[good]
-    tm = 0.5 * (gt[1:] + gt[:-1])[good]
-    inside = (f.t > tm[0]) & (f.t < tm[-1])
-    sp_track = np.interp(f.t[inside], tm, track)
-    moving = sp_track > min_speed
-    if moving.sum() < 5:
-        return
-    ratio = float(np.median(f.speed[inside][moving] / sp_track[moving]))
     if 3.0 <= ratio <= 4.3:
         raise DataError(f"{where}: speeds are {ratio:.2f}× the GNSS track's: the values look like km/h; give the "
                         "unit (km/h) or divide by 3.6")
