@@ -86,13 +86,13 @@ def test_warm_up_is_a_command():
 DEMO_ON_A_TINY_DRIVE = """
 import sys
 from pathlib import Path
-root, src = Path(sys.argv[1]), Path(sys.argv[2])
+root, cache_dir = Path(sys.argv[1]), Path(sys.argv[2])
 from imunoise.sim import DriveConfig, simulate_drive
 d = root / "drive"
 simulate_drive(DriveConfig(duration_s=200.0, n_stops=1, stop_range_s=(25.0, 30.0), static_s=40.0,
                            outages=[(100.0, 15.0)], seed=3903), "mems", seed=3903).write(d)
 def cache():
-    return {str(p): p.stat().st_mtime_ns for p in src.rglob("__pycache__/*.nb*")}
+    return {str(p): p.stat().st_mtime_ns for p in cache_dir.rglob("*.nb*")}
 before = cache()
 from imunoise.cli.demo import run_online_demo
 run_online_demo(root / "out", data=str(d), workers=1, evidence={"noise_seeds": (1,), "outages": "dense:15:20"})
@@ -105,13 +105,18 @@ print("NEW", *sorted(k for k in after if before.get(k) != after[k]))
 def test_warm_up_covers_every_kernel_of_the_demo_and_the_default_methods(tmp_path):
     """After `imunoise warm-up`, the demo's methods (plain, AV, EM, GMWM, GMWM + ZUPT/ZARU and the dense-window
     evidence's static_var) on a tiny drive add nothing to numba's cache: no index or machine-code file is
-    written or rewritten (numba rewrites a kernel's index when it compiles a new signature). Uses the checkout's
-    own cache (``__pycache__`` beside the modules), so a warm machine runs it in minutes."""
-    env = dict(os.environ, PYTHONPATH=str(SRC) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    env.pop("NUMBA_CACHE_DIR", None)
+    written or rewritten (numba rewrites a kernel's index when it compiles a new signature).
+
+    The cache is a private ``NUMBA_CACHE_DIR`` (about a minute of compiling): in the checkout's own cache the
+    suite's other workers compile kernels at the same time, and a rewrite of an index by one of them during
+    the demo was read as the demo's own (a CI run failed that way on ``gnss_position_update``)."""
+    cache_dir = tmp_path / "numba_cache"
+    env = dict(os.environ, PYTHONPATH=str(SRC) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               NUMBA_CACHE_DIR=str(cache_dir))
     subprocess.run([sys.executable, "-m", "imunoise", "warm-up"], env=env, capture_output=True, text=True,
                    timeout=3000, check=True)
-    r = subprocess.run([sys.executable, "-c", DEMO_ON_A_TINY_DRIVE, str(tmp_path), str(SRC)], env=env,
+    r = subprocess.run([sys.executable, "-c", DEMO_ON_A_TINY_DRIVE, str(tmp_path), str(cache_dir)], env=env,
                        capture_output=True, text=True, timeout=1800, check=True)
+    assert any(cache_dir.rglob("*.nbi")), "the warm-up wrote no cache index into NUMBA_CACHE_DIR"
     new = r.stdout.strip().splitlines()[-1].split()
     assert new == ["NEW"], f"kernels the warm-up left cold: {new[1:]}"
