@@ -76,4 +76,5 @@ def nees_summary(per_drive: Sequence[dict[str, float] | None], *, n_boot: int = 
     boot = k[idx].sum(axis=1) / n[idx].sum(axis=1)
     lo, hi = np.percentile(boot, [2.5, 97.5])
     return {"epochs": int(n.sum()), "drives": len(d), "share_inside": float(k.sum() / n.sum()),
-            "ci95": [float(lo), float(hi)], "mean_nees": float(s.sum() / n.sum()), "band": list(BAND6)}
+            "ci95": [float(lo), float(hi)], "mean_nees": float(s.sum() / n.sum()), "band": list(BAND6),
+            "per_drive": [dict(x) for x in d]}  # so runs can be pooled (scripts/in_use_carry_over.py)
