@@ -1,6 +1,6 @@
 """The stops of a whole drive that opens with a stop: λ_0 learned from the first ``static_duration`` seconds (a
-stop, as the alignment assumes), then the static detector over the whole record (docs/guide/theory.rst, 'Static
-detection').
+stop, as the alignment assumes), then the static detector over the whole record
+(docs/guide/theory.rst, 'Static detection').
 
 The one place this rule lives: ``nav --zupt`` takes its ZUPT mask from the stops (``cli/nav.py``), and the in-use
 noise takes its moving flag from them (:func:`imunoise.inuse.stops.moving_flag`); ``nav --zupt --imu-model`` with
