@@ -58,7 +58,8 @@ from imunoise.nav.filter_loop import FilterArrays, ImuInput, Outputs, run_steps
 from imunoise.nav.measurements.gnss_velocity import GnssVelocity
 from imunoise.nav.solution import NavSolution
 from imunoise.nav.state import NAV, InitialState
-from imunoise.nav.step_filter import Innovation, LooselyCoupledEKF, new_outputs
+from imunoise.nav.step_filter import LooselyCoupledEKF, new_outputs
+from imunoise.nav.step_updates import Innovation
 from imunoise.nav.streams import Epochs, bind
 
 log = logging.getLogger(__name__)

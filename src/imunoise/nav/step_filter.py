@@ -42,7 +42,7 @@ from imunoise.nav.streams import S_REJECT, Stream, StreamSet, make_stream
 log = logging.getLogger("imunoise.nav.ekf")  # the filter's one logger name
 _NONE = (np.empty(0), np.empty((0, 0)), np.empty((0, 0)))  # predict_step's "no NHC" arrays
 
-__all__ = ["LooselyCoupledEKF", "Innovation", "new_outputs"]
+__all__ = ["LooselyCoupledEKF", "new_outputs"]
 
 
 class LooselyCoupledEKF(StepUpdates):
@@ -69,9 +69,9 @@ class LooselyCoupledEKF(StepUpdates):
         ``(t, ν, S, used)`` of the last GNSS fix: innovation ν (NED m), its predicted covariance
         S = HPHᵀ + R before the update, and whether the gate let it in; read-only (for
         :mod:`imunoise.nav.adaptive`).
-    last_update : Innovation or None
-        The last measurement of any kind (:class:`Innovation`: kind, t, y, S, K, NIS, used), as filterpy's
-        ``KalmanFilter`` keeps ``y``, ``S`` and ``K``.
+    last_update : imunoise.nav.step_updates.Innovation or None
+        The last measurement of any kind (:class:`~imunoise.nav.step_updates.Innovation`: kind, t, y, S, K, NIS,
+        used), as filterpy's ``KalmanFilter`` keeps ``y``, ``S`` and ``K``.
     """
 
     def __init__(self, config: EkfConfig, axis_models, init: InitialState, *, imu_rate_hz: float = 100.0):
