@@ -247,9 +247,9 @@ def main(quick: bool | None = None) -> str:
             "60 s outage end drift per window [m] | mean [m] |",
             "|---|---|---|---|---|---|",
         ]
-        from imunoise.cli.nav import zupt_mask
+        from imunoise.cli.nav import drive_stops, zupt_mask
 
-        zmask = zupt_mask(imu, 30.0)
+        zmask = zupt_mask(drive_stops(imu, 30.0))
         for label, models, zupt in [
             ("plain default (WN+RW+GM)", None, None),
             ("KF-GINS loose values (WN+GM)", default_axis_models(rate, kfgins_loose()), None),

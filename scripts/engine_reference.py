@@ -43,8 +43,8 @@ def _prints(**arrays) -> dict[str, str]:
 def _result(res) -> dict[str, str]:
     d = _prints(t=res.t, llh=res.llh, vel=res.vel_ned, euler=res.euler, gyro=res.gyro_error, accel=res.accel_error,
                 std=res.std, gnss_status=res.gnss_status, gnss_nis=res.gnss_nis)
-    if res.gnss_vel_status is not None:
-        d["vel_status"] = digest(res.gnss_vel_status)
+    if res.stream_status.get("gnss_velocity") is not None:
+        d["vel_status"] = digest(res.stream_status["gnss_velocity"])
     if res.cov is not None:
         d["cov"] = digest(res.cov)
     return d
@@ -54,6 +54,7 @@ def drive_case() -> dict:
     """The shipped drive, 200 s from the reference start: NHC, ZUPT over the first stop, RTK velocity."""
     from imunoise.io.dataset import read_dataset
     from imunoise.io.kfgins import read_gnss, read_imu
+    from imunoise.nav.aiding_sources import gnss_velocity_stream
     from imunoise.nav.align import coarse_align
     from imunoise.nav.defaults import EkfConfig
     from imunoise.nav.ekf import run_ekf
@@ -68,8 +69,8 @@ def drive_case() -> dict:
     init = coarse_align(imu, gnss, 243263.0, lever_arm=ds.lever_arm_m)
     cfg = EkfConfig(lever_arm=ds.lever_arm_m, aiding=(NhcConfig(),))
     zupt = np.asarray(imu.t) < init.t + 30.0
-    out = {"nhc_zupt_vel": _result(run_ekf(imu, gnss, init, cfg, t_end=init.t + 200.0, zupt=zupt, gnss_vel=vel,
-                                           store_cov=True)),
+    out = {"nhc_zupt_vel": _result(run_ekf(imu, gnss, init, cfg, t_end=init.t + 200.0, zupt=zupt,
+                                           streams=[gnss_velocity_stream(vel)], store_cov=True)),
            "plain": _result(run_ekf(imu, gnss, init, EkfConfig(lever_arm=ds.lever_arm_m), t_end=init.t + 200.0))}
     return out
 
@@ -77,6 +78,7 @@ def drive_case() -> dict:
 def sim_case() -> dict:
     """A simulated 200 s drive: batch (NHC, ZUPT, velocity), a rehearsal, and the step filter sample by sample."""
     from imunoise.experiments.common import simulate_scenario
+    from imunoise.nav.aiding_sources import gnss_velocity_stream
     from imunoise.nav.ekf import LooselyCoupledEKF, run_ekf
     from imunoise.nav.measurements.gnss_velocity import as_gnss_velocity
     from imunoise.nav.measurements.nhc import NhcConfig
@@ -88,7 +90,8 @@ def sim_case() -> dict:
     cfg = replace(sc.ekf_config(), aiding=(NhcConfig(),))
     gnss = sc.gnss.without(sc.windows)
     zupt = np.asarray(sc.imu.t) < sc.init.t + 15.0
-    out = {"batch": _result(run_ekf(sc.imu, gnss, sc.init, cfg, zupt=zupt, gnss_vel=vel))}
+    out = {"batch": _result(run_ekf(sc.imu, gnss, sc.init, cfg, zupt=zupt,
+                                     streams=[gnss_velocity_stream(vel)]))}
     # the step filter, sample by sample (NHC inside propagate, fixes, velocity, ZUPT every 10 samples early on)
     t_all = sc.imu.t
     i0 = int(np.searchsorted(t_all, sc.init.t))

@@ -11,6 +11,7 @@ from dataclasses import replace
 import numpy as np
 
 from imunoise.experiments.common import load_real, repo_data_dir
+from imunoise.nav.aiding_sources import gnss_velocity_stream
 from imunoise.nav.earth import radii
 from imunoise.nav.ekf import run_ekf
 from imunoise.nav.measurements.gnss_velocity import VEL_GATE_ABS, VEL_MAX_REJECT, as_gnss_velocity
@@ -42,11 +43,11 @@ def main() -> None:
                 cfg = replace(cfg, chi2_gate=0.0)
             errs, rej, forced = [], [], []
             for s, length in sc.windows:
-                r = run_ekf(sc.imu, sc.gnss.without([(s, length)]), sc.init, cfg, gnss_vel=vel)
+                r = run_ekf(sc.imu, sc.gnss.without([(s, length)]), sc.init, cfg, streams=[gnss_velocity_stream(vel)])
                 errs.append(end_error(r, sc.ref, s + length))
                 m = (vel.t >= s) & (vel.t < s + length)
-                rej.append(int(np.sum(r.gnss_vel_status[m] == 0)))
-                forced.append(int(np.sum(r.gnss_vel_status[m] == 2)))
+                rej.append(int(np.sum(r.stream_status["gnss_velocity"][m] == 0)))
+                forced.append(int(np.sum(r.stream_status["gnss_velocity"][m] == 2)))
             print(f"{name} | {'on' if nhc else 'off'} | {' '.join(f'{e:.2f}' for e in errs)} | {np.mean(errs):.2f} | "
                   f"{sum(rej)} / {sum(forced)}", flush=True)
 

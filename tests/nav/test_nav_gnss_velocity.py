@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from imunoise.experiments.common import simulate_scenario
+from imunoise.nav.aiding_sources import gnss_velocity_stream
 from imunoise.nav.ekf import LooselyCoupledEKF, run_ekf
 from imunoise.nav.measurements.gnss_velocity import as_gnss_velocity
 
@@ -31,11 +32,11 @@ def _vel_rms(res, sc) -> float:
 def test_gnss_velocity_reduces_velocity_error(drive):
     sc, vel = drive
     pos_only = run_ekf(sc.imu, sc.gnss, sc.init, sc.ekf_config())
-    with_vel = run_ekf(sc.imu, sc.gnss, sc.init, sc.ekf_config(), gnss_vel=vel)
+    with_vel = run_ekf(sc.imu, sc.gnss, sc.init, sc.ekf_config(), streams=[gnss_velocity_stream(vel)])
     e0, e1 = _vel_rms(pos_only, sc), _vel_rms(with_vel, sc)
     assert e1 < 0.5 * e0, (e0, e1)  # measured: 0.349 → 0.065 m/s
     assert e1 < 0.1  # of the order of the fixes' 5 cm/s
-    assert np.sum(with_vel.gnss_vel_status == 1) > 0.95 * np.sum(vel.t > sc.init.t)
+    assert np.sum(with_vel.stream_status["gnss_velocity"] == 1) > 0.95 * np.sum(vel.t > sc.init.t)
 
 
 def test_batch_and_step_agree_with_velocity_fixes(drive):
@@ -45,7 +46,7 @@ def test_batch_and_step_agree_with_velocity_fixes(drive):
     init = replace(sc.init, t=float(t_all[i0]))
     cfg = sc.ekf_config()
     t_end = init.t + 60.0
-    batch = run_ekf(sc.imu, sc.gnss, init, cfg, t_end=t_end, gnss_vel=vel)
+    batch = run_ekf(sc.imu, sc.gnss, init, cfg, t_end=t_end, streams=[gnss_velocity_stream(vel)])
     dth, dv = sc.imu.increments()
     ekf = LooselyCoupledEKF(cfg, None, init, imu_rate_hz=sc.rate)
     ekf.prime(dth[i0], dv[i0])
@@ -63,3 +64,21 @@ def test_batch_and_step_agree_with_velocity_fixes(drive):
         k += 1
     assert np.array_equal(batch.vel_ned[-1], ekf.view.vel) and np.array_equal(batch.llh[-1], ekf.view.llh)
     assert ekf.last_update.kind in ("gnss_position", "gnss_velocity")
+
+
+def test_the_deprecated_gnss_vel_argument_warns_and_runs_the_stream_path(drive):
+    """``run_ekf(gnss_vel=...)`` is kept for one release: it warns, names the replacement, and gives the
+    trajectory and velocity statuses of ``streams=[gnss_velocity_stream(vel)]`` to the bit."""
+    sc, vel = drive
+    t_end = sc.init.t + 60.0
+    new = run_ekf(sc.imu, sc.gnss, sc.init, sc.ekf_config(), t_end=t_end, streams=[gnss_velocity_stream(vel)])
+    with pytest.warns(DeprecationWarning) as caught:
+        old = run_ekf(sc.imu, sc.gnss, sc.init, sc.ekf_config(), t_end=t_end, gnss_vel=vel)
+    text = str(caught[0].message)
+    assert caught[0].filename == __file__  # points at the caller's line
+    assert "streams=[gnss_velocity_stream(vel)]" in text and "from imunoise.nav import gnss_velocity_stream" in text
+    for a, b in ((new.llh, old.llh), (new.vel_ned, old.vel_ned), (new.euler, old.euler), (new.std, old.std)):
+        assert np.array_equal(a, b)
+    assert np.array_equal(old.gnss_vel_status, new.stream_status["gnss_velocity"])
+    assert np.array_equal(old.stream_status["gnss_velocity"], new.stream_status["gnss_velocity"])
+    assert new.gnss_vel_status is None

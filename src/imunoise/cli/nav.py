@@ -35,6 +35,9 @@ from imunoise.io.atomic import atomic_savefig, atomic_write_text, staged_run
 if TYPE_CHECKING:
     import numpy as np
 
+    from imunoise.detect.results import Detection
+    from imunoise.nav.filter_model import InMotionFilter
+
 EXAMPLES = """examples:
   imunoise nav --data data/drive_0708 --out out/nav_full
   imunoise nav --data data/drive_0708 --outage-runs --out out/nav_out
@@ -164,9 +167,12 @@ def run(args: argparse.Namespace) -> int:
         np.round(np.degrees(init.gyro_bias) * 3600, 1),
     )
 
-    zupt = zupt_mask(imu, args.static_duration) if args.zupt else None
+    imf = in_motion_part(args.imu_model, models)
+    # the drive's stops, detected once for both the ZUPTs and the in-motion part's moving flag
+    stops = drive_stops(imu, args.static_duration) if args.zupt or imf is not None else None
+    zupt = zupt_mask(stops) if args.zupt else None
     args.aiding = read_aiding(args, inp, log)  # GNSS velocity, ...: (source, epochs) each
-    args.in_motion_kw = in_motion_kw(args.imu_model, models, imu, args.static_duration)
+    args.in_motion_kw = in_motion_kw(imf, stops)
     out = Path(args.out)
     # every output of this run appears at once when it completes (Ctrl-C leaves --out as it was); the files
     # an earlier nav run left (outage_<k>/ of more windows, plots of a run with plots) are removed then
@@ -241,44 +247,54 @@ def _run_and_write(out, args, imu, gnss, ref, init, config, models, model_name, 
     _print_summary(metrics)
 
 
-def in_motion_kw(model_path: str | None, models: list, imu, static_duration: float) -> dict:
-    """``run_ekf``'s in-motion arguments for a model file with an in-motion part (the in-motion noise while the
-    static detector sees the car moving, the static part at its stops: :func:`imunoise.inuse.stops.
-    moving_flag`, the stop logic ``online`` shares); {} otherwise (the run is exactly the static model's)."""
+def in_motion_part(model_path: str | None, models: list) -> InMotionFilter | None:
+    """The in-motion filter of a model file with an in-motion part (:func:`imunoise.nav.filter_model.in_motion_of`
+    on the static ``models``), None without one (the run is then exactly the static model's)."""
     if not model_path:
-        return {}
+        return None
     from imunoise.nav.filter_model import in_motion_of
 
-    imf = in_motion_of(model_path, models)
+    return in_motion_of(model_path, models)
+
+
+def drive_stops(imu, static_duration: float) -> Detection:
+    """The drive's stops (:func:`imunoise.detect.stop_mask.detect_drive_stops`: the static detector of
+    docs/guide/theory.rst, 'Static detection', λ0 learned from the first ``static_duration`` s, a stop), logged."""
+    from imunoise.detect.stop_mask import detect_drive_stops
+
+    gyro, accel = imu.rates()
+    det = detect_drive_stops(imu.t, accel, gyro, static_duration)
+    log.info(
+        "stops: λ0 = %.3f m/s², %d stops: %s",
+        det.config.lambda0,
+        len(det.segments),
+        ", ".join(f"{s.t0:.1f}+{s.duration:.1f}s" for s in det.segments),
+    )
+    return det
+
+
+def in_motion_kw(imf: InMotionFilter | None, stops: Detection | None) -> dict:
+    """``run_ekf``'s in-motion arguments for in-motion filter ``imf`` (:func:`in_motion_part`): the in-motion
+    noise while the static detector sees the car moving, the static part at its ``stops`` (:func:`drive_stops`;
+    the moving flag of :func:`imunoise.inuse.stops.moving_of`, the stop logic ``online`` shares); {} when ``imf``
+    is None (the run is exactly the static model's)."""
     if imf is None:
         return {}
-    from imunoise.inuse.stops import moving_flag
+    from imunoise.inuse.stops import moving_of
 
-    moving = moving_flag(imu, static_duration)
+    moving = moving_of(stops)
     log.info("in-motion part: white factors %s while moving (%.0f %% of the samples), static part at stops",
              [round(w ** 0.5, 2) for w in imf.white], 100.0 * float(moving.mean()))
     return {"in_motion": imf, "moving": moving}
 
 
-def zupt_mask(imu, static_duration: float) -> np.ndarray:
+def zupt_mask(stops: Detection) -> np.ndarray:
     """The samples where a ZUPT is due by the one rule of the batch filter and the online engine
-    (:func:`imunoise.nav.zupt_policy.zupt_due`) at the stops of the docs/guide/theory.rst, 'Static detection' static
-    detector, λ0 learned from the first ``static_duration`` s (a stop): a boolean mask over the IMU epochs, applied
-    by :func:`~imunoise.nav.ekf.run_ekf` with ``zupt_every = 1``."""
-    from imunoise.detect import DetectorConfig, detect_static, learn_lambda0
+    (:func:`imunoise.nav.zupt_policy.zupt_due`) at the drive's ``stops`` (:func:`drive_stops`): a boolean mask over
+    the IMU epochs, applied by :func:`~imunoise.nav.ekf.run_ekf` with ``zupt_every = 1``."""
     from imunoise.nav.zupt_policy import ZUPT_AFTER, ZUPT_EVERY, zupt_due
 
-    gyro, accel = imu.rates()
-    m = imu.t < imu.t[0] + static_duration
-    lam = learn_lambda0(accel[m])
-    det = detect_static(imu.t, accel, gyro, DetectorConfig(lambda0=lam))
-    log.info(
-        "ZUPT: λ0 = %.3f m/s², %d stops: %s",
-        lam,
-        len(det.segments),
-        ", ".join(f"{s.t0:.1f}+{s.duration:.1f}s" for s in det.segments),
-    )
-    return zupt_due(det.static, every=ZUPT_EVERY, after=ZUPT_AFTER)
+    return zupt_due(stops.static, every=ZUPT_EVERY, after=ZUPT_AFTER)
 
 
 def _print_summary(m: dict) -> None:

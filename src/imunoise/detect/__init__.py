@@ -5,7 +5,8 @@ threshold, segments, gate.
 streaming :class:`StaticDetector` (the only detector implementation) and :func:`detect_static` (that detector
 fed a whole record in chunks); ``both_ways``: :func:`~imunoise.detect.both_ways.detect_static_both_ways`, a whole
 record detected forward and time-reversed (no window lag at either end of a stop).
-``config``: :class:`DetectorConfig`. ``statistics``: Eq. 9 moving std, the
+``stop_mask``: :func:`~imunoise.detect.stop_mask.detect_drive_stops`, the stops of a drive that opens with a stop
+(λ_0 learned there). ``config``: :class:`DetectorConfig`. ``statistics``: Eq. 9 moving std, the
 Eq. 10 threshold, the gate and :func:`learn_lambda0`. ``results``: segments and detections. ``metrics``:
 scoring a mask against the truth. Every public name is importable from ``imunoise.detect`` (and from
 ``imunoise.detect.detector``).

@@ -13,6 +13,7 @@ function; :mod:`~imunoise.nav.streams` carries the measurements of a run as type
 :class:`~imunoise.nav.step_filter.LooselyCoupledEKF`, the online engine and the noise schedule share.
 """
 
+from imunoise.nav.aiding_sources import gnss_velocity_stream
 from imunoise.nav.align import coarse_align
 from imunoise.nav.defaults import EkfConfig, default_axis_models, load_axis_models
 from imunoise.nav.ekf import InitialState, LooselyCoupledEKF, run_ekf
@@ -23,4 +24,5 @@ from imunoise.nav.metrics import nav_errors, summarize
 __all__ = [
     "coarse_align", "EkfConfig", "default_axis_models", "load_axis_models", "InitialState",
     "LooselyCoupledEKF", "run_ekf", "nav_errors", "summarize", "NhcConfig", "GnssVelocity", "as_gnss_velocity",
+    "gnss_velocity_stream",
 ]

@@ -26,7 +26,7 @@ import numpy as np
 
 from imunoise.nav.streams import Epochs
 
-__all__ = ["AidingSource", "SOURCES", "source", "simulate_all", "write_simulated"]
+__all__ = ["AidingSource", "SOURCES", "source", "simulate_all", "write_simulated", "gnss_velocity_stream"]
 
 
 @dataclass(frozen=True)
@@ -55,6 +55,15 @@ def _read_gnss_vel(path, *, imu_t=None, gnss=None, option="--gnss-vel", topic=No
     v = as_gnss_velocity(f.t, f.vel_ned, f.sigma_ned)
     return Epochs("gnss_velocity", v.t, v.vel_ned, v.sigma_ned, v.gate_abs, v.max_reject, dropped=f.dropped,
                   source=str(path))
+
+
+def gnss_velocity_stream(vel, source: str = "") -> Epochs:
+    """The measurement stream of GNSS velocity fixes ``vel`` the caller holds
+    (:class:`~imunoise.nav.measurements.gnss_velocity.GnssVelocity`, e.g. from
+    :func:`~imunoise.nav.measurements.gnss_velocity.as_gnss_velocity`): its times, NED velocities and σ, its gate's
+    guards and its dropped rows, for ``run_ekf(..., streams=[gnss_velocity_stream(vel)])``."""
+    return Epochs("gnss_velocity", vel.t, vel.vel_ned, vel.sigma_ned, vel.gate_abs, vel.max_reject,
+                  dropped=vel.dropped, source=source)
 
 
 def _simulate_gnss_vel(drive, seed: int) -> Epochs:

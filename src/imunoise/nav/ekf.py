@@ -45,6 +45,7 @@ the non-zeros of Φ only.
 from __future__ import annotations
 
 import logging
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -57,7 +58,8 @@ from imunoise.nav.filter_loop import FilterArrays, ImuInput, Outputs, run_steps
 from imunoise.nav.measurements.gnss_velocity import GnssVelocity
 from imunoise.nav.solution import NavSolution
 from imunoise.nav.state import NAV, InitialState
-from imunoise.nav.step_filter import Innovation, LooselyCoupledEKF, new_outputs
+from imunoise.nav.step_filter import LooselyCoupledEKF, new_outputs
+from imunoise.nav.step_updates import Innovation
 from imunoise.nav.streams import Epochs, bind
 
 log = logging.getLogger(__name__)
@@ -108,7 +110,8 @@ class EkfResult(NavSolution):
         Estimated scale factors ŝ (gyro x, y, z, accel x, y, z; dimensionless), shape (N, 6), when
         ``EkfConfig.scale_factors``; else None.
     gnss_vel_status : numpy.ndarray or None
-        Per GNSS velocity fix (``run_ekf(gnss_vel=...)``): 1 used, 0 rejected by the χ² gate, −1 outside.
+        Per GNSS velocity fix of the deprecated ``run_ekf(gnss_vel=...)``: 1 used, 0 rejected by the χ² gate,
+        −1 outside (with ``streams=``: ``stream_status["gnss_velocity"]``).
     stream_status : dict
         Per measurement stream of ``run_ekf(streams=...)`` (by kind): the status of each epoch, as above (2: forced
         in after consecutive rejections).
@@ -172,6 +175,14 @@ def _mask_for(mask, t_all: np.ndarray, t: np.ndarray, what: str) -> np.ndarray:
     return np.ascontiguousarray(mask[idx])
 
 
+GNSS_VEL_DEPRECATED = (
+    "run_ekf(gnss_vel=...) is deprecated and will be removed in the next release: pass the velocity fixes as a "
+    "measurement stream, run_ekf(..., streams=[gnss_velocity_stream(vel)]) with "
+    "`from imunoise.nav import gnss_velocity_stream`; their status is then result.stream_status['gnss_velocity']"
+)
+"""The warning of the deprecated ``gnss_vel`` argument of :func:`run_ekf` (kept for one release)."""
+
+
 def run_ekf(
     imu,
     gnss,
@@ -197,10 +208,12 @@ def run_ekf(
     open. ``zupt`` (bool per IMU sample, e.g. the static epochs of :func:`imunoise.detect.detect_static`) applies
     a zero-velocity update (σ ``config.zupt_sigma``) every ``config.zupt_every`` samples while true.
     ``store_cov`` keeps the 9×9 navigation block of P at every epoch in ``result.cov`` (for NEES).
-    ``gnss_vel``: antenna velocity fixes (:class:`~imunoise.nav.measurements.gnss_velocity.GnssVelocity`, e.g.
-    from :func:`~imunoise.nav.measurements.gnss_velocity.as_gnss_velocity`), applied like the position fixes.
-    ``streams``: any other measurement streams (:class:`~imunoise.nav.streams.Epochs` of a registered kind, one
-    per kind; e.g. from :mod:`imunoise.nav.aiding_sources`), their status per epoch in ``result.stream_status``.
+    ``streams``: measurement streams besides the position fixes (:class:`~imunoise.nav.streams.Epochs` of a
+    registered kind, one per kind; e.g. from :mod:`imunoise.nav.aiding_sources`), their status per epoch in
+    ``result.stream_status``; antenna velocity fixes the caller holds go in as
+    ``streams=[gnss_velocity_stream(vel)]`` (:func:`~imunoise.nav.aiding_sources.gnss_velocity_stream`).
+    ``gnss_vel``: deprecated (a :class:`DeprecationWarning`; removed in the next release), the same fixes as
+    :class:`~imunoise.nav.measurements.gnss_velocity.GnssVelocity`, their status in ``result.gnss_vel_status``.
 
     Parameters
     ----------
@@ -300,8 +313,10 @@ def run_ekf(
     fixes = ekf.position_stream(gt, gllh, gsig, with_nll=with_nll)
     extra = list(streams)
     if gnss_vel is not None:
-        extra.append(Epochs("gnss_velocity", gnss_vel.t, gnss_vel.vel_ned, gnss_vel.sigma_ned, gnss_vel.gate_abs,
-                            gnss_vel.max_reject, dropped=gnss_vel.dropped))
+        from imunoise.nav.aiding_sources import gnss_velocity_stream
+
+        warnings.warn(GNSS_VEL_DEPRECATED, DeprecationWarning, stacklevel=2)
+        extra.append(gnss_velocity_stream(gnss_vel))
     streams = ekf.streams(fixes)
     for e in extra:
         if streams.get(e.kind) is not None:

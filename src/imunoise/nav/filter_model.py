@@ -188,13 +188,14 @@ class InMotionFilter(NamedTuple):
     static part, each axis with a moving bias wander plus its Gauss–Markov as the last AR1 (the moving state,
     evolving while moving, frozen at stops: :class:`imunoise.nav.noise_schedule.NoiseControl`); ``white``: per
     axis the white-PSD scale while moving (the white factor squared); ``gm_axes``: per axis whether it has the
-    moving state; ``gm_phi``: its φ per sample (0 where none; :class:`~imunoise.noise.model.Model` orders its AR1s,
-    so the state is found by φ)."""
+    moving state; ``gm_index``: per axis the index of the moving state's AR1 in its model's ``components`` (−1
+    where none): the one appended, wherever :class:`~imunoise.noise.model.Model`'s ordering of its AR1s by φ put
+    it, even beside a static AR1 of the same φ."""
 
     models: list
     white: tuple[float, ...]
     gm_axes: tuple[bool, ...]
-    gm_phi: tuple[float, ...]
+    gm_index: tuple[int, ...]
 
 
 def in_motion_filter(pairs: list, white_factor, gm_sigma, gm_tau_s) -> InMotionFilter:
@@ -209,16 +210,18 @@ def in_motion_filter(pairs: list, white_factor, gm_sigma, gm_tau_s) -> InMotionF
     white_factor, gm_sigma, gm_tau_s : sequence of 6 floats
         The white factor (σ scale), the moving GM σ [unit] and τ [s] per axis (σ = 0: no moving state).
     """
-    out, gm, phis = [], [], []
+    out, gm, index = [], [], []
     for (m, f), s, tau in zip(pairs, gm_sigma, gm_tau_s, strict=True):
-        phi = 0.0
+        k = -1
         if s > 0:
             phi = math.exp(-1.0 / (float(tau) * f))
-            m = Model([*m.components, AR1(phi=phi, sigma2=float(s) ** 2 * (1.0 - phi * phi))])
+            moving = AR1(phi=phi, sigma2=float(s) ** 2 * (1.0 - phi * phi))
+            m = Model([*m.components, moving])
+            k = next(i for i, c in enumerate(m.components) if c is moving)  # the object: φ may equal a static one's
         out.append((m, f))
         gm.append(bool(s > 0))
-        phis.append(phi)
-    return InMotionFilter(out, tuple(float(w) ** 2 for w in white_factor), tuple(gm), tuple(phis))
+        index.append(k)
+    return InMotionFilter(out, tuple(float(w) ** 2 for w in white_factor), tuple(gm), tuple(index))
 
 
 def in_motion_of(src, pairs: list) -> InMotionFilter | None:

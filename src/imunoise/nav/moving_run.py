@@ -24,16 +24,14 @@ __all__ = ["moving_control", "moving_bounds", "run_moving"]
 
 
 def moving_control(ekf, imf: InMotionFilter) -> NoiseControl:
-    """The noise control of filter ``ekf`` (built on ``imf.models``): the moving state of each axis is the AR1
-    with the moving φ (the last of equal ones: the one :func:`~imunoise.nav.filter_model.in_motion_filter`
-    appended; the model orders its AR1s)."""
+    """The noise control of filter ``ekf`` (built on ``imf.models``): the moving state of each axis is the
+    component :func:`~imunoise.nav.filter_model.in_motion_filter` appended (``imf.gm_index``), found in the
+    layout by its canonical name."""
     model, _ = ekf.kernel_parts()
     idx = np.full(6, -1, dtype=np.int64)
-    for a, ((m, _f), on, phi) in enumerate(zip(imf.models, imf.gm_axes, imf.gm_phi, strict=True)):
-        if on:
-            ar1 = [c for c in m.components if c.kind == "AR1"]
-            k = max(i for i, c in enumerate(ar1) if c.values[0] == phi)
-            idx[a] = ekf.layout.labels.index(f"{AXES[a]}.AR1_{k + 1}")
+    for a, ((m, _f), k) in enumerate(zip(imf.models, imf.gm_index, strict=True)):
+        if k >= 0:
+            idx[a] = ekf.layout.labels.index(f"{AXES[a]}.{m.component_names()[k]}")
     return NoiseControl(ekf.layout, model, ekf.dt_nom, idx)
 
 

@@ -1,19 +1,21 @@
 """Step filter :class:`LooselyCoupledEKF`, one call per sample or fix (docs/guide/theory.rst, 'Navigation filter').
 
 The equations are in :mod:`imunoise.nav.ekf`; the update functions it calls are the batch loop's
-(:mod:`imunoise.nav.filter_loop`), so a run fed sample by sample equals :func:`~imunoise.nav.ekf.run_ekf`.
+(:mod:`imunoise.nav.filter_loop`), so a run fed sample by sample equals :func:`~imunoise.nav.ekf.run_ekf`. The
+measurement updates (GNSS position and velocity, ZUPT, ZARU, a generic (dz, H, R)) are
+:class:`~imunoise.nav.step_updates.StepUpdates`, a mixin of the filter; propagation, spans, model swaps and the
+solution are here.
 """
 
 from __future__ import annotations
 
 import logging
-from typing import NamedTuple
 
 import numpy as np
 
 from imunoise.errors import DataError
 from imunoise.nav.defaults import EkfConfig, default_axis_models, normalize_axis_models
-from imunoise.nav.ekf_kernels import kf_update, sensor_errors_of
+from imunoise.nav.ekf_kernels import sensor_errors_of
 from imunoise.nav.error_states import ModelLayout, initial_covariance, scale_spec, swap_map
 from imunoise.nav.filter_loop import (
     C_NHC_REJECT,
@@ -28,38 +30,22 @@ from imunoise.nav.filter_loop import (
     predict_step,
     run_steps,
     span_outputs,
-    stream_update,
-    zupt_update,
 )
-from imunoise.nav.measurements.gnss_velocity import GnssVelocity, as_gnss_velocity
+from imunoise.nav.measurements.gnss_velocity import GnssVelocity
 from imunoise.nav.measurements.nhc import NHC_OFF, NhcConfig, NhcSettings
-from imunoise.nav.measurements.zupt import zaru
 from imunoise.nav.mechanization import make_nav, nav_euler
 from imunoise.nav.rehearsal import rehearse
-from imunoise.nav.state import A_LAST_DT, ACC_LEN, I_DTH, I_DV, I_PREV, N_NAV, InitialState, StateView
+from imunoise.nav.state import ACC_LEN, I_DTH, I_DV, I_PREV, N_NAV, InitialState, StateView
+from imunoise.nav.step_updates import Innovation, StepUpdates
 from imunoise.nav.streams import S_REJECT, Stream, StreamSet, make_stream
 
 log = logging.getLogger("imunoise.nav.ekf")  # the filter's one logger name
 _NONE = (np.empty(0), np.empty((0, 0)), np.empty((0, 0)))  # predict_step's "no NHC" arrays
 
-__all__ = ["LooselyCoupledEKF", "Innovation", "new_outputs"]
+__all__ = ["LooselyCoupledEKF", "new_outputs"]
 
 
-class Innovation(NamedTuple):
-    """One measurement update (filterpy's ``y``, ``S``, ``K``): its kind, time [s], innovation ``y`` = dz,
-    its covariance ``S`` = HPHᵀ + R before the update, the gain ``K`` (zeros when not used), the NIS and
-    whether the update was applied."""
-
-    kind: str
-    t: float
-    y: np.ndarray
-    S: np.ndarray
-    K: np.ndarray
-    nis: float
-    used: bool
-
-
-class LooselyCoupledEKF:
+class LooselyCoupledEKF(StepUpdates):
     """Step-by-step EKF (docs/guide/theory.rst, 'Navigation filter'); the batch form is :func:`~imunoise.nav.run_ekf`.
 
     ``propagate(dtheta, dv, t)`` takes one IMU increment over (t_prev, t]; ``update_gnss(t, llh, sigma)``
@@ -83,9 +69,9 @@ class LooselyCoupledEKF:
         ``(t, ν, S, used)`` of the last GNSS fix: innovation ν (NED m), its predicted covariance
         S = HPHᵀ + R before the update, and whether the gate let it in; read-only (for
         :mod:`imunoise.nav.adaptive`).
-    last_update : Innovation or None
-        The last measurement of any kind (:class:`Innovation`: kind, t, y, S, K, NIS, used), as filterpy's
-        ``KalmanFilter`` keeps ``y``, ``S`` and ``K``.
+    last_update : imunoise.nav.step_updates.Innovation or None
+        The last measurement of any kind (:class:`~imunoise.nav.step_updates.Innovation`: kind, t, y, S, K, NIS,
+        used), as filterpy's ``KalmanFilter`` keeps ``y``, ``S`` and ``K``.
     """
 
     def __init__(self, config: EkfConfig, axis_models, init: InitialState, *, imu_rate_hz: float = 100.0):
@@ -179,11 +165,6 @@ class LooselyCoupledEKF:
                   row0, imu.t.shape[0] if stop is None else stop)
         return c
 
-    def _record(self, kind: str, t: float, out: tuple) -> bool:
-        nis, ok, dz, S, K = out
-        self.last_update = Innovation(kind, float(t), dz, S, K, float(nis), bool(ok))
-        return bool(ok)
-
     # -- propagation ------------------------------------------------------------------------------
     def propagate(self, dtheta: np.ndarray, dv: np.ndarray, t: float) -> None:
         """One IMU increment (Δθ rad, Δv m/s over (t_prev, t]); covariance every ``cov_every`` samples.
@@ -238,44 +219,7 @@ class LooselyCoupledEKF:
         """Angular-rate gate (docs/guide/theory.rst, 'Static detection'): open = conservative model noise."""
         self.gate_open = bool(open_)
 
-    # -- measurements -----------------------------------------------------------------------------
-    def update_gnss(self, t: float, llh: np.ndarray, sigma_ned: np.ndarray) -> bool:
-        """GNSS antenna position fix (rad, rad, m) with 1σ NED (m). Returns whether it was used.
-
-        Parameters
-        ----------
-        t : float
-            Time of the fix [s], ≤ the filter time.
-        llh : numpy.ndarray
-            Antenna latitude, longitude [rad], height [m].
-        sigma_ned : numpy.ndarray
-            1σ North, East, Down [m]; non-finite values are replaced by ``config.gnss_sigma_nan``.
-
-        Returns
-        -------
-        bool
-            False when the χ² gate rejected it or the position is not finite.
-        """
-        llh = np.asarray(llh, dtype=float)
-        sig = np.asarray(sigma_ned, dtype=float).copy()
-        if not np.all(np.isfinite(llh)):
-            log.warning("GNSS fix at t=%.3f has non-finite position: ignored", t)
-            return False
-        bad = ~np.isfinite(sig)
-        sig[bad] = self.config.gnss_sigma_nan
-        sig = np.maximum(sig, self.config.gnss_sigma_floor)
-        st = self.position_stream([float(t)], llh, sig)
-        st.state[S_REJECT] = self._consecutive_reject
-        out = stream_update(self.arrays(), *self.kernel_parts(), st, 0, self.t)
-        nis, ok, dz, S, _ = out
-        self._record("gnss_position", t, out)
-        self.last_innovation = (float(t), dz.copy(), S, bool(ok))
-        self._consecutive_reject = int(st.state[S_REJECT])
-        if not ok:
-            self.n_rejected += 1
-            self.log_rejected(t, nis)
-        return bool(ok)
-
+    # -- spans of samples (the measurement updates one at a time: StepUpdates) ---------------------
     def run_span(self, imu: ImuInput, streams: StreamSet, rows: np.ndarray, pv: np.ndarray) -> np.ndarray:
         """Samples ``imu.t[1:]`` through the engine's step sequence (:func:`imunoise.nav.filter_loop.run_steps`:
         the propagation, NHC and measurement streams of :meth:`propagate`, :meth:`update_gnss` and
@@ -308,73 +252,6 @@ class LooselyCoupledEKF:
     def log_rejected(self, t: float, nis: float) -> None:
         """Log a GNSS fix the χ² gate rejected (here and for the online engine's kernel spans)."""
         log.info("GNSS fix at t=%.3f rejected (NIS %.1f > %.1f)", t, nis, self.config.chi2_gate)
-
-    def update_gnss_velocity(self, t: float, vel_ned: np.ndarray, sigma_ned: np.ndarray, **gate) -> bool:
-        """GNSS antenna velocity fix (NED m/s, 1σ NED m/s) at time t ≤ the filter time
-        (:mod:`imunoise.nav.measurements.gnss_velocity`; ``gate``: its ``gate_abs``, ``max_reject``); returns
-        whether the χ² gate let it in (or forced it)."""
-        fix = as_gnss_velocity([t], vel_ned, sigma_ned, **gate)
-        if fix.t.size == 0:
-            log.warning("GNSS velocity at t=%.3f is not finite: ignored", t)
-            return False
-        st = self.velocity_stream(fix)
-        st.state[S_REJECT] = self._vel_reject
-        ok = self._record("gnss_velocity", t, stream_update(self.arrays(), *self.kernel_parts(), st, 0, self.t))
-        self._vel_reject = int(st.state[S_REJECT])
-        return ok
-
-    def update(self, dz: np.ndarray, H: np.ndarray, R: np.ndarray, *, chi2: float = 0.0, force: bool = False,
-               kind: str = "custom") -> bool:
-        """A measurement given as filterpy's ``KalmanFilter.update`` takes it, in innovation form: ``dz`` = ẑ − z
-        (m,), ``H`` (m, n) with dz ≈ H δx over the error state (layout: :mod:`imunoise.nav.state`, model states
-        after ``N_NAV``), ``R`` (m, m). P is first propagated to the filter time; the update is the filter's one
-        Joseph update with closed-loop feedback, skipped when its NIS exceeds ``chi2`` (> 0) unless ``force``.
-        ``last_update`` keeps y, S, K. Returns whether it was applied."""
-        n = self.P.shape[0]
-        dz = np.ascontiguousarray(dz, dtype=float).reshape(-1)
-        H = np.ascontiguousarray(H, dtype=float).reshape(dz.size, n)
-        R = np.ascontiguousarray(R, dtype=float).reshape(dz.size, dz.size)
-        self.flush()
-        nis, ok, S, K = kf_update(self.P, self.nav, self.xm, dz, H, R, float(chi2), bool(force), 0.0)
-        return self._record(kind, self.t, (nis, ok, dz, S, K))
-
-    def zupt_update(self, sigma_v: float, chi2: float = 0.0) -> bool:
-        """Zero-velocity update: v^n = 0 with 1σ ``sigma_v`` (m/s) (:mod:`imunoise.nav.measurements.zupt`).
-
-        Parameters
-        ----------
-        sigma_v : float
-            1σ of the zero velocity [m/s].
-        chi2 : float
-            Skip the update when its NIS vᵀ(P_vv + σ²I)⁻¹v exceeds this (3 dof); 0 = always apply.
-
-        Returns
-        -------
-        bool
-            Whether the update was applied.
-        """
-        return self._record("zupt", self.t, zupt_update(self.arrays(), *self.kernel_parts(), float(sigma_v),
-                                                        float(chi2)))
-
-    def zaru_update(self, sigma_w: float) -> bool:
-        """Zero angular-rate update: corrected ω_ib^b equals the Earth rate in body, 1σ ``sigma_w`` (rad/s).
-
-        Parameters
-        ----------
-        sigma_w : float
-            1σ of the angular rate [rad/s].
-
-        Returns
-        -------
-        bool
-            Whether the update was applied.
-        """
-        self.flush()
-        dt = self.acc[A_LAST_DT] if self.acc[A_LAST_DT] > 0 else self.dt_nom
-        L = self.layout
-        dz, H, R = zaru(self.nav, self.P.shape[0], dt, L.hvec, L.axis_of, float(sigma_w))
-        nis, ok, S, K = kf_update(self.P, self.nav, self.xm, dz, H, R, 0.0, True, 0.0)
-        return self._record("zaru", self.t, (nis, ok, dz, S, K))
 
     # -- model swap -------------------------------------------------------------------------------
     def swap_model(self, axis_models, *, preserve: bool = False, imu_rate_hz: float | None = None) -> dict[str, int]:

@@ -47,12 +47,8 @@ model → (white, random walk) mapping the export uses too (with ``white_below_s
   nor about the white noise of a moving car (vibration grows with speed). ``floor="none"`` uses the
   static model as is (measured in the experiments: overconfident on the real drive).
 
-Swap (``swap="preserve"``, default; :meth:`LooselyCoupledEKF.swap_model` with ``preserve=True``): a refit
-of the same structure keeps every augmented state (estimate and covariance) and only changes Φ and Q; on the
-first swap the floor's slow Gauss–Markov state, common to the plain default and the new model, is kept too.
-``swap="reset"`` uses ``preserve=False`` (every new AR1 starts at 0 with its stationary variance): measured on
-20 simulated drives that reset at every stop costs +30 % mean outage drift against plain (6 drives:
-128 m reset, 105 m preserve, 109 m plain); on the real drive 225 m reset vs 215 m preserve.
+Swap: the kept stops go to the modeller and its due updates into the filter in :mod:`imunoise.online.model_swaps`
+(``swap="preserve"``, the default, keeps the augmented states of a refit; ``"reset"`` restarts them).
 
 Criterion. GOF always prefers the biggest nested model; WVIC (the WV's −2 log-likelihood + p·ln n, see
 docs/guide/theory.rst, 'Model selection') penalises size. Measured (20 simulated drives, real drive): GOF 88 m vs
@@ -76,7 +72,6 @@ sample) in one kernel call (:mod:`imunoise.online.chunks`), identical to the per
 
 from __future__ import annotations
 
-import logging
 import math
 import time
 from collections.abc import Sequence
@@ -96,17 +91,17 @@ from imunoise.online.engine_state import EngineState
 from imunoise.online.lambda0 import DetectorFeed
 from imunoise.online.learner.host import LearnerHost
 from imunoise.online.measurement_feed import MeasurementFeed
+from imunoise.online.model_swaps import apply_due_models, stop_completed
 from imunoise.online.modeller import StopModeller
 from imunoise.online.nav_output import build_result, fork_navigator, store_epoch
 from imunoise.online.nav_parts import ModellerViews, Zupt
-from imunoise.online.result import EpochStore, ModelUpdate, OnlineResult
+from imunoise.online.result import EpochStore, OnlineResult
 from imunoise.online.stops import StopGuard
 from imunoise.online.stream_checks import check_fix, check_increment
 from imunoise.online.to_filter import filter_axis_models
 
-log = logging.getLogger(__name__)
-
 __all__ = ["OnlineNavigator", "run_online"]
+
 
 class OnlineNavigator(ModellerViews):
     """Online GMWM INS/GNSS navigator (docs/guide/theory.rst, 'Online engine'). See the module docstring.
@@ -383,8 +378,8 @@ class OnlineNavigator(ModellerViews):
             if is_static and cfg.stop_guard == "nav":
                 self.guard.row(math.nan, math.nan, 0.0, math.nan)
         for s in segs:
-            self._segment(s, t)
-        self._poll(t)
+            stop_completed(self, s, t)
+        apply_due_models(self, t)
         if st.store is not None and st.started:
             store_epoch(st.store, self.ekf, t)
         # raw samples are needed only back to the start of a possible segment
@@ -392,43 +387,9 @@ class OnlineNavigator(ModellerViews):
             st.drop_old_rows(16)
 
     # -- modelling ------------------------------------------------------------------------------------
-    def _segment(self, seg: StaticSegment, t_now: float) -> None:
-        if seg.i0 - self.state.raw_t0 < 0:
-            log.warning("static segment %.2f–%.2f s starts before the kept raw data; skipped", seg.t0, seg.t1)
-            return
-        self.detected_segments.append(seg)
-        kept = self.guard.guard(seg, t_now, self.detector.config.min_duration_s)
-        for s in kept:
-            self._add_static(s, t_now)
-        if kept:
-            self.modeller.stop_done(t_now)
-
-    def _add_static(self, seg: StaticSegment, t_now: float) -> None:
-        """Hand the raw samples of one kept segment to the modeller."""
-        a, b = seg.i0 - self.state.raw_t0, seg.i1 - self.state.raw_t0
-        self.modeller.add_stop(seg, np.array(self.state.rows[a:b]), t_now)
-
-    def _poll(self, t: float) -> None:
-        self.learner.poll(self, t)
-        for upd in self.modeller.due(t):
-            self._swap(t, upd)
-
     def filter_models(self) -> list[tuple[Model, float]]:
         """The six (model, freq) the filter gets from the current fits (plain default where none)."""
         return filter_axis_models(self.fits, self.rate, self.config, floor=self.floor)
-
-    def _swap(self, t: float, upd: ModelUpdate) -> None:
-        models = self.filter_models()
-        self.static_models = models
-        motion = self.learner.motion
-        if motion is not None:
-            motion.static_changed(t, models)
-            models = motion.compose(models)
-        swap = self.ekf.swap_model if self.in_motion is None else self.in_motion.swap_into(self.ekf)
-        counts = swap(models, preserve=self.config.swap == "preserve", imu_rate_hz=self.rate)
-        self.current_models = models
-        self.state.event("swap", t, job=upd.kind, t_stop=upd.t_stop, filter_models=[str(m) for m, _ in models],
-                         **counts)
 
 
 def run_online(imu, gnss, init: InitialState, config: OnlineConfig | None = None, *, initial_models=None,
