@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from imunoise.cli.calibrate_in_motion import add_in_motion_options, check_in_motion, in_motion_stage
+from imunoise.cli.export import add_noise
 from imunoise.cli.export_gate import add_force, refusal, write_exports
 from imunoise.cli.fit import STREAM_ABOVE
 from imunoise.cli.options import (
@@ -97,6 +98,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--export", action="append", choices=EXPORT_TOOLS,
                    help="also write this export beside the model (repeatable); refused where no (N, K) pair stands "
                    "for the data (see --force)")
+    add_noise(p)
     add_force(p)
     add_target(p)
     p.add_argument("--out", help="output folder (default <first log name>_calib)")
@@ -161,6 +163,9 @@ def run(args: argparse.Namespace) -> int:
     _refuse_repeated_paths(args.logs)
     check_target(args)
     check_in_motion(args)
+    if args.noise == "static" and not args.export:
+        raise ModelError("--noise static chooses the values of the --export files: add --export TOOL (imu_model.json "
+                         "keeps the static and the in-motion part either way)")
     final = prepare_out_dir(args.out or f"{Path(args.logs[0]).name.split('.')[0]}_calib")
     cfg = DetectorConfig(window=args.window, min_duration_s=args.min_duration, margin_s=args.margin)
     columns = parse_column_map(args.columns) if args.columns else None
@@ -221,8 +226,9 @@ def run(args: argparse.Namespace) -> int:
             from imunoise.cli.export import report
             from imunoise.export import model_sensors
 
-            report(model_sensors(res.model, None, "max", None, None).values())
-            written[2:2] = write_exports(res.model, args.export, out, forced, source=str(final / "imu_model.json"))
+            report(model_sensors(res.model, None, "max", None, None, args.noise).values())
+            written[2:2] = write_exports(res.model, args.export, out, forced, source=str(final / "imu_model.json"),
+                                         noise=args.noise)
         written = [final / w.relative_to(out) for w in written]
     print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
     return 0
