@@ -112,6 +112,20 @@ def test_each_key_says_both_values_and_the_factor_with_its_interval(model, stati
     assert "IN-USE values" in text and "--noise static" in text and "2 drive(s), 0.5 h moving" in text
 
 
+def test_a_wander_without_a_k_factor_is_said_not_called_no_estimate(static_model):
+    """A wander estimated on an axis whose static filter model has no random walk has no K factor (nothing to
+    scale): the key keeps the static K and says the wander is there, with its numbers."""
+    m = copy.deepcopy(static_model)
+    m.in_motion = {"axes": {"accel_x": {"factor_N": {"value": 2.0, "ci95": [1.8, 2.2]},
+                                        "factor_K": {"value": None, "ci95": None},
+                                        "bias": {"model": "gm", "sigma": 0.055, "tau_s": 513.0}}}}
+    text = export_text(m, "kalibr")
+    line = next(ln for ln in text.splitlines() if ln.startswith("accelerometer_random_walk:"))
+    assert float(line.split(": ")[1].split(" ")[0]) == sensor_noise(static_model, "accel").random_walk
+    assert "accel_x (bias wander while moving GM sigma 0.055 m/s^2, tau 513 s has no K factor" in line
+    assert "accel_y (no in-motion estimate)" in line
+
+
 @pytest.mark.parametrize("fmt", ["vins", "lio-sam", "fast-lio"])
 def test_vins_lio_sam_fast_lio_say_the_static_value_in_their_own_convention(model, static_model, fmt):
     text = export_text(model, fmt)
