@@ -34,6 +34,9 @@ EXAMPLES = """examples:
   imunoise calibrate walk.csv --columns accel_x=0,accel_y=1,accel_z=2,gyro_x=3,gyro_y=4,gyro_z=5 \\
       --units gyro=deg/s,accel=g --time-column 6 --time-unit ms --out calib/
   imunoise calibrate imu_inc.txt --ref ref.nav --lambda0 0.05 --out calib/   # KF-GINS increments, fixed λ0
+  imunoise calibrate drive.bag --gnss drive.pos --in-motion --export kalibr --out calib/   # + in-use values
+  imunoise calibrate van1/ van2/ van3/ --in-motion --scheduler local --workers 3 --export vins --noise static \\
+      --out calib/                                 # the drives' filter runs on Dask; the stops' values exported
 
 Each log: λ0 learned on its quietest 10 s (--learn-s; --learn-from S: the first S s are a stop; --lambda0:
 fixed), the static detector run forward and time-reversed (a stop keeps no second of its departure), the
