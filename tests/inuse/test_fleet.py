@@ -66,3 +66,29 @@ def test_a_local_two_worker_cluster_gives_the_serial_nll_and_estimate_bit_for_bi
         assert mapper.worker_cpu_s > 0.0
     assert est_par.nll == est_serial.nll and est_par.nll_static == est_serial.nll_static
     assert est_par.part.to_dict() == est_serial.part.to_dict() and est_par.runs == est_serial.runs
+
+
+def test_lost_workers_are_one_line_naming_the_option():
+    """A cluster whose connection is lost mid-run (CommClosedError from gather) is a DataError naming --scheduler,
+    not a traceback; the per-drive tasks are submitted in drive order."""
+    from distributed.comm.core import CommClosedError
+
+    from imunoise.errors import DataError
+
+    class LostCluster:
+        submitted: list = []
+
+        def scatter(self, items, **kw):
+            return list(items)
+
+        def submit(self, fn, *args, **kw):
+            self.submitted.append(args[1])
+            return args[1]
+
+        def gather(self, futures):
+            raise CommClosedError("in <TCP (closed)>: Stream is closed")
+
+    mapper = DaskDriveMap(LostCluster())
+    with pytest.raises(DataError, match=r"^--scheduler: the Dask workers were lost .* without --scheduler$"):
+        mapper(lambda d, m, imf: 0.0, ["drive 1", "drive 2"], [np.ones(3, bool)] * 2, None)
+    assert LostCluster.submitted == ["drive 1", "drive 2"]

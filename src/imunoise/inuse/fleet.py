@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from imunoise.errors import DataError
 from imunoise.inuse.likelihood import DriveMapper
 
 __all__ = ["SEQUENTIAL", "DaskDriveMap", "fleet_mapper"]
@@ -44,13 +45,20 @@ class DaskDriveMap:
 
     def __call__(self, fn: Callable[[Any, np.ndarray, Any], float], drives: Sequence[Any],
                  moving: Sequence[np.ndarray], imf: Any) -> list[float]:
+        from distributed.comm.core import CommClosedError
+        from distributed.scheduler import KilledWorker
+
         if self._sent is None or self._sent[0] is not drives:
             scatter = self.client.scatter
             self._sent = (drives, scatter(list(drives), broadcast=True, hash=False),
                           scatter(list(moving), broadcast=True, hash=False))
         _, d_fut, m_fut = self._sent
         futures = [self.client.submit(_timed, fn, d, m, imf, pure=False) for d, m in zip(d_fut, m_fut, strict=True)]
-        out = self.client.gather(futures)  # in the order submitted: drive order
+        try:
+            out = self.client.gather(futures)  # in the order submitted: drive order
+        except (OSError, KilledWorker, CommClosedError) as exc:  # the cluster, not a drive: one line, not a trace
+            raise DataError(f"--scheduler: the Dask workers were lost during the drives' filter runs ({exc}); "
+                            "run again, or without --scheduler") from exc
         self.worker_cpu_s += sum(c for _, c in out)
         return [x for x, _ in out]
 
