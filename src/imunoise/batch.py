@@ -26,7 +26,6 @@ from __future__ import annotations
 import csv
 import glob
 import hashlib
-import os
 import time
 import warnings
 from collections.abc import Iterable, Sequence
@@ -259,59 +258,32 @@ def run_batch(
     core), ``"threads"`` (in-process, for debugging) or a ``dask.distributed`` scheduler address
     (``tcp://host:8786``). ``wall_s`` includes the cluster start-up.
     """
-    if n_workers is not None and (isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1):
-        raise ModelError(f"n_workers must be a whole number ≥ 1 (None = one per core), got {n_workers!r}")
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import as_completed
     from tqdm import tqdm
 
     from imunoise.io.atomic import staged_run
+    from imunoise.io.dask_client import dask_client
     from imunoise.io.interrupt import interrupt_point
 
     out_dir = Path(out_dir)
     t0 = time.perf_counter()
-    cluster = None
-    if scheduler in ("local", "threads"):
-        cluster = LocalCluster(
-            n_workers=n_workers or os.cpu_count() or 1,
-            threads_per_worker=1,
-            processes=scheduler == "local",
-            dashboard_address=None,
-            silence_logs=40,
-            preload=["imunoise.io.interrupt"] if scheduler == "local" else [],  # workers leave Ctrl-C to us
-        )
-        client = Client(cluster)
-    else:
-        try:
-            client = Client(scheduler, timeout="10s")
-        except OSError as exc:
-            raise DataError(f"cannot reach the Dask scheduler {scheduler!r}: {exc}") from exc
     rows: list[dict[str, Any]] = []
-
-    def stop() -> None:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-    try:
-        with staged_run(out_dir, BATCH_OUTPUTS) as stage:
-            try:
-                names = _names(paths)
-                where = str(stage.resolve())  # remote workers see the folder at the same path
-                futures = {client.submit(process_file, p, cfg, where, n, pure=False): p for p, n in zip(paths, names)}
-                bar = tqdm(total=len(futures), desc="files", disable=not progress, unit="file")
-                for fut in as_completed(list(futures)):
-                    try:
-                        rows += fut.result()
-                    except Exception as exc:  # noqa: BLE001 - a worker crash on one file is reported, not fatal
-                        blank = {k: "" for k in TABLE_FIELDS}
-                        rows.append({**blank, "file": futures[fut], "status": "error", "error": f"worker: {exc}"})
-                    bar.update(1)
-                    interrupt_point("batch-progress")
-                bar.close()
-            finally:
-                stop()  # no worker writes into the staging folder once it is removed (an interrupt)
-            res = _finish(rows, paths, stage, out_dir, time.perf_counter() - t0, scheduler)
-    except BaseException:
-        stop()  # the staging folder could not be made: the cluster still goes (closing twice is harmless)
-        raise
+    with staged_run(out_dir, BATCH_OUTPUTS) as stage:
+        # the client and the cluster close before the staging folder is kept or removed (an interrupt included):
+        # no worker writes into it afterwards
+        with dask_client(scheduler, n_workers) as client:
+            names = _names(paths)
+            where = str(stage.resolve())  # remote workers see the folder at the same path
+            futures = {client.submit(process_file, p, cfg, where, n, pure=False): p for p, n in zip(paths, names)}
+            bar = tqdm(total=len(futures), desc="files", disable=not progress, unit="file")
+            for fut in as_completed(list(futures)):
+                try:
+                    rows += fut.result()
+                except Exception as exc:  # noqa: BLE001 - a worker crash on one file is reported, not fatal
+                    blank = {k: "" for k in TABLE_FIELDS}
+                    rows.append({**blank, "file": futures[fut], "status": "error", "error": f"worker: {exc}"})
+                bar.update(1)
+                interrupt_point("batch-progress")
+            bar.close()
+        res = _finish(rows, paths, stage, out_dir, time.perf_counter() - t0, scheduler)
     return res

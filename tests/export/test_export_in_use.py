@@ -6,14 +6,12 @@ and lines); ``--noise static`` writes the static pair; a model without the part 
 from __future__ import annotations
 
 import copy
-import math
 import shutil
 
-import cv2
-import numpy as np
 import pytest
-from test_export_clients import FIX, KALIBR_KEYS, ORB_KEYS, kalibr_reads, openvins_reads
-from test_export_vins_lio import DT, KEYS, ros_reads, vins_reads, vins_step_cov
+from test_export_clients import FIX
+from test_export_vins_lio import KEYS
+from tool_reads import carried_nk, tool_reads
 
 from imunoise.cli import main
 from imunoise.errors import ModelError
@@ -93,15 +91,12 @@ def test_in_use_values_are_the_static_pair_times_the_factors(model, static_model
     assert infl.in_use.static.random_walk == pytest.approx(3.0 * st.random_walk, rel=1e-12)
 
 
-def test_kalibr_openvins_orbslam3_read_the_in_use_values(tmp_path, model, static_model):
-    (ng, kg), (na, ka) = expected(static_model, "gyro"), expected(static_model, "accel")
-    ours = dict(zip(KALIBR_KEYS, (ng, na, kg, ka)))
-    got = kalibr_reads(write_export(model, "kalibr", tmp_path / "imu.yaml"))
-    assert {k: got[k] for k in KALIBR_KEYS} == pytest.approx(ours, rel=1e-12)
-    got = openvins_reads(write_export(model, "openvins", tmp_path / "kalibr_imu_chain.yaml"))
-    assert {k: got[k] for k in KALIBR_KEYS} == pytest.approx(ours, rel=1e-12)
-    fs = cv2.FileStorage(export_text(model, "orbslam3"), cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
-    assert [fs.getNode(k).real() for k in ORB_KEYS] == pytest.approx([ng, na, kg, ka], rel=1e-12)
+@pytest.mark.parametrize("fmt", ["kalibr", "openvins", "orbslam3", "vins", "lio-sam", "fast-lio"])
+def test_every_tool_reads_the_in_use_values(tmp_path, model, static_model, fmt):
+    got = carried_nk(fmt, tool_reads(fmt, write_export(model, fmt, tmp_path / fmt)), F)
+    rel = 1e-6 if fmt == "lio-sam" else 1e-9  # LIO-SAM: nh.param<float>
+    for s in ("gyro", "accel"):  # the tool's covariance grows as the in-use continuous model's
+        assert got[s] == pytest.approx(expected(static_model, s), rel=rel)
 
 
 def test_each_key_says_both_values_and_the_factor_with_its_interval(model, static_model):
@@ -117,21 +112,23 @@ def test_each_key_says_both_values_and_the_factor_with_its_interval(model, stati
     assert "IN-USE values" in text and "--noise static" in text and "2 drive(s), 0.5 h moving" in text
 
 
+def test_a_wander_without_a_k_factor_is_said_not_called_no_estimate(static_model):
+    """A wander estimated on an axis whose static filter model has no random walk has no K factor (nothing to
+    scale): the key keeps the static K and says the wander is there, with its numbers."""
+    m = copy.deepcopy(static_model)
+    m.in_motion = {"axes": {"accel_x": {"factor_N": {"value": 2.0, "ci95": [1.8, 2.2]},
+                                        "factor_K": {"value": None, "ci95": None},
+                                        "bias": {"model": "gm", "sigma": 0.055, "tau_s": 513.0}}}}
+    text = export_text(m, "kalibr")
+    line = next(ln for ln in text.splitlines() if ln.startswith("accelerometer_random_walk:"))
+    assert float(line.split(": ")[1].split(" ")[0]) == sensor_noise(static_model, "accel").random_walk
+    assert "accel_x (bias wander while moving GM sigma 0.055 m/s^2, tau 513 s has no K factor" in line
+    assert "accel_y (no in-motion estimate)" in line
+
+
 @pytest.mark.parametrize("fmt", ["vins", "lio-sam", "fast-lio"])
-def test_vins_lio_sam_fast_lio_read_the_in_use_values(model, static_model, fmt):
+def test_vins_lio_sam_fast_lio_say_the_static_value_in_their_own_convention(model, static_model, fmt):
     text = export_text(model, fmt)
-    got = (vins_reads(cv2.FileStorage(text, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)) if fmt == "vins"
-           else ros_reads(text, fmt))
-    (ng, kg), (na, ka) = expected(static_model, "gyro"), expected(static_model, "accel")
-    if fmt == "vins":  # the tool's covariance growth per step is the in-use continuous model's
-        cov = np.diag(vins_step_cov(got["acc_n"], got["acc_w"], got["gyr_n"], got["gyr_w"]))
-        assert cov[6:9] == pytest.approx([na**2 * DT] * 3, rel=1e-9)
-        assert cov[3:6] == pytest.approx([ng**2 * DT] * 3, rel=1e-9)
-        assert cov[9:15] == pytest.approx([ka**2 * DT] * 3 + [kg**2 * DT] * 3, rel=1e-9)
-    elif fmt == "lio-sam":
-        assert [got[k] for k in KEYS[fmt]] == pytest.approx([na, ka, ng, kg], rel=1e-6)  # nh.param<float>
-    else:
-        assert [DT**2 * got[k] for k in KEYS[fmt]] == pytest.approx([x * x * DT for x in (na, ka, ng, kg)], rel=1e-9)
     static = tool_values(sensor_noise(static_model, "gyro"), fmt)
     line = next(ln for ln in text.splitlines() if ln.strip().startswith(KEYS[fmt][2] + ":"))
     assert float(line.split("; static ")[1].split(" ")[0]) == static[0] and "in-use N = " in line
@@ -167,17 +164,9 @@ def test_into_writes_the_in_use_values_with_their_comment(tmp_path, model, stati
     path = tmp_path / fixture
     shutil.copyfile(FIX / fixture, path)
     update_into(model, fmt, path)
+    got = carried_nk(fmt, tool_reads(fmt, path), F)
+    assert got["gyro"][0] == pytest.approx(expected(static_model, "gyro")[0], rel=1e-12)
     text = path.read_text()
-    ng = expected(static_model, "gyro")[0]
-    if fmt == "kalibr":
-        assert kalibr_reads(path)["gyroscope_noise_density"] == pytest.approx(ng, rel=1e-12)
-    elif fmt == "orbslam3":
-        assert cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ).getNode("IMU.NoiseGyro").real() == pytest.approx(ng)
-    elif fmt == "vins":
-        assert vins_reads(cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ))["gyr_n"] == pytest.approx(
-            ng * math.sqrt(2 * F), rel=1e-12)
-    else:
-        assert ros_reads(text, fmt)["gyr_cov"] == pytest.approx(ng * ng * F, rel=1e-12)
     assert "in-use N = " in text and "; static " in text
 
 

@@ -102,15 +102,15 @@ def ros_reads(text: str, fmt: str) -> dict[str, float]:
     return out
 
 
-def vins_step_cov(acc_n: float, acc_w: float, gyr_n: float, gyr_w: float) -> np.ndarray:
-    """One midPointIntegration() step's V*noise*V' (R = I, zero rates: the F-terms vanish)."""
+def vins_step_cov(acc_n: float, acc_w: float, gyr_n: float, gyr_w: float, dt: float = DT) -> np.ndarray:
+    """One midPointIntegration() step of ``dt`` [s]: V*noise*V' (R = I, zero rates: the F-terms vanish)."""
     noise = np.diag(np.repeat([acc_n**2, gyr_n**2, acc_n**2, gyr_n**2, acc_w**2, gyr_w**2], 3))
     V = np.zeros((15, 18))
     eye = np.eye(3)
-    V[3:6, 3:6] = V[3:6, 9:12] = 0.5 * eye * DT  # rotation from gyr_0, gyr_1
-    V[6:9, 0:3] = V[6:9, 6:9] = 0.5 * eye * DT  # velocity from acc_0, acc_1
-    V[0:3, 0:3] = V[0:3, 6:9] = 0.25 * eye * DT * DT  # position
-    V[9:12, 12:15] = V[12:15, 15:18] = eye * DT  # biases
+    V[3:6, 3:6] = V[3:6, 9:12] = 0.5 * eye * dt  # rotation from gyr_0, gyr_1
+    V[6:9, 0:3] = V[6:9, 6:9] = 0.5 * eye * dt  # velocity from acc_0, acc_1
+    V[0:3, 0:3] = V[0:3, 6:9] = 0.25 * eye * dt * dt  # position
+    V[9:12, 12:15] = V[12:15, 15:18] = eye * dt  # biases
     return V @ noise @ V.T
 
 

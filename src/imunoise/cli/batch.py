@@ -11,11 +11,13 @@ from imunoise.cli.options import (
     add_freq,
     add_model,
     add_out,
+    add_scheduler,
     add_time_options,
     add_topic,
     add_units,
     add_weights,
     check_freq,
+    check_scheduler,
     parse_units,
     prepare_out_dir,
 )
@@ -56,13 +58,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_weights(p)
     p.add_argument("--robust", action="store_true", help="robust (Huber) wavelet variance")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument(
-        "--scheduler",
-        default="local",
-        help="Dask scheduler (where the files are modelled): 'local' (LocalCluster of processes, default), "
-        "'sequential' (plain loop) or a scheduler address tcp://HOST:PORT",
-    )
-    p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+    add_scheduler(p, default="local", what="where the files are modelled")
     add_out(p)
     p.set_defaults(func=run)
 
@@ -72,8 +68,7 @@ def run(args: argparse.Namespace) -> int:
     from imunoise.io.tabular import parse_column_map
 
     check_freq(args.freq)
-    if args.workers is not None and args.workers < 1:
-        raise ModelError(f"--workers must be ≥ 1 worker process, got {args.workers} (omit it for one per core)")
+    check_scheduler(args)
     if args.decimate < 1:
         raise ModelError(f"--decimate must be a whole number ≥ 1, got {args.decimate}")
     paths = expand_paths(args.glob)

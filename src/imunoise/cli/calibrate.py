@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from imunoise.cli.calibrate_in_motion import add_in_motion_options, check_in_motion, in_motion_stage
+from imunoise.cli.export import add_noise
 from imunoise.cli.export_gate import add_force, refusal, write_exports
 from imunoise.cli.fit import STREAM_ABOVE
 from imunoise.cli.options import (
@@ -33,6 +34,9 @@ EXAMPLES = """examples:
   imunoise calibrate walk.csv --columns accel_x=0,accel_y=1,accel_z=2,gyro_x=3,gyro_y=4,gyro_z=5 \\
       --units gyro=deg/s,accel=g --time-column 6 --time-unit ms --out calib/
   imunoise calibrate imu_inc.txt --ref ref.nav --lambda0 0.05 --out calib/   # KF-GINS increments, fixed λ0
+  imunoise calibrate drive.bag --gnss drive.pos --in-motion --export kalibr --out calib/   # + in-use values
+  imunoise calibrate van1/ van2/ van3/ --in-motion --scheduler local --workers 3 --export vins --noise static \\
+      --out calib/                                 # the drives' filter runs on Dask; the stops' values exported
 
 Each log: λ0 learned on its quietest 10 s (--learn-s; --learn-from S: the first S s are a stop; --lambda0:
 fixed), the static detector run forward and time-reversed (a stop keeps no second of its departure), the
@@ -97,6 +101,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--export", action="append", choices=EXPORT_TOOLS,
                    help="also write this export beside the model (repeatable); refused where no (N, K) pair stands "
                    "for the data (see --force)")
+    add_noise(p)
     add_force(p)
     add_target(p)
     p.add_argument("--out", help="output folder (default <first log name>_calib)")
@@ -161,6 +166,9 @@ def run(args: argparse.Namespace) -> int:
     _refuse_repeated_paths(args.logs)
     check_target(args)
     check_in_motion(args)
+    if args.noise == "static" and not args.export:
+        raise ModelError("--noise static chooses the values of the --export files: add --export TOOL (imu_model.json "
+                         "keeps the static and the in-motion part either way)")
     final = prepare_out_dir(args.out or f"{Path(args.logs[0]).name.split('.')[0]}_calib")
     cfg = DetectorConfig(window=args.window, min_duration_s=args.min_duration, margin_s=args.margin)
     columns = parse_column_map(args.columns) if args.columns else None
@@ -221,8 +229,9 @@ def run(args: argparse.Namespace) -> int:
             from imunoise.cli.export import report
             from imunoise.export import model_sensors
 
-            report(model_sensors(res.model, None, "max", None, None).values())
-            written[2:2] = write_exports(res.model, args.export, out, forced, source=str(final / "imu_model.json"))
+            report(model_sensors(res.model, None, "max", None, None, args.noise).values())
+            written[2:2] = write_exports(res.model, args.export, out, forced, source=str(final / "imu_model.json"),
+                                         noise=args.noise)
         written = [final / w.relative_to(out) for w in written]
     print(f"\nwrote {', '.join(str(w) for w in written)}", file=sys.stderr)
     return 0

@@ -16,6 +16,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from imunoise.cli.options import add_scheduler, check_scheduler
 from imunoise.errors import DataError, ModelError
 
 __all__ = ["add_in_motion_options", "check_in_motion", "in_motion_stage", "plot_factors"]
@@ -34,6 +35,8 @@ def add_in_motion_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--static-duration", type=float, default=30.0, metavar="S",
                    help="seconds of still data at the IMU path start for levelling and gyro bias (for --in-motion "
                         "and its λ0; default 30)")
+    add_scheduler(g, default="sequential", what="--in-motion: where the drives' filter runs go, one task per drive "
+                  "and likelihood evaluation; the same estimate to the last bit")
 
 
 def _drive_files(args: argparse.Namespace) -> list[tuple[str, str, str, Any, float]]:
@@ -58,8 +61,13 @@ def _drive_files(args: argparse.Namespace) -> list[tuple[str, str, str, Any, flo
 
 
 def check_in_motion(args: argparse.Namespace) -> None:
-    """Refuse --in-motion without GNSS before any work (one line naming the fix)."""
+    """Refuse --in-motion without GNSS, and --scheduler without --in-motion, before any work (one line naming
+    the fix)."""
+    check_scheduler(args)
     if not getattr(args, "in_motion", False):
+        if args.scheduler != "sequential" or args.workers is not None:
+            raise ModelError("--scheduler and --workers run the drives of --in-motion on Dask: add --in-motion, or "
+                             "drop them")
         return
     no_gnss = [p for p in args.logs if not (Path(p).is_dir() and (Path(p) / "dataset.json").exists())]
     if no_gnss and not args.gnss:
@@ -92,14 +100,18 @@ def in_motion_stage(args: argparse.Namespace, model: Any) -> Any:
     import sys
 
     from imunoise.inuse import estimate_in_motion, summary_lines
+    from imunoise.inuse.fleet import fleet_mapper
 
     drives = [_drive(*f, args.static_duration) for f in _drive_files(args)]
     rate = float(drives[0].imu.rate_hz)
-    est = estimate_in_motion(drives, model, freq=rate, seed=args.seed, names=[d.name for d in drives])
+    with fleet_mapper(args.scheduler, args.workers) as mapper:
+        est = estimate_in_motion(drives, model, freq=rate, seed=args.seed, names=[d.name for d in drives],
+                                 mapper=mapper)
     model.in_motion = est.part.to_dict()
     ev = est.part.evidence
+    where = "" if mapper is None else f" + {mapper.worker_cpu_s:.1f} s on the Dask workers ({args.scheduler})"
     print(f"\nin-motion noise ({len(drives)} drive(s), {ev['hours_moving'] * 60:.1f} min moving, GNSS σ "
-          f"{ev['gnss_sigma_m']:.2f} m; {est.runs} filter runs, {est.cpu_s:.1f} s CPU):", file=sys.stdout)
+          f"{ev['gnss_sigma_m']:.2f} m; {est.runs} filter runs, {est.cpu_s:.1f} s CPU{where}):", file=sys.stdout)
     for line in summary_lines(est.part):
         print("  " + line)
     return est

@@ -118,12 +118,22 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="ORB-SLAM3: write IMU.Frequency as an integer, as legacy settings (no File.version, ORB-SLAM3 <= 0.4) "
         "need; --into detects such files by itself",
     )
-    p.add_argument("--noise", choices=("in-use", "static"), default="in-use",
+    add_noise(p)
+    add_force(p)
+    p.set_defaults(func=run)
+
+
+NOISE_CHOICES = ("in-use", "static")
+"""The ``--noise`` choices of ``export`` and ``calibrate --export`` (those of :mod:`imunoise.export.in_use`;
+tests/export checks they agree)."""
+
+
+def add_noise(p: argparse.ArgumentParser) -> None:
+    """``--noise in-use|static``: which pair the written files carry (``export``, ``calibrate --export``)."""
+    p.add_argument("--noise", choices=NOISE_CHOICES, default="in-use",
                    help="in-use (default): the values while moving where the model has an in-motion part (calibrate "
                    "--in-motion; each key's comment gives the in-use/static factor with its 95 %% CI and the static "
                    "value); static: the stops' values. A model without the part writes its static values either way")
-    add_force(p)
-    p.set_defaults(func=run)
 
 
 def load_for_export(path: str | Path):

@@ -51,6 +51,8 @@ __all__ = [
     "add_weights",
     "add_out",
     "add_nav_input_options",
+    "add_scheduler",
+    "check_scheduler",
     "parse_units",
     "imu_source",
     "check_freq",
@@ -406,3 +408,20 @@ MAX_IMU_GAP_S = 1.0
 EXPORT_TOOLS = ("kalibr", "openvins", "orbslam3", "vins", "lio-sam", "fast-lio", "json")
 """The ``--export``/``--to`` choices of ``fit``, ``calibrate`` and ``export`` (the formats of
 :mod:`imunoise.export.formats`; tests/export checks they agree)."""
+
+
+def add_scheduler(p: argparse.ArgumentParser, *, default: str, what: str) -> None:
+    """``--scheduler`` and ``--workers``: where ``what`` runs on Dask (:func:`imunoise.io.dask_client.dask_client`;
+    ``batch``'s files, ``calibrate --in-motion``'s drives); checked by :func:`check_scheduler`."""
+    p.add_argument("--scheduler", default=default,
+                   help=f"Dask scheduler ({what}): 'local' (LocalCluster of --workers processes), 'sequential' "
+                   f"(plain loop) or a scheduler address tcp://HOST:PORT (default {default})")
+    p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+
+
+def check_scheduler(args: argparse.Namespace) -> None:
+    """``--workers``: at least one worker process."""
+    if args.workers is not None and args.workers < 1:
+        from imunoise.errors import ModelError
+
+        raise ModelError(f"--workers must be ≥ 1 worker process, got {args.workers} (omit it for one per core)")

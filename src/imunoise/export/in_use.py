@@ -71,7 +71,7 @@ class Factor:
 class InUse:
     """The in-use side of one sensor's pair: ``static`` the static SensorNoise (as written with ``--noise static``),
     the combined factors of N and K (None when no axis has one), and per slot the axes left at their static value
-    with why (``"bounded: ..."`` or ``"no in-motion estimate"``)."""
+    with why (``"bounded: ..."``, a wander without a K factor, or ``"no in-motion estimate"``)."""
 
     static: SensorNoise
     factor_N: Factor | None
@@ -143,7 +143,18 @@ def _axis_factor(part: Mapping[str, Any], axis: str, slot: str) -> tuple[Factor 
         unit = "rad/s" if sensor_of(axis, None) == "gyro" else "m/s^2"
         up_text = f"{what} <= {float(up):.4g} {unit}" if up is not None else f"{what} not even bounded"
         return None, f"bounded ({up_text}: {b.get('reason') or 'no reason recorded'})"
+    wander = ax.get("bias") if slot == "K" else None
+    if isinstance(wander, Mapping) and wander.get("model") in ("gm", "rw"):  # a wander, but no static K to scale
+        return None, (f"bias wander while moving {_wander_text(wander, axis)} has no K factor: the static model "
+                      "has no random walk on this axis to scale; see the model file's in_motion part")
     return None, "no in-motion estimate"
+
+
+def _wander_text(w: Mapping[str, Any], axis: str) -> str:
+    unit = "rad/s" if sensor_of(axis, None) == "gyro" else "m/s^2"
+    if w.get("model") == "gm":
+        return f"GM sigma {float(w['sigma']):.4g} {unit}, tau {float(w['tau_s']):.4g} s"
+    return f"RW k {float(w['k']):.4g} {unit}/sqrt(s)"
 
 
 def _combine(values: np.ndarray, how: str) -> float:

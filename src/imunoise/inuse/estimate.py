@@ -221,7 +221,7 @@ def _scan_up(fun, x0: float, limit: float, level: float, step: float = 1.6) -> f
 
 def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float, seed: int | None = None,
                        groups: Sequence[str] = ("gyro", "accel"), maxfev: int = 40, h: float = 0.25,
-                       names: Sequence[str] | None = None) -> InMotionEstimate:
+                       names: Sequence[str] | None = None, mapper: Any = None) -> InMotionEstimate:
     """Estimate the in-motion noise from whole GNSS-aided drives (module docstring).
 
     Parameters
@@ -245,6 +245,9 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
         Step of the Hessian's differences in the log parameters.
     names : sequence of str, optional
         The drives' names for the evidence.
+    mapper : DriveMapper, optional
+        Where each evaluation's drive runs go (:class:`~imunoise.inuse.likelihood.DriveLikelihood`; on Dask:
+        :func:`imunoise.inuse.fleet.fleet_mapper`); the estimate is the same.
 
     Returns
     -------
@@ -252,7 +255,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     """
     del seed
     t0 = time.process_time()
-    lik = DriveLikelihood(list(drives), static_pairs(static_model, freq))
+    lik = DriveLikelihood(list(drives), static_pairs(static_model, freq), mapper=mapper)
     tau_max = max(3600.0 * lik.hours_moving() * 3.0, 10.0 * TAU_MIN_S)
     th = Theta()
     nll_static = lik.nll(th)

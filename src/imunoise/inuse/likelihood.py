@@ -13,13 +13,17 @@ A drive is any object with what the experiments' :class:`~imunoise.experiments.c
 likelihood is that of a later part of the drive) and optionally a stop mask
 per IMU sample ``static_truth`` (else the static detector finds the stops: :func:`imunoise.inuse.stops.
 moving_flag`).
+
+The drives' runs of one evaluation are independent: an optional ``mapper`` runs them elsewhere (on Dask:
+:mod:`imunoise.inuse.fleet`) and hands back the per-drive NLLs in drive order, which are summed in that order
+as the serial loop sums them, so the pooled NLL is the same to the last bit.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -30,7 +34,7 @@ from imunoise.inuse.stops import moving_flag
 from imunoise.nav.ekf import run_ekf
 from imunoise.nav.filter_model import in_motion_filter
 
-__all__ = ["Theta", "DriveLikelihood", "drive_moving"]
+__all__ = ["Theta", "DriveLikelihood", "DriveMapper", "drive_moving", "drive_nll"]
 
 
 @dataclass(frozen=True)
@@ -54,13 +58,32 @@ def drive_moving(drive: Any) -> np.ndarray:
     return moving_flag(drive.imu)
 
 
+def drive_nll(drive: Any, moving: np.ndarray, imf: Any) -> float:
+    """The innovation NLL of one drive's scored fixes under the in-motion filter ``imf`` (inf when the filter
+    fails under it: a θ that makes the filter diverge explains nothing)."""
+    try:
+        r = run_ekf(drive.imu, drive.gnss, drive.init, drive.ekf_config(), in_motion=imf, moving=moving,
+                    with_nll=True)
+    except (DataError, np.linalg.LinAlgError):
+        return math.inf
+    t_after = (getattr(drive, "extra", None) or {}).get("score_after_s", -math.inf)
+    return float(np.nansum(r.gnss_nll[np.asarray(r.gnss_t) >= t_after]))
+
+
+DriveMapper = Callable[[Callable[[Any, np.ndarray, Any], float], Sequence[Any], Sequence[np.ndarray], Any],
+                       Sequence[float]]
+"""``mapper(drive_nll, drives, moving, imf)`` → per drive ``drive_nll(drive, moving, imf)``, in drive order."""
+
+
 @dataclass
 class DriveLikelihood:
     """The pooled NLL of the GNSS fixes of ``drives`` (module docstring) under the static filter ``pairs`` (the six
-    (model, freq) pairs of the door) plus an in-motion :class:`Theta`; ``nll(theta)`` is cached."""
+    (model, freq) pairs of the door) plus an in-motion :class:`Theta`; ``nll(theta)`` is cached. ``mapper``
+    (a :data:`DriveMapper`): where the drives' runs go (default: one after the other, here)."""
 
     drives: Sequence[Any]
     pairs: list
+    mapper: DriveMapper | None = None
     cache: dict = field(default_factory=dict)
     runs: int = 0
     cpu_s: float = 0.0
@@ -77,15 +100,15 @@ class DriveLikelihood:
             return self.cache[k]
         t0 = time.process_time()
         imf = in_motion_filter(self.pairs, theta.white, theta.sigma, theta.tau_s)
+        if self.mapper is None:  # lazily: the runs stop at the first drive that fails
+            nlls = (drive_nll(d, mv, imf) for d, mv in zip(self.drives, self.moving, strict=True))
+        else:
+            nlls = self.mapper(drive_nll, self.drives, self.moving, imf)
         total = 0.0
-        for d, mv in zip(self.drives, self.moving, strict=True):
-            try:
-                r = run_ekf(d.imu, d.gnss, d.init, d.ekf_config(), in_motion=imf, moving=mv, with_nll=True)
-            except (DataError, np.linalg.LinAlgError):  # a filter that diverges under θ: θ explains nothing
-                total = math.inf
+        for x in nlls:  # in drive order, whoever ran them
+            total += x
+            if math.isinf(x):
                 break
-            t_after = (getattr(d, "extra", None) or {}).get("score_after_s", -math.inf)
-            total += float(np.nansum(r.gnss_nll[np.asarray(r.gnss_t) >= t_after]))
         self.runs += len(self.drives)
         self.cpu_s += time.process_time() - t0
         self.cache[k] = total
