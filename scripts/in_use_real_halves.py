@@ -122,6 +122,12 @@ def main(argv=None) -> int:
     regimes = [parse_gnss(g) for g in (args.gnss_regime or ["rtk", "noise:1.5,3,1"])]
     seeds = list(range(args.noise_seed0, args.noise_seed0 + args.noise_seeds))
     methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
+    if args.seed_role == "report":  # refused before anything runs: a report label must be true
+        from imunoise.experiments.report_tables import seed_role_problem
+
+        why = seed_role_problem(sim=False, noise_seeds=seeds if any(r.random for r in regimes) else ())
+        if why:
+            raise SystemExit(f"--seed-role report: {why}")
     pairs = [(a, b) for a, b in PAIRS if a in methods and b in methods and b not in ("plain", "static_var")]
     t0, c0 = time.perf_counter(), time.process_time()
     runs = {}
