@@ -129,6 +129,10 @@ def main(argv=None) -> int:
         if why:
             raise SystemExit(f"--seed-role report: {why}")
     pairs = [(a, b) for a, b in PAIRS if a in methods and b in methods and b not in ("plain", "static_var")]
+    import subprocess
+
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                            cwd=Path(__file__).parent).stdout.strip()  # the code the numbers come from
     t0, c0 = time.perf_counter(), time.process_time()
     runs = {}
     for learn in ("first", "second"):
@@ -146,10 +150,6 @@ def main(argv=None) -> int:
     import resource
 
     ch = resource.getrusage(resource.RUSAGE_CHILDREN)
-    import subprocess
-
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent).stdout.strip()
     meta = {"command": " ".join(["python", *sys.argv]), "commit": commit, "data": data, "outages": spec.label,
             "noise_seeds": seeds, "seed_role": args.seed_role, "wall_s": time.perf_counter() - t0,
             "cpu_s": time.process_time() - c0 + ch.ru_utime + ch.ru_stime}
