@@ -114,6 +114,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--learn-from-logs", nargs="+", default=None, metavar="DATASET",
                    help="real data, dense-window evidence: dataset folders of the same vehicle's other drives, which "
                    "the in_use method learns its model on (the drive of --data is only navigated)")
+    p.add_argument("--learn-half", choices=("first", "second"), default=None,
+                   help="real data, dense-window evidence: in_use learns on this half of the --data drive (cut midway "
+                   "between the start and the last fix; every run starts at the drive's alignment) and only the "
+                   "other half is scored: the windows whose outage lies in it and its NEES epochs")
     p.add_argument("--out", required=True, help="output folder")
     add_deprecated_alias(p, "--imu", "--imu-model")
     add_deprecated_alias(p, "--gnss", "--gnss-regime")
@@ -278,6 +282,9 @@ def _check_vehicle(args: argparse.Namespace, evidence: bool) -> None:
     if args.learn_from_logs and (args.sim or not evidence):
         raise ModelError("--learn-from-logs gives in_use its drives on real data in the dense-window evidence "
                          "(--data ... --outages dense:L:S); on the simulator use --vehicle-drives K")
+    if args.learn_half and (args.sim or not evidence):
+        raise ModelError("--learn-half cross-fits on the halves of a real drive in the dense-window evidence "
+                         "(--data ... --outages dense:L:S); on the simulator use --vehicle-drives K")
     if "in_use" in (args.methods or "").split(",") and args.sim and args.vehicle_drives < 2:
         raise ModelError("--methods in_use learns on a vehicle's earlier drives: give --vehicle-drives 2 or more")
     if args.vehicle_drives > 1 and args.imu_noise:
@@ -382,7 +389,7 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float, final: Path) -
         n_jobs = len(methods) * sum(len(noise_seeds) if r.random else 1 for r in regimes)
         bar, step = _progress(n_jobs, "evidence")
         res = dense.run_real(data, start=args.start, progress=step, streams=stream_keys(args),
-                             learn_from=args.learn_from_logs or (), **kw)
+                             learn_from=args.learn_from_logs or (), learn_half=args.learn_half, **kw)
         title = f"imunoise: dense-window evidence on {data}"
     bar.close()
     res["elapsed_s"] = time.perf_counter() - t0

@@ -126,11 +126,14 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
              pairs: Sequence[tuple[str, str]] = (), workers: int = 2, start: float | None = None,
              base: OnlineConfig | None = None, n_boot: int = 2000, boot_seed: int = 0,
              paper_windows: bool = True, progress: Callable[[str], None] | None = None,
-             streams: Sequence[str] = (), learn_from: Sequence[str | Path] = ()) -> dict:
+             streams: Sequence[str] = (), learn_from: Sequence[str | Path] = (),
+             learn_half: str | None = None) -> dict:
     """Dense-window evidence on a real drive: every method × regime × noise seed (``rtk`` once); ``streams``: the
     manifest's measurement sources every run applies (:func:`~imunoise.experiments.common.load_real`).
     ``learn_from``: the dataset folders of the same vehicle's other drives that ``in_use`` learns on
-    (``--learn-from-logs``), each in the run's GNSS regime and noise seed.
+    (``--learn-from-logs``), each in the run's GNSS regime and noise seed. ``learn_half`` ("first" or "second",
+    ``--learn-half``): ``in_use`` learns on that half of this drive and only the other half is scored, its windows
+    and NEES epochs (:mod:`imunoise.experiments.drive_halves`).
 
     Returns the results dict (``paired`` list, per-window values, per-regime summaries)."""
     from imunoise.experiments.common import load_real
@@ -139,17 +142,32 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
     sc = load_real(data_dir, start=start, streams=streams)
     dense = dense_windows(sc, spec)
     paper = list(sc.windows) if paper_windows else []
-    _REAL.update(sc=sc, regimes=list(regimes), windows=dense + paper, base=base, cache={}, in_use={})
+    halves = None
+    if learn_half is not None:  # only the other half is scored: its windows and NEES epochs
+        from imunoise.experiments import drive_halves as dh
+
+        if learn_from:
+            raise ModelError("--learn-half learns in_use on a half of the --data drive itself; drop --learn-from-logs")
+        halves = {"learn": dh.check_half(learn_half), "spans_s": dh.half_spans(sc)}
+        span = halves["spans_s"][dh.other_half(learn_half)]
+        dense, paper = dh.windows_in(dense, span), dh.windows_in(paper, span)
+        if not dense:
+            raise ModelError(f"--learn-half {learn_half}: no dense window ({spec.label}) lies in the scored half "
+                             f"[{span[0]:.1f}, {span[1]:.1f}) s; use shorter windows or a shorter lead")
+    _REAL.update(sc=sc if halves is None else dh.scored_half(sc, learn_half), regimes=list(regimes),
+                 windows=dense + paper, base=base, cache={}, in_use={})
     if "in_use" in methods:  # learned once per GNSS realisation, before forking
         from imunoise.experiments.in_use_method import learn_in_use
 
-        if not learn_from:
+        if not (learn_from or halves):
             raise ModelError("in_use on real data learns on other drives of the same vehicle: give them with "
-                             "--learn-from-logs DATASET...")
+                             "--learn-from-logs DATASET..., or on one half of this drive with --learn-half")
         others = [load_real(p) for p in learn_from]
         for ri, rg in enumerate(regimes):
             for s in (noise_seeds if rg.random else [0]):
-                _REAL["in_use"][(ri, s)] = learn_in_use([(o, rg.apply(o.gnss, s)) for o in others], base)
+                _REAL["in_use"][(ri, s)] = (
+                    learn_in_use([(o, rg.apply(o.gnss, s)) for o in others], base) if halves is None
+                    else dh.learn_on_half(sc, rg.apply(sc.gnss, s), learn_half, base, _REAL["cache"]))
     for m in methods:  # fixed fits once, before forking: the workers inherit them
         if base_method(m) in ("av", "em", "gmwm_hindsight", "static_var_hindsight"):
             hindsight_fits(sc, base_method(m), _REAL["cache"])
@@ -175,6 +193,8 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
     res["paper_windows"] = [list(w) for w in paper]
     res["learn_from_logs"] = [str(p) for p in learn_from]
     res["in_use_models"] = _in_use_models(drives, regimes)
+    if halves is not None:
+        res["halves"] = halves
     return res
 
 

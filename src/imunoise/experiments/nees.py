@@ -29,12 +29,14 @@ def scored_epochs(sc: Any, t: np.ndarray, skip_s: float = SKIP_S) -> tuple[np.nd
     """The scored epochs of scenario ``sc`` on the filter's samples ``t``: (sample indices, reference indices),
     one reference epoch per second (the first of each whole second: the integer one of the simulator's 10 Hz
     reference) at least ``skip_s`` after the start (``sc.init.t``), each with the first sample at or after it
-    (as :func:`imunoise.nav.metrics.nav_errors` pairs them; 1 µs tolerance)."""
+    (as :func:`imunoise.nav.metrics.nav_errors` pairs them; 1 µs tolerance). With ``extra["score_span_s"]`` = (a, b)
+    only the epochs in [a, b) (one half of the drive, :mod:`imunoise.experiments.drive_halves`)."""
     rt = np.asarray(sc.ref.t, dtype=float)
     t = np.asarray(t, dtype=float)
     sec = np.floor(rt + 1e-6)
     first = np.concatenate([[True], sec[1:] != sec[:-1]])
-    j = np.flatnonzero(first & (rt >= float(sc.init.t) + skip_s) & (rt <= t[-1] + 1e-6))
+    a, b = (getattr(sc, "extra", None) or {}).get("score_span_s", (-np.inf, np.inf))
+    j = np.flatnonzero(first & (rt >= float(sc.init.t) + skip_s) & (rt <= t[-1] + 1e-6) & (rt >= a) & (rt < b))
     i = np.searchsorted(t, rt[j] - 1e-6, side="left")
     ok = i < t.size
     return i[ok].astype(int), j[ok].astype(int)
