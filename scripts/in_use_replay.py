@@ -242,6 +242,12 @@ def main(argv: list[str]) -> int:
                 f"same, development) or at least {a.seeds}")
     if "in_use" not in a.methods.split(",") or a.vehicle_drives < 2:
         p.error("the carry-over evidence needs --methods with in_use and --vehicle-drives 2 or more")
+    if a.seed_role == "report" and not a.pool_only:  # a report label must be true (the command's own rule)
+        from imunoise.experiments.report_tables import seed_role_problem
+
+        why = seed_role_problem(sim=True, seeds=range(a.seed0, a.seed0 + a.unit_step * len(a.recordings) + a.seeds))
+        if why:
+            p.error(f"--seed-role report: {why}")
     root = Path(a.out)
     root.mkdir(parents=True, exist_ok=True)
     results, labels, log = [], [], []
