@@ -233,10 +233,14 @@ def test_replayed_vehicles_that_do_not_fit_are_refused_in_one_line(tmp_path, cap
 
     path = _replay_file(tmp_path)  # three stretches of 200 s: one vehicle of two drives, not two
     base = ["experiment", "online", "--sim", "--imu-noise", path, "--duration", "200", "--stops", "1", "--outages",
-            "dense:30:30:60", "--methods", "plain", "--vehicle-drives", "2", "--workers", "1"]
+            "dense:30:30:60", "--methods", "plain", "--vehicle-drives", "2", "--workers", "1", "--seed0", "4800"]
     code = main([*base, "--seeds", "2", "--out", str(tmp_path / "a")])
     one_line_error(code, capsys.readouterr().err, "--vehicle-drives 2", "--seeds ≤ 1", "--duration", path)
     assert not (tmp_path / "a").exists()
+    assert main([*base, "--seeds", "1", "--bootstrap", "200", "--out", str(tmp_path / "b")]) == 0  # one fits
+    res = json.loads((tmp_path / "b" / "results.json").read_text())
+    assert res["vehicle_drives"] == 2 and res["scenario"]["imu_noise_drives"] == 2
+    assert res["vehicles"] == {"4800": [4800 + dense.PRIOR_SEED_OFFSET, 4800]}
     from imunoise.experiments.common import imu_noise_kwargs
 
     with pytest.raises(ModelError, match="--methods gmwm_dyn_warm3 learns on 3 earlier drive.*--vehicle-drives 4"):
