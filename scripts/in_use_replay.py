@@ -94,11 +94,12 @@ def pooled_ratios(results: list[dict], labels: list[str], n_boot: int = 2000) ->
     return out
 
 
-def _interval_kind(iv: dict | None) -> str:
+def _interval_kind(iv: dict | None, factor: str = "white_factor") -> str:
     """'in' / 'out' (a 95 % interval containing 1 or not), 'one' (exactly 1 [1, 1]: no wander identified),
-    'bound' (a value the data do not identify: no interval) or 'none' (not given at all)."""
+    'bound' (a white factor the data do not identify: no interval, a bound in the part's bounds) or 'none' (not
+    given: a K factor without a value has no static K to scale, it is not a bound)."""
     if not iv or iv.get("value") is None:
-        return "bound" if iv is not None else "none"
+        return "bound" if iv is not None and factor == "white_factor" else "none"
     ci = iv.get("ci95")
     if ci is None:
         return "bound"
@@ -127,7 +128,7 @@ def coverage(results: list[dict], labels: list[str]) -> dict:
                 hits = []
                 for ax in AXES:
                     iv = (axes.get(ax) or {}).get(factor)
-                    k = _interval_kind(iv)
+                    k = _interval_kind(iv, factor)
                     kinds[k] += 1
                     rows.append({"unit": lab, "estimate": key, "axis": ax, "kind": k, "value": (iv or {}).get("value"),
                                  "ci95": (iv or {}).get("ci95")})

@@ -50,7 +50,7 @@ def test_pooled_ratios_are_the_paired_geometric_means_over_units():
 
 def test_the_interval_share_counts_bounds_and_no_wander_apart():
     u1 = {"1/g/1": _axes((IN, OUT), (ONE, IN)), "2/g/1": _axes((IN, IN), (OUT, ONE))}
-    u2 = {"1/g/1": _axes((BOUND, IN), (None, ONE))}
+    u2 = {"1/g/1": _axes((BOUND, IN), (BOUND, ONE))}  # a K factor without a value: not given, not a bound
     cov = mod.coverage([_res(2, 1.0, u1), _res(1, 1.0, u2)], ["u1", "u2"])
     w = cov["white_factor"]
     assert w["counts"] == {"in": 12, "out": 3, "one": 0, "bound": 3, "none": 0}
