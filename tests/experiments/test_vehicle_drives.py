@@ -185,3 +185,67 @@ def test_in_use_has_no_filter_variants():
         dense.evaluate_method(sc, "in_use+sf", sc.gnss, [], in_use=object())
     with pytest.raises(ModelError, match="--vehicle-drives 2 or more"):
         dense.evaluate_method(sc, "in_use", sc.gnss, [])
+
+
+# ---- vehicles on a replayed recording (--imu-noise with --vehicle-drives K)
+REPLAY_SCEN = {"duration_s": 200.0, "n_stops": 1, "motion_noise": "none"}
+
+
+def _replay_file(tmp_path, n=70_000):
+    """A synthetic static recording (deg/s and g, 100 Hz): three stretches of a 200 s drive (20 001 samples)."""
+    rng = np.random.default_rng(3)
+    data = rng.normal(0.0, 0.1, (n, 6)) + np.array([0.5, -0.2, 0.1, 0.01, -0.02, -1.0])
+    path = tmp_path / "unit.npz"
+    np.savez(path, data=data, columns=np.array(["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]),
+             units=np.array(["deg/s"] * 3 + ["g"] * 3), freq_hz=np.float64(100.0))
+    return str(path)
+
+
+def test_replayed_vehicle_drives_take_their_own_stretches_and_score_the_last(tmp_path):
+    """Vehicle 4800 of two drives on a replayed recording: its earlier drive replays stretch 0 and its scored drive
+    stretch 1 of the same unit, and every value of the scored drive equals the single-drive run whose drive
+    replays that stretch (the same seed, the first seed moved by one): the earlier drive changes nothing a
+    method that does not learn from it sees."""
+    from imunoise.experiments.common import imu_noise_kwargs
+
+    path = _replay_file(tmp_path)
+    kw2 = {**REPLAY_SCEN, **imu_noise_kwargs(path, 4800, vehicle_drives=2)}
+    n = 20_001
+    last = simulate_scenario(4800, n_outages=0, **kw2)
+    (earlier,) = earlier_scenarios(4800, 1, **kw2)
+    assert earlier.extra["seed"] == 4800 + dense.PRIOR_SEED_OFFSET
+    assert last.imu.t.size == earlier.imu.t.size == n
+    kw = {"spec": SPEC, "methods": ("plain", "static_var"), "workers": 1, "n_boot": 200,
+          "base": OnlineConfig(latency=0.5)}
+    two = dense.run_sim([4800], vehicle_drives=2, **kw, **kw2)
+    one = dense.run_sim([4800], **kw, **REPLAY_SCEN, **imu_noise_kwargs(path, 4799))  # drive index 1: stretch 1
+    assert two["per_window"] == one["per_window"] and two["nees"] == one["nees"]
+    assert two["scenario"]["imu_noise_drives"] == 2 and "imu_noise_drives" not in one["scenario"]
+    from imunoise.experiments.report import replay_text
+
+    assert "vehicle d = seed − 4800 has 2 drives" in replay_text(two["scenario"])
+    assert "drive d = seed − 4799 uses samples [d·n, (d + 1)·n)" in replay_text(one["scenario"])
+
+
+def test_replayed_vehicles_that_do_not_fit_are_refused_in_one_line(tmp_path, capsys):
+    from conftest import one_line_error
+    from imunoise.cli import main
+
+    path = _replay_file(tmp_path)  # three stretches of 200 s: one vehicle of two drives, not two
+    base = ["experiment", "online", "--sim", "--imu-noise", path, "--duration", "200", "--stops", "1", "--outages",
+            "dense:30:30:60", "--methods", "plain", "--vehicle-drives", "2", "--workers", "1", "--seed0", "4800"]
+    code = main([*base, "--seeds", "2", "--out", str(tmp_path / "a")])
+    one_line_error(code, capsys.readouterr().err, "--vehicle-drives 2", "--seeds ≤ 1", "--duration", path)
+    assert not (tmp_path / "a").exists()
+    assert main([*base, "--seeds", "1", "--bootstrap", "200", "--out", str(tmp_path / "b")]) == 0  # one fits
+    res = json.loads((tmp_path / "b" / "results.json").read_text())
+    assert res["vehicle_drives"] == 2 and res["scenario"]["imu_noise_drives"] == 2
+    assert res["vehicles"] == {"4800": [4800 + dense.PRIOR_SEED_OFFSET, 4800]}
+    from imunoise.experiments.common import imu_noise_kwargs
+
+    with pytest.raises(ModelError, match="--methods gmwm_dyn_warm3 learns on 3 earlier drive.*--vehicle-drives 4"):
+        dense.run_sim([4800], spec=SPEC, methods=("plain", "gmwm_dyn_warm3"), workers=1, vehicle_drives=2,
+                      **REPLAY_SCEN, **imu_noise_kwargs(path, 4800, vehicle_drives=2))
+    with pytest.raises(ModelError, match="imu_noise_kwargs"):  # the layout and the vehicles must agree
+        dense.run_sim([4800], spec=SPEC, methods=("plain",), workers=1, vehicle_drives=2, **REPLAY_SCEN,
+                      **imu_noise_kwargs(path, 4800))

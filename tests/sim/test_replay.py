@@ -13,7 +13,7 @@ import pytest
 from imunoise.cli import main as cli_main
 from imunoise.errors import DataError, ModelError
 from imunoise.sim import DriveConfig, simulate_drive
-from imunoise.sim.replay import G0, load_recording, static_part, stretch
+from imunoise.sim.replay import G0, check_vehicles, drive_samples, load_recording, static_part, stretch, stretch_index
 
 COLS = np.array(["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"])
 UNITS = np.array(["deg/s"] * 3 + ["g"] * 3)
@@ -137,3 +137,50 @@ def test_denial_fits_the_shared_static_part_once(tmp_path, monkeypatch):
     np.testing.assert_allclose(calls[0], want, rtol=0, atol=1e-15)
     denial._replay_models(rec.path, 100.0, 100.0, None)  # another static length: another fit
     assert len(calls) == 2 and calls[1].shape[0] == 10_000
+
+
+def test_vehicle_stretches_are_disjoint_oldest_first_and_k1_is_the_drive_layout():
+    # vehicle v of K drives: stretch v·K + j, j = 0 the oldest drive, K − 1 the scored one (k = 0 before it)
+    assert [stretch_index(v, 0, 1) for v in range(4)] == [0, 1, 2, 3]  # K = 1: the single-drive layout
+    got = {(v, k): stretch_index(v, k, 3) for v in range(5) for k in range(3)}
+    assert sorted(got.values()) == list(range(15))  # every stretch once: no two drives of any vehicles share one
+    assert [got[(1, k)] for k in (2, 1, 0)] == [3, 4, 5]  # oldest first, the scored drive last
+    with pytest.raises(ModelError, match="needs --vehicle-drives 3 or more"):
+        stretch_index(0, 2, 2)
+
+
+def test_each_drive_of_a_vehicle_replays_its_own_stretch(tmp_path):
+    """Two vehicles of two drives on a synthetic recording: the four drives replay the four disjoint stretches
+    the layout gives (exactly those samples), and a drive's stretch depends on its seed alone (the same drive
+    simulated again, or with other seeds in the run, replays the same samples)."""
+    path, _ = _recording(tmp_path)
+    rec = load_recording(path)
+    off = 7_000_000  # an earlier drive is another seed; the shifted first seed names the same vehicle
+    drives = {}
+    for v in (0, 1):
+        drives[(v, 0)] = _drive(path, 5 + v, imu_noise_first=5, imu_noise_drives=2)
+        drives[(v, 1)] = _drive(path, 5 + v + off, imu_noise_first=5 + off, imu_noise_drives=2, imu_noise_earlier=1)
+    n = len(drives[(0, 0)].imu.t)
+    assert n == drive_samples(150.0, 100.0)
+    spans = {key: d.truth["imu_noise"]["stretch_samples"] for key, d in drives.items()}
+    assert spans == {(0, 1): [0, n], (0, 0): [n, 2 * n], (1, 1): [2 * n, 3 * n], (1, 0): [3 * n, 4 * n]}
+    for (v, k), d in drives.items():
+        a, b = spans[(v, k)]
+        np.testing.assert_allclose(_errors(d), rec.errors[a:b], rtol=1e-8, atol=1e-9)
+    again = _drive(path, 6 + off, imu_noise_first=5 + off, imu_noise_drives=2, imu_noise_earlier=1)
+    np.testing.assert_array_equal(again.imu.dtheta, drives[(1, 1)].imu.dtheta)
+    np.testing.assert_array_equal(again.imu.dv, drives[(1, 1)].imu.dv)
+    with pytest.raises(ModelError, match="needs --vehicle-drives 2 or more"):
+        _drive(path, 5 + off, imu_noise_first=5 + off, imu_noise_earlier=1)  # K = 1: no earlier stretch
+
+
+def test_a_recording_too_short_for_the_vehicles_is_one_line(tmp_path):
+    path, _ = _recording(tmp_path)  # 70 000 samples: four drives of 150 s (15 001 samples)
+    n = drive_samples(150.0, 100.0)
+    check_vehicles(path, 5, [5, 6], 2, 150.0, 100.0)  # 2 vehicles × 2 drives = 4 stretches: they fit
+    with pytest.raises(ModelError) as e:
+        check_vehicles(path, 5, [5, 6], 3, 150.0, 100.0)
+    msg = str(e.value)
+    assert "\n" not in msg and f"[{5 * n}, {6 * n})" in msg
+    for says in ("--imu-noise", "--vehicle-drives 3", "4 drive(s) fit, 1 vehicle(s)", "--seeds ≤ 1", "--duration"):
+        assert says in msg, says

@@ -89,7 +89,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="denial --sim: static recording [h] (default 2; 1 with --imu-noise)")
     p.add_argument("--imu-noise", default=None, metavar="FILE.npz",
                    help="simulator: replay a real static recording (.npz with data, columns, units, freq_hz) as "
-                   "the drives' IMU errors, one non-overlapping stretch per drive, its mean removed "
+                   "the drives' IMU errors, one non-overlapping stretch per drive (K per vehicle with "
+                   "--vehicle-drives K), its mean removed "
                    "(imunoise.sim.replay; other rates than the simulator's are refused)")
     p.add_argument("--methods", help="comma-separated subset of the methods")
     p.add_argument("--start", type=float, help="real data: start time [s, data time base]")
@@ -287,9 +288,12 @@ def _check_vehicle(args: argparse.Namespace, evidence: bool) -> None:
                          "(--data ... --outages dense:L:S); on the simulator use --vehicle-drives K")
     if "in_use" in (args.methods or "").split(",") and args.sim and args.vehicle_drives < 2:
         raise ModelError("--methods in_use learns on a vehicle's earlier drives: give --vehicle-drives 2 or more")
-    if args.vehicle_drives > 1 and args.imu_noise:
-        raise ModelError("--vehicle-drives K > 1 with --imu-noise: a replayed recording gives each seed one stretch, "
-                         "not K drives of one unit; drop one of them")
+    if args.imu_noise and args.sim and evidence and args.seeds >= 1:  # every vehicle's stretches fit the recording
+        from imunoise.sim import DriveConfig
+        from imunoise.sim.replay import check_vehicles
+
+        check_vehicles(str(Path(args.imu_noise).resolve()), args.seed0, [args.seed0 + args.seeds - 1],
+                       args.vehicle_drives, args.duration, DriveConfig.imu_rate_hz)
 
 
 def _base_config(args: argparse.Namespace):
@@ -380,7 +384,8 @@ def _run_evidence(args: argparse.Namespace, out, spec, t0: float, final: Path) -
         scen["motion_noise"] = args.motion_noise
         from imunoise.experiments.common import imu_noise_kwargs
 
-        scen.update(imu_noise_kwargs(args.imu_noise, args.seed0, imu=args.imu_model))
+        scen.update(imu_noise_kwargs(args.imu_noise, args.seed0, imu=args.imu_model,
+                                     vehicle_drives=args.vehicle_drives))
         res = dense.run_sim(seeds, progress=step, scheduler=args.scheduler, vehicle_drives=args.vehicle_drives,
                             **kw, **scen)
         title = f"imunoise: dense-window evidence, {len(seeds)} simulated drives"

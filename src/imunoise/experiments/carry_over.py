@@ -5,7 +5,9 @@ every method is scored on the **last** drive, which is the drive of ``seed`` its
 single-drive evidence. The earlier drives are those of seed + k · :data:`PRIOR_SEED_OFFSET`, k = K − 1 … 1
 (oldest first), the same drives the warm methods learn from (:mod:`imunoise.experiments.dense_warm`); a method
 that learns from the vehicle's earlier drives gets them with GNSS in the run's regime, its noise seeded like a
-drive's own (:func:`learning_drives`).
+drive's own (:func:`learning_drives`). With a replayed recording (``--imu-noise``) each drive of a vehicle
+replays its own stretch of the unit's recording, disjoint from the others' (:mod:`imunoise.sim.replay`,
+:func:`imunoise.experiments.dense_warm.earlier_kw`).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from typing import Any
 
 from imunoise.errors import ModelError
 from imunoise.experiments.common import Scenario
-from imunoise.experiments.dense_warm import PRIOR_SEED_OFFSET
+from imunoise.experiments.dense_warm import PRIOR_SEED_OFFSET, earlier_kw
 from imunoise.experiments.gnss_regimes import GnssRegime
 
 __all__ = ["vehicle_seeds", "check_vehicle_drives", "earlier_scenarios", "learning_drives"]
@@ -46,7 +48,7 @@ def earlier_scenarios(seed: int, n: int, have: Sequence[Scenario] = (), **scen_k
 
     out = list(have[:n])
     for k in range(len(out) + 1, n + 1):
-        out.append(simulate_scenario(int(seed) + k * PRIOR_SEED_OFFSET, n_outages=0, **scen_kw))
+        out.append(simulate_scenario(int(seed) + k * PRIOR_SEED_OFFSET, n_outages=0, **earlier_kw(scen_kw, k)))
     return out
 
 

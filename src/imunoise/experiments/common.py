@@ -186,10 +186,13 @@ def simulate_scenario(seed: int, *, duration_s: float = 600.0, n_stops: int = 4,
                            "streams": list(simulate_all(drive, seed, streams).values()) if streams else []})
 
 
-def imu_noise_kwargs(path: str | None, seed0: int, *, imu: Any = None, reserve_s: float = 0.0) -> dict:
+def imu_noise_kwargs(path: str | None, seed0: int, *, imu: Any = None, reserve_s: float = 0.0,
+                     vehicle_drives: int = 1) -> dict:
     """Scenario keywords that replay the static recording ``path`` as the drives' IMU errors
     (:mod:`imunoise.sim.replay`; ``--imu-noise``): drive d = seed − ``seed0`` gets the d-th stretch, the last
-    ``reserve_s`` s stay for the denial experiment's static recording. The file is read and checked now.
+    ``reserve_s`` s stay for the denial experiment's static recording. With ``vehicle_drives`` K > 1 vehicle d
+    gets stretches d·K … d·K + K − 1, its scored drive the last (:func:`imunoise.sim.replay.stretch_index`). The
+    file is read and checked now.
 
     Raises
     ------
@@ -203,8 +206,11 @@ def imu_noise_kwargs(path: str | None, seed0: int, *, imu: Any = None, reserve_s
     from imunoise.sim.replay import load_recording
 
     rec = load_recording(str(Path(path).resolve()))
-    return {"imu_noise": rec.path, "imu_noise_first": int(seed0), "imu_noise_reserve_s": float(reserve_s),
-            "imu_models": None}
+    kw = {"imu_noise": rec.path, "imu_noise_first": int(seed0), "imu_noise_reserve_s": float(reserve_s),
+          "imu_models": None}
+    if int(vehicle_drives) > 1:  # only then: a single-drive run's scenario record stays as it was
+        kw["imu_noise_drives"] = int(vehicle_drives)
+    return kw
 
 
 def replay_methods(methods: Sequence[str], explicit: bool) -> tuple[str, ...]:

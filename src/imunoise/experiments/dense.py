@@ -213,8 +213,7 @@ def _sim_job(args: tuple) -> dict:
     windows = dense_windows(sc, spec)
     # the earlier drives of the same vehicle (same IMU, same motion law, another trajectory and noise) that the
     # warm methods learn from
-    n_warm = {m: WARM_METHODS[base_method(m)] for m in methods if base_method(m) in WARM_METHODS}
-    n_stops = {m: STATIC_WARM_METHODS[base_method(m)][1] for m in methods if base_method(m) in STATIC_WARM_METHODS}
+    n_warm, n_stops = _warm_needs(methods)
     earlier = earlier_scenarios(seed, max((*n_warm.values(), *n_stops.values(), vehicle_drives - 1), default=0), **kw)
     cache: dict = {}
     runs = []
@@ -237,6 +236,31 @@ def _sim_job(args: tuple) -> dict:
                 tick()
     return {"seed": seed, "name": sc.name, "windows": windows, "runs": runs,
             "vehicle_drives": vehicle_seeds(seed, vehicle_drives)}
+
+
+def _warm_needs(methods: Sequence[str]) -> tuple[dict[str, int], dict[str, int]]:
+    """Earlier drives per warm method: those whose prior is learned, those whose stops are pooled."""
+    n_warm = {m: WARM_METHODS[base_method(m)] for m in methods if base_method(m) in WARM_METHODS}
+    n_stops = {m: STATIC_WARM_METHODS[base_method(m)][1] for m in methods if base_method(m) in STATIC_WARM_METHODS}
+    return n_warm, n_stops
+
+
+def _check_replay(seeds: Sequence[int], methods: Sequence[str], k: int, scen_kw: dict) -> None:
+    """With a replayed recording: every earlier drive a method learns on needs its own stretch (one of the
+    vehicle's K), and every vehicle must fit in the recording; refused here, before any drive is simulated."""
+    from imunoise.sim.replay import check_vehicles
+
+    n_warm, n_stops = _warm_needs(methods)
+    need = {**n_warm, **n_stops}
+    over = {m: n for m, n in need.items() if n > k - 1}
+    if over:
+        m, n = max(over.items(), key=lambda x: x[1])
+        raise ModelError(f"--methods {m} learns on {n} earlier drive(s) of the vehicle; with --imu-noise each earlier "
+                         f"drive replays one of the vehicle's --vehicle-drives {k} stretches: give --vehicle-drives "
+                         f"{n + 1} or more, or leave {m} out")
+    check_vehicles(scen_kw["imu_noise"], int(scen_kw.get("imu_noise_first", 0)), list(seeds), k,
+                   float(scen_kw.get("duration_s", 600.0)), float(scen_kw.get("imu_rate_hz", 100.0)),
+                   float(scen_kw.get("imu_noise_reserve_s", 0.0)))
 
 
 def n_units(methods: Sequence[str], regimes: Sequence[GnssRegime], noise_seeds: Sequence[int]) -> int:
@@ -262,6 +286,12 @@ def run_sim(seeds: Sequence[int], *, spec: DenseSpec = _DEFAULT_SPEC, regimes: S
     k = check_vehicle_drives(vehicle_drives)
     if "in_use" in methods and k < 2:
         raise ModelError("the in_use method learns on a vehicle's earlier drives: vehicle_drives must be 2 or more")
+    if scen_kw.get("imu_noise"):
+        if int(scen_kw.get("imu_noise_drives", 1)) != k:
+            raise ModelError(f"--imu-noise: the scenario lays out {scen_kw.get('imu_noise_drives', 1)} stretch(es) per "
+                             f"vehicle but vehicle_drives is {k}: build it with imu_noise_kwargs(..., "
+                             f"vehicle_drives={k})")
+        _check_replay(seeds, methods, k, scen_kw)
     jobs = [(int(s), tuple(methods), tuple(regimes), tuple(noise_seeds), spec, dict(scen_kw), base, k) for s in seeds]
     drives = run_jobs(_sim_job, jobs, workers=workers, scheduler=scheduler,
                       units=n_units(methods, regimes, noise_seeds), progress=progress)

@@ -1,6 +1,7 @@
 """The warm methods' earlier drives of the same vehicle (simulator): what ``gmwm_dyn`` learned on them
 (:func:`learn_prior`, :func:`earlier_prior`) and the stops ``gmwm`` pooled on them (:func:`earlier_stops`); the
-k-th drive before drive ``seed`` is the simulated drive of seed + k · :data:`PRIOR_SEED_OFFSET`."""
+k-th drive before drive ``seed`` is the simulated drive of seed + k · :data:`PRIOR_SEED_OFFSET` (with a replayed
+recording, its own stretch of the recording: :func:`earlier_kw`)."""
 
 from __future__ import annotations
 
@@ -16,9 +17,21 @@ from imunoise.experiments.dense_methods import method_setup
 from imunoise.experiments.gnss_regimes import GnssRegime
 from imunoise.online import MotionNoisePrior, OnlineConfig
 
-__all__ = ["PRIOR_SEED_OFFSET", "learn_prior", "earlier_prior", "earlier_stops"]
+__all__ = ["PRIOR_SEED_OFFSET", "earlier_kw", "learn_prior", "earlier_prior", "earlier_stops"]
 
 PRIOR_SEED_OFFSET = 7_000_000  # the k-th drive before drive seed on the simulator: seed + k · this
+
+
+def earlier_kw(scen_kw: dict, k: int) -> dict:
+    """The scenario keywords of the ``k``-th drive before a scored drive. The same as the scored drive's, except
+    with a replayed recording (``imu_noise``): the earlier drive is of the same vehicle (seed + k ·
+    :data:`PRIOR_SEED_OFFSET` − the shifted first seed = the vehicle's index) and takes its own stretch, the one
+    ``k`` before the scored drive's (:func:`imunoise.sim.replay.stretch_index`; a vehicle without that many
+    stretches is refused there, naming ``--vehicle-drives``)."""
+    if not k or not scen_kw.get("imu_noise"):
+        return scen_kw
+    return {**scen_kw, "imu_noise_first": int(scen_kw.get("imu_noise_first", 0)) + k * PRIOR_SEED_OFFSET,
+            "imu_noise_earlier": int(k)}
 
 
 def learn_prior(sc: Scenario, gnss, base: OnlineConfig | None = None,
@@ -42,7 +55,7 @@ def _earlier_drives(seed: int, n_drives: int, earlier: Sequence[Scenario] | None
     for k in range(n_drives, 0, -1):
         s = int(seed) + k * PRIOR_SEED_OFFSET
         yield s, (earlier[k - 1] if earlier is not None and len(earlier) >= k
-                  else simulate_scenario(s, n_outages=0, **scen_kw))
+                  else simulate_scenario(s, n_outages=0, **earlier_kw(scen_kw, k)))
 
 
 def earlier_prior(seed: int, regime: GnssRegime, noise_seed: int, *, n_drives: int = 1,

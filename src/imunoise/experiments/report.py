@@ -71,10 +71,13 @@ def replay_text(scen: dict) -> str:
 
     rec = load_recording(path)
     reserve = scen.get("imu_noise_reserve_s") or 0.0
+    k = int(scen.get("imu_noise_drives", 1))
+    layout = (f"drive d = seed − {scen.get('imu_noise_first', 0)} uses samples [d·n, (d + 1)·n)" if k == 1 else
+              f"vehicle d = seed − {scen.get('imu_noise_first', 0)} has {k} drives, the j-th (0 = oldest, {k - 1} = "
+              f"the scored one) uses samples [(d·{k} + j)·n, (d·{k} + j + 1)·n)")
     return (f"IMU errors: NOT the model above but a real static recording replayed, {path} "
             f"({rec.n / rec.rate_hz:.0f} s at {rec.rate_hz:g} Hz = the simulator's rate, not resampled; its mean "
-            "over the whole file removed): "
-            f"drive d = seed − {scen.get('imu_noise_first', 0)} uses samples [d·n, (d + 1)·n), no two drives "
+            f"over the whole file removed): {layout}, no two drives "
             "overlap, stops show the recording at the stop times"
             + (f"; the static recording is its last {reserve:.0f} s, which no drive uses." if reserve else "."))
 

@@ -262,7 +262,8 @@ def simulate_drive(
     m_white = m_bias = None
     if cfg.imu_noise is not None:  # real errors: no model, no vibration term (the recording is the truth)
         rec = load_recording(cfg.imu_noise)
-        a, b = stretch(rec, seed - cfg.imu_noise_first, n, cfg.imu_rate_hz, reserve_s=cfg.imu_noise_reserve_s)
+        a, b = stretch(rec, seed - cfg.imu_noise_first, n, cfg.imu_rate_hz, reserve_s=cfg.imu_noise_reserve_s,
+                       earlier=cfg.imu_noise_earlier, drives=cfg.imu_noise_drives)
         err = np.array(rec.errors[a:b])
         law = NONE if law is None else law
         replay = {**rec.describe(), "stretch_samples": [a, b], "stretch_s": [a / rec.rate_hz, b / rec.rate_hz],

@@ -9,7 +9,7 @@ from typing import Any
 
 from imunoise.errors import ModelError
 from imunoise.sim.motion import MotionNoise, resolve_motion
-from imunoise.sim.replay import load_recording
+from imunoise.sim.replay import load_recording, stretch_index
 
 __all__ = ["DriveConfig"]
 
@@ -65,9 +65,14 @@ class DriveConfig:
     # real noise (imunoise.sim.replay): a static recording (.npz) whose stretch [d·n, (d+1)·n), d = seed −
     # imu_noise_first, replaces the stochastic model errors; its last imu_noise_reserve_s s stay unused (the
     # denial experiment's static recording). A law may add its additive terms on top, not scale the recording.
+    # Vehicles of imu_noise_drives drives (--vehicle-drives): vehicle seed − imu_noise_first takes that many
+    # consecutive stretches, this drive the one imu_noise_earlier drives before the scored drive
+    # (imunoise.sim.replay.stretch_index).
     imu_noise: str | None = None
     imu_noise_first: int = 0
     imu_noise_reserve_s: float = 0.0
+    imu_noise_drives: int = 1
+    imu_noise_earlier: int = 0
 
     def __post_init__(self) -> None:
         if self.duration_s <= 0 or self.static_s < 0 or self.static_s >= self.duration_s:
@@ -100,6 +105,7 @@ class DriveConfig:
                                  "terms only (none, gyro_departure_step, gyro_moving_gm, accel_moving_gm, warmup)")
         if self.imu_noise is not None:
             load_recording(self.imu_noise)  # a bad file fails here
+            stretch_index(0, self.imu_noise_earlier, self.imu_noise_drives)  # so does a drive without a stretch
         for s, d in self.outages:
             if d <= 0:
                 raise ModelError(f"outage ({s}, {d}): the duration (second value, s) must be > 0")

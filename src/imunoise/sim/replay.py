@@ -10,7 +10,11 @@ recording's own fluctuation about its long-run level (bias wander included):
 
 with s the first sample of the drive's stretch. Drive d of a run (d = seed − first seed) gets the stretch
 [d·n, (d + 1)·n) of the recording (no two drives overlap); a stop of the drive therefore shows the recording's
-samples at the stop times, inside the drive's stretch. A static recording for the denial experiment is taken
+samples at the stop times, inside the drive's stretch. Vehicles of K drives (``--vehicle-drives K``: the same
+unit's noise on K drives, scored on the last) get K consecutive stretches each, oldest drive first: vehicle v
+(v = seed − first seed), drive j = K − 1 − k when it is the k-th drive before the scored one, replays stretch
+index v·K + j (:func:`stretch_index`), so the stretches of all drives of all vehicles are disjoint and K = 1 is
+the single-drive layout. A static recording for the denial experiment is taken
 from the end of the file, [N − m, N), and no drive may reach into it (:func:`stretch`). The recording must
 have the simulator's rate: resampling would change the noise's spectrum, so another rate is refused with the
 rate to simulate at.
@@ -30,7 +34,8 @@ import numpy as np
 from imunoise.errors import DataError, ModelError
 from imunoise.imu import AXES, canonical_axis
 
-__all__ = ["NoiseRecording", "load_recording", "stretch", "static_part", "G0"]
+__all__ = ["NoiseRecording", "load_recording", "stretch", "stretch_index", "check_vehicles", "drive_samples",
+           "static_part", "G0"]
 
 G0 = 9.80665  # m/s² per g (the recordings' README: use it unless a better local value is known)
 _UNIT = {"deg/s": math.pi / 180.0, "°/s": math.pi / 180.0, "rad/s": 1.0, "g": G0, "m/s^2": 1.0, "m/s²": 1.0,
@@ -181,28 +186,74 @@ def _check_rate(rec: NoiseRecording, rate_hz: float) -> None:
                          f"simulate at {rec.rate_hz:g} Hz")
 
 
-def stretch(rec: NoiseRecording, index: int, n: int, rate_hz: float, *, reserve_s: float = 0.0) -> tuple[int, int]:
-    """Samples [a, b) of drive ``index`` (0-based) for a drive of ``n`` samples at ``rate_hz``: a = index·n,
-    b = a + n, never reaching into the last ``reserve_s`` seconds (the denial experiment's static part).
+def stretch_index(vehicle: int, earlier: int = 0, drives: int = 1) -> int:
+    """The stretch index of the ``earlier``-th drive before the scored drive of ``vehicle`` (0-based) when every
+    vehicle has ``drives`` drives: vehicle·drives + drives − 1 − earlier (module docstring; K = 1: the vehicle).
 
     Raises
     ------
     ModelError
-        For another rate than the recording's, a negative index, or a stretch past the usable samples (saying
-        how many drives of this length fit).
+        For ``drives`` < 1, a negative vehicle, or ``earlier`` outside 0 … drives − 1 (a method that learns on
+        more earlier drives than the vehicle has stretches for).
+    """
+    if drives < 1:
+        raise ModelError(f"--vehicle-drives must be >= 1, got {drives}")
+    if vehicle < 0:
+        raise ModelError(f"--imu-noise: drive index {vehicle} < 0 (seeds start at --seed0)")
+    if not 0 <= earlier < drives:
+        raise ModelError(f"--imu-noise with --vehicle-drives {drives}: the drive {earlier} before the scored one has "
+                         f"no stretch of the recording (a vehicle replays {drives} stretch(es)); a method that "
+                         f"learns on {earlier} earlier drive(s) needs --vehicle-drives {earlier + 1} or more")
+    return vehicle * drives + drives - 1 - earlier
+
+
+def stretch(rec: NoiseRecording, index: int, n: int, rate_hz: float, *, reserve_s: float = 0.0,
+            earlier: int = 0, drives: int = 1) -> tuple[int, int]:
+    """Samples [a, b) of drive ``index`` (0-based; with ``drives`` > 1 the vehicle, and ``earlier`` the drive's
+    place before the vehicle's scored drive, :func:`stretch_index`) for a drive of ``n`` samples at ``rate_hz``:
+    a = i·n, b = a + n with i the stretch index, never reaching into the last ``reserve_s`` seconds (the denial
+    experiment's static part).
+
+    Raises
+    ------
+    ModelError
+        For another rate than the recording's, a negative index, an ``earlier`` drive the vehicle has no stretch
+        for, or a stretch past the usable samples (saying how many drives, or vehicles, of this length fit).
     """
     _check_rate(rec, rate_hz)
     usable = rec.n - int(round(reserve_s * rec.rate_hz))
-    if index < 0:
-        raise ModelError(f"--imu-noise {rec.path}: drive index {index} < 0 (seeds start at --seed0)")
-    a, b = index * n, (index + 1) * n
+    i = stretch_index(index, earlier, drives)
+    a, b = i * n, (i + 1) * n
     if b > usable:
         fit = max(usable // n, 0)
-        raise ModelError(f"--imu-noise {rec.path}: drive {index + 1} needs samples [{a}, {b}) but "
-                         f"{usable} are usable ({rec.n / rec.rate_hz:.0f} s recorded"
-                         f"{f', the last {reserve_s:.0f} s kept for the static recording' if reserve_s else ''}); "
-                         f"{fit} drive(s) of {n / rate_hz:.0f} s fit: use --seeds ≤ {fit} or shorter drives")
+        kept = f", the last {reserve_s:.0f} s kept for the static recording" if reserve_s else ""
+        if drives == 1:
+            raise ModelError(f"--imu-noise {rec.path}: drive {index + 1} needs samples [{a}, {b}) but "
+                             f"{usable} are usable ({rec.n / rec.rate_hz:.0f} s recorded{kept}); "
+                             f"{fit} drive(s) of {n / rate_hz:.0f} s fit: use --seeds ≤ {fit} or shorter drives")
+        raise ModelError(f"--imu-noise {rec.path} with --vehicle-drives {drives}: vehicle {index + 1} needs samples "
+                         f"[{a}, {b}) (its {drives} drives take {drives} disjoint stretches of {n / rate_hz:.0f} s) "
+                         f"but {usable} are usable ({rec.n / rec.rate_hz:.0f} s recorded{kept}); {fit} drive(s) fit, "
+                         f"{fit // drives} vehicle(s): use --seeds ≤ {fit // drives}, fewer --vehicle-drives or a "
+                         "shorter --duration")
     return a, b
+
+
+def drive_samples(duration_s: float, rate_hz: float) -> int:
+    """IMU samples of a simulated drive of ``duration_s`` at ``rate_hz`` (τ = 0, dt, …, duration, as
+    :func:`imunoise.sim.drive.simulate_drive` makes them): the length of its stretch."""
+    return int(round(duration_s * rate_hz)) + 1
+
+
+def check_vehicles(path: str, first: int, seeds: list[int], drives: int, duration_s: float, rate_hz: float,
+                   reserve_s: float = 0.0) -> None:
+    """Refuse, before any drive is simulated, a run whose vehicles (``seeds``, ``drives`` drives each) do not all
+    fit in the recording at ``path`` (the one-line message of :func:`stretch`)."""
+    if not seeds:
+        return
+    rec = load_recording(path)
+    v = max(int(s) for s in seeds) - int(first)
+    stretch(rec, v, drive_samples(duration_s, rate_hz), rate_hz, reserve_s=reserve_s, drives=drives)
 
 
 def static_part(rec: NoiseRecording, seconds: float, rate_hz: float) -> np.ndarray:
