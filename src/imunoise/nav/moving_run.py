@@ -29,7 +29,7 @@ def moving_control(ekf, imf: InMotionFilter) -> NoiseControl:
     appended; the model orders its AR1s)."""
     model, _ = ekf.kernel_parts()
     idx = np.full(6, -1, dtype=np.int64)
-    for a, ((m, _f), on, phi) in enumerate(zip(imf.models, imf.gm_axes, imf.gm_phi, strict=True)):
+    for a, (m, on, phi) in enumerate(zip(imf.models, imf.gm_axes, imf.gm_phi, strict=True)):
         if on:
             ar1 = [c for c in m.components if c.kind == "AR1"]
             k = max(i for i, c in enumerate(ar1) if c.values[0] == phi)

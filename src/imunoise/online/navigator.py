@@ -158,9 +158,9 @@ class OnlineNavigator(ModellerViews):
         # the models without the learned in-motion part (the stops' model; what the learner adds to)
         self.static_models = normalize_axis_models(models, self.rate)
         self.learner = LearnerHost(config, self.state, self.rate)
-        models = self.learner.first_models(models, self.static_models)  # a carried prior's from the first sample
+        models = self.learner.first_models(self.static_models, self.static_models)  # a carried prior's from the start
         self.ekf = LooselyCoupledEKF(config.ekf, models, init, imu_rate_hz=self.rate)
-        self.floor = [m for m, _ in default_axis_models(self.rate, config.ekf.fallback)]
+        self.floor = default_axis_models(self.rate, config.ekf.fallback)
         self.feed = DetectorFeed(self.state, self.rate, config.learn_lambda0_s, config.detector)
         self.guard = StopGuard(config, self.state, self.rate)
         self.zupt = Zupt(config, self.state)
@@ -413,8 +413,8 @@ class OnlineNavigator(ModellerViews):
         for upd in self.modeller.due(t):
             self._swap(t, upd)
 
-    def filter_models(self) -> list[tuple[Model, float]]:
-        """The six (model, freq) the filter gets from the current fits (plain default where none)."""
+    def filter_models(self) -> list[Model]:
+        """The six models (with their rate) the filter gets from the current fits (plain default where none)."""
         return filter_axis_models(self.fits, self.rate, self.config, floor=self.floor)
 
     def _swap(self, t: float, upd: ModelUpdate) -> None:
@@ -427,7 +427,7 @@ class OnlineNavigator(ModellerViews):
         swap = self.ekf.swap_model if self.in_motion is None else self.in_motion.swap_into(self.ekf)
         counts = swap(models, preserve=self.config.swap == "preserve", imu_rate_hz=self.rate)
         self.current_models = models
-        self.state.event("swap", t, job=upd.kind, t_stop=upd.t_stop, filter_models=[str(m) for m, _ in models],
+        self.state.event("swap", t, job=upd.kind, t_stop=upd.t_stop, filter_models=[str(m) for m in models],
                          **counts)
 
 
