@@ -66,7 +66,7 @@ class InMotionEstimate:
 
 def static_pairs(static_model: Any, freq: float) -> list:
     """The six static filter pairs through the door: a model file / :class:`~imunoise.noise.imu_model.ImuModel` /
-    parsed dict (:func:`imunoise.nav.defaults.load_axis_models`), or six (model, freq) pairs as they are."""
+    parsed dict (:func:`imunoise.nav.defaults.load_axis_models`), or six filter models as they are."""
     from imunoise.nav.defaults import load_axis_models, normalize_axis_models
 
     if isinstance(static_model, list | tuple):
@@ -215,7 +215,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     static_model : object
         The static part (the stops' model), mapped to the filter by the door: an
         :class:`~imunoise.noise.imu_model.ImuModel`, its parsed JSON, a model file's path, or the six
-        (model, rate) filter pairs as they are.
+        filter models as they are.
     freq : float
         IMU rate [Hz] (the static model's parameters per sample at its own rate).
     seed : int, optional

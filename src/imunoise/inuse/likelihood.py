@@ -57,7 +57,7 @@ def drive_moving(drive: Any) -> np.ndarray:
 @dataclass
 class DriveLikelihood:
     """The pooled NLL of the GNSS fixes of ``drives`` (module docstring) under the static filter ``pairs`` (the six
-    (model, freq) pairs of the door) plus an in-motion :class:`Theta`; ``nll(theta)`` is cached."""
+    models of the door, each with its rate) plus an in-motion :class:`Theta`; ``nll(theta)`` is cached."""
 
     drives: Sequence[Any]
     pairs: list

@@ -16,6 +16,7 @@ accel bias σ 5000 mGal, correlation time 1 h.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -231,7 +232,7 @@ def normalize_axis_models(axis_models, freq: float) -> list[Model]:
     """Six models (gyro x,y,z, accel x,y,z), each carrying the rate its parameters are per sample at.
 
     Accepted: ``None`` (the plain default at ``freq``, the IMU rate); a sequence of 6 models; a dict
-    ``{"gyro": m | [mx, my, mz], "accel": ...}``. A model is anything with ``state_space(dt)`` and a rate
+    ``{"gyro": m | [mx, my, mz], "accel": ...}``. A model is an imunoise :class:`Model` with its rate
     (``freq``: set by the fits and model files, or stated with ``model.with_freq(rate_hz)``); one without a rate
     is refused (its parameters are per sample at a rate only its fit knows). Deprecated, for one release: a
     (model, freq) pair in place of a model (a DeprecationWarning; ``freq`` 0 or None: the IMU rate).
@@ -261,8 +262,6 @@ def _rated(m, freq: float):
     """One axis' model with its rate (:func:`normalize_axis_models`): a model as it is, a pair (deprecated) as
     its model stating the pair's rate."""
     if isinstance(m, tuple) and len(m) == 2:
-        import warnings
-
         warnings.warn(
             "(model, freq) pairs for the filter are deprecated and will be refused in the next release: a model "
             "carries its rate; pass the model (fits and model files set it) or model.with_freq(rate_hz)",
