@@ -175,8 +175,10 @@ def filter_axis_models(fits: list, freq: float, floor: list[Model | None], *, fo
         if f is None:
             out.append(floor[a].with_freq(floor[a].sample_rate(freq, "the floor")))
             continue
-        rate, model, horizon = (f.freq or freq, f, None) if isinstance(f, Model) else (freq, f, None)
-        if isinstance(f, AxisFit):  # a model file's axis: mapped at the rate its parameters are given at
+        rate, model, horizon = freq, f, None
+        if isinstance(f, Model) and f.freq is not None:  # a bare model: mapped at the rate it carries
+            rate = f.freq
+        elif isinstance(f, AxisFit):  # a model file's axis: mapped at the rate its parameters are given at
             rate, model, horizon = f.freq, f.model, f.horizon
         elif hasattr(f, "model"):  # per sample at the fit's own rate: the same continuous-time model at freq
             model, horizon = f.model.at_rate(float(f.freq), freq), data_horizon(f)
