@@ -94,7 +94,7 @@ def test_add_motion_gm_adds_the_gauss_markov_process_to_the_gyros_only():
         assert phi == pytest.approx(math.exp(-1.0 / 500.0), rel=1e-12)
         sigma = math.sqrt(s2 / (1.0 - phi * phi))  # stationary σ
         assert sigma == pytest.approx(100.0 * math.pi / 180.0 / 3600.0, rel=1e-12)
-    assert all(o[0] is b[0] for o, b in zip(add_motion_gm(base, [(0.0, 5.0)] * 3, 100.0), base))
+    assert all(o is b for o, b in zip(add_motion_gm(base, [(0.0, 5.0)] * 3, 100.0), base))
 
 
 @pytest.mark.parametrize("kw", [{"families": ()}, {"outage_s": 0.0}, {"every_s": 10.0}, {"choose_rounds": 0},
