@@ -123,7 +123,7 @@ def nees_acceptance(n_seeds: int = 10, duration: float = 600.0) -> str:
         S = np.array([[0, -a0[2], a0[1]], [a0[2], 0, -a0[0]], [-a0[1], a0[0], 0]])
         eul0 = dcm_to_euler((np.eye(3) - S) @ euler_to_dcm(*r.euler[0]))
         init = InitialState(float(r.t[0]), llh0, r.vel_ned[0] + v0, eul0)
-        res = run_ekf(d.imu, d.gnss, init, ec, [(d.imu_models[a], 100.0) for a in AX], store_cov=True)
+        res = run_ekf(d.imu, d.gnss, init, ec, [d.imu_models[a].with_freq(100.0) for a in AX], store_cov=True)
         e = _nav_error(res, r)
         blocks = [slice(0, 9), slice(0, 3), slice(3, 6), slice(6, 9)]
         all_nees.append(
@@ -163,7 +163,7 @@ def outage_acceptance(n_seeds: int = 10, duration: float = 600.0) -> str:
         windows = [(float(s), 60.0) for s in d.imu.t[0] + np.linspace(90, duration - 80, 5)]
         ec = EkfConfig(sigma_gyro_bias0=cfg.gyro_bias_sigma, sigma_accel_bias0=cfg.accel_bias_sigma)
         init = InitialState(float(r.t[0]), r.llh[0], r.vel_ned[0], r.euler[0])
-        for name, models in (("true", [(d.imu_models[a], 100.0) for a in AX]), ("default", None)):
+        for name, models in (("true", [d.imu_models[a].with_freq(100.0) for a in AX]), ("default", None)):
             row = []
             for w in windows:
                 res = run_ekf(d.imu, d.gnss.without([w]), init, ec, models)
@@ -211,8 +211,8 @@ def main(quick: bool | None = None) -> str:
     name, imu, gnss, ref, windows, lever, init = _load()
     rate = imu.rate_hz
     cfg = EkfConfig(lever_arm=tuple(lever))
-    big = [(preset_model("mems", "gyro", Model.parse("4*AR1+DR+WN+RW"), rate), rate)] * 3 + [
-        (preset_model("mems", "accel", Model.parse("4*AR1+DR+WN+RW"), rate), rate)
+    big = [preset_model("mems", "gyro", Model.parse("4*AR1+DR+WN+RW"), rate).with_freq(rate)] * 3 + [
+        preset_model("mems", "accel", Model.parse("4*AR1+DR+WN+RW"), rate).with_freq(rate)
     ] * 3
     m0 = imu.t >= init.t
     duration = float(imu.t[-1] - init.t)

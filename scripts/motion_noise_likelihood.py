@@ -133,7 +133,7 @@ def _folded_psd(sc, models: list) -> np.ndarray:
     none = Model([WN(sigma2=1e-30)])
     st = sc.extra["static_models"]
     return np.array([max(m.white_variance() / f - st.get(AXES[a], none).white_variance() / f, 0.0)
-                     for a, (m, f) in enumerate(models)])
+                     for a, (m, f) in enumerate((m, m.freq) for m in models)])
 
 
 def prepare(seed: int, law: str, gnss_spec: str, family_law: str, duration: float, stops: int = 4,

@@ -33,7 +33,7 @@ def pack(r):
     d = {n: getattr(r, n) for n in ARRAYS}
     d["events"] = [{k: v for k, v in e.items() if k not in ("elapsed_s", "worker")} for e in r.events]
     d["segments"] = [(s.i0, s.i1) for s in r.segments]
-    d["models"] = [str(m) for m, _ in r.final_models]
+    d["models"] = [str(m) for m in r.final_models]
     d["lambda0"] = r.lambda0
     return d
 

@@ -160,13 +160,13 @@ def test_nav_model_accepts_a_one_axis_fit_and_the_simulator_truth(tmp_path):
     }
     default = default_axis_models(100.0)
     got = load_axis_models(fit, 100.0)
-    assert str(got[1][0]) == "AR1 + WN" and got[1][1] == 200.0
-    assert got[1][0].params == fit["params"]
+    assert str(got[1]) == "AR1 + WN" and got[1].freq == 200.0
+    assert got[1].params == fit["params"]
     for a in (0, 2, 3, 4, 5):
-        assert got[a][0].params == default[a][0].params and got[a][1] == 100.0
+        assert got[a].params == default[a].params and got[a].freq == 100.0
     with pytest.raises(ModelError, match=r"--columns gyro_x=COL.*imu_model\.json"):
         load_axis_models({**fit, "extra": {"column": "rate"}}, 100.0)
     truth = {"seed": 1, "models": {"gz": fit, "ax": {**fit, "unit": "m/s^2"}}}  # the layout of truth.json
     got = load_axis_models(truth, 100.0)
-    assert str(got[2][0]) == "AR1 + WN" and str(got[3][0]) == "AR1 + WN"
-    assert got[0][0].params == default[0][0].params
+    assert str(got[2]) == "AR1 + WN" and str(got[3]) == "AR1 + WN"
+    assert got[0].params == default[0].params

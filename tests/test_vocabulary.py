@@ -128,16 +128,16 @@ def test_load_axis_models_reads_old_and_new_truth_and_imu_model_files(tmp_path):
     b = load_axis_models(new, 100.0)
     default = default_axis_models(100.0)
     for j in range(6):
-        assert a[j][0] == b[j][0] and a[j][1] == b[j][1]
-    assert a[0][0] == rec.models["gyro_x"] and a[5][0] == rec.models["accel_z"]
-    assert a[3][0] == default[3][0]
+        assert a[j] == b[j] and a[j].freq == b[j].freq
+    assert a[0] == rec.models["gyro_x"] and a[5] == rec.models["accel_z"]
+    assert a[3] == default[3]
     assert list(axis_fit_dicts(old)) == ["gyro_x", "gyro_y", "gyro_z", "accel_z"]
     # the multi-axis file round-trips through its one writer and reader
     fit = {"kind": "imunoise.fit", "model": "WN", "params": {"WN.sigma2": 1e-6}, "freq_hz": 100.0, "unit": "rad/s"}
     p = ImuModel(100.0, {"gyro_y": fit}).save(tmp_path / "imu_model.json")
     assert ImuModel.load(p).axes == {"gyro_y": fit}
     assert json.loads(p.read_text())["imunoise_version"] == imunoise.__version__
-    assert load_axis_models(p, 100.0)[1][0] == Model.from_dict(fit)
+    assert load_axis_models(p, 100.0)[1] == Model.from_dict(fit)
 
 
 def _calls_in_functions(module: str, callee: str) -> list[str]:
@@ -171,17 +171,17 @@ def test_one_filter_mapping_used_by_engine_and_experiments():
 
     f = 100.0
     cfg = OnlineConfig()
-    floor = [m for m, _ in default_axis_models(f, cfg.ekf.fallback)]
+    floor = default_axis_models(f, cfg.ekf.fallback)
     m = AR1(phi=0.999, sigma2=1e-10) + WN(sigma2=1e-6) + RW(gamma2=1e-14)
     rng = np.random.default_rng(5)
     fit = gmwm("WN + RW", rng.normal(0.0, 1e-3, 20000), freq=f, unit="rad/s")
     got = filter_models([m, None, fit, m, m, fit], f, cfg)
-    assert got[0] == (ekf_axis_model(m, f, floor[0]), f) and got[3] == (ekf_axis_model(m, f, floor[3]), f)
-    assert got[1] == (floor[1], f)  # no fit: the plain default itself
-    assert got[2] == (ekf_axis_model(fit.model, fit.freq, floor[2], horizon=data_horizon(fit)), f)
+    assert got[0] == ekf_axis_model(m, f, floor[0]) and got[3] == ekf_axis_model(m, f, floor[3])
+    assert got[1] == floor[1] and got[1].freq == f  # no fit: the plain default itself
+    assert got[2] == ekf_axis_model(fit.model, fit.freq, floor[2], horizon=data_horizon(fit)) and got[2].freq == f
     assert data_horizon(fit) is not None
     bare = filter_axis_models([m] * 6, f, cfg.with_(floor="none"))
-    assert all(b == (ekf_axis_model(m, f, None), f) for b in bare)
+    assert all(b == ekf_axis_model(m, f, None) and b.freq == f for b in bare)
 
 
 def test_version_has_one_home():

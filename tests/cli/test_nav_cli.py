@@ -93,10 +93,10 @@ def test_model_json_layouts_and_units(tmp_path):
     }
     acc = {**fit, "unit": "m/s²"}
     per_axis = load_axis_models({"gyro": {"x": fit, "y": fit, "z": fit}, "accel": acc}, 100.0)
-    assert [f for _, f in per_axis] == [200.0] * 6
-    assert str(per_axis[0][0]) == "AR1 + WN"
+    assert [m.freq for m in per_axis] == [200.0] * 6
+    assert str(per_axis[0]) == "AR1 + WN"
     partial = load_axis_models({"gyro_z": {**fit, "unit": "u"}}, 100.0)  # others: plain default
-    assert str(partial[2][0]) == "AR1 + WN" and partial[0][1] == 100.0
+    assert str(partial[2]) == "AR1 + WN" and partial[0].freq == 100.0
     with pytest.raises(UnitError, match="deg/s"):
         load_axis_models({"gyro": {**fit, "unit": "deg/s"}, "accel": acc}, 100.0)
 

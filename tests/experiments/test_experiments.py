@@ -89,10 +89,10 @@ def test_oracle_is_the_true_model_and_sim_only(real):
     assert not cfg.modelling
     truth = [sc.truth_models[ax] for ax in AXES]
     want = filter_models(truth, sc.rate, cfg.with_(floor="none"))
-    assert [str(m) for m, _ in models] == [str(m) for m, _ in want]
-    assert all(m.params == pytest.approx(w.params) for (m, _), (w, _) in zip(models, want))
+    assert [str(m) for m in models] == [str(m) for m in want]
+    assert all(m.params == pytest.approx(w.params) for m, w in zip(models, want))
     # the paper preset's gyro x RW (K = 4.0e-5 rad/s/√s) reaches the filter unchanged
-    assert models[0][0].continuous(sc.rate)["RW.random_walk"] == pytest.approx(3.994e-5, rel=1e-3)
+    assert models[0].continuous(sc.rate)["RW.random_walk"] == pytest.approx(3.994e-5, rel=1e-3)
     # the filter's initial bias σ is the simulated turn-on σ (5 mg)
     assert cfg.ekf.sigma_accel_bias0 == pytest.approx(0.05)
     with pytest.raises(ValueError, match="simulated"):

@@ -56,8 +56,8 @@ def test_load_axis_models_reads_the_multi_axis_model_file(tmp_path):
     assert len(models) == 6
     from imunoise.nav.filter_model import AxisFit, filter_axis_models
 
-    for (model, freq), axis in zip(models, fits):
-        assert freq == 100.0
+    for model, axis in zip(models, fits):
+        assert model.freq == 100.0
         fit = fits[axis]  # the file's fit, through the one door with the horizon of the WV it was fitted on
-        (expected, _), = filter_axis_models([AxisFit(fit.model, 100.0, float(fit.wv.scales[-1]))], 100.0, [None])
+        (expected,) = filter_axis_models([AxisFit(fit.model, 100.0, float(fit.wv.scales[-1]))], 100.0, [None])
         assert model == expected and str(model) != ""

@@ -123,7 +123,7 @@ def test_nees_consistent_with_true_model():
         S = np.array([[0, -a0[2], a0[1]], [a0[2], 0, -a0[0]], [-a0[1], a0[0], 0]])
         eul0 = dcm_to_euler((np.eye(3) - S) @ euler_to_dcm(*r.euler[0]))
         init = InitialState(float(r.t[0]), llh0, r.vel_ned[0] + v0, eul0)
-        res = run_ekf(d.imu, d.gnss, init, ec, [(d.imu_models[a], 100.0) for a in AX], store_cov=True)
+        res = run_ekf(d.imu, d.gnss, init, ec, [d.imu_models[a].with_freq(100.0) for a in AX], store_cov=True)
         e = _nav_error(res, r)
         nees.append(np.einsum("ni,nij,nj->n", e, np.linalg.inv(res.cov), e))
     mean_nees = np.mean(nees, axis=0)[1:]
@@ -192,8 +192,8 @@ def test_swap_model_keeps_navigation_and_maps_bias():
     L = ekf.layout
     h = [L.hvec[L.index(a)] for a in range(6)]
     var_old = [h[a] @ ekf.P[9 + L.index(a)][:, 9 + L.index(a)] @ h[a] for a in range(6)]
-    new = Model([AR1(phi=0.999, sigma2=1e-10), AR1(phi=0.9, sigma2=1e-9), WN(sigma2=1e-6), RW(gamma2=1e-14)])
-    ekf.swap_model({"gyro": (new, freq), "accel": (new, freq)})
+    new = Model([AR1(phi=0.999, sigma2=1e-10), AR1(phi=0.9, sigma2=1e-9), WN(sigma2=1e-6), RW(gamma2=1e-14)], freq)
+    ekf.swap_model({"gyro": new, "accel": new})
     after = ekf.state()
     np.testing.assert_array_equal(after["llh"], before["llh"])
     np.testing.assert_allclose(ekf.P[:9, :9], P9)
@@ -243,7 +243,7 @@ def test_bad_inputs_are_errors_or_handled(caplog):
 def test_default_models_are_valid():
     models = default_axis_models(100.0)
     assert len(models) == 6
-    ss = models[0][0].state_space(0.01, 100.0)
+    ss = models[0].state_space(0.01, 100.0)
     assert ss.labels == ("bias", "AR1_1")
     # ARW 0.5 °/√h → white PSD N² (rad²/s)
     assert ss.white_psd == pytest.approx((0.5 * math.pi / 180 / 60) ** 2, rel=1e-9)

@@ -18,7 +18,7 @@ RATE = 100.0
 
 
 def _layout(models) -> ModelLayout:
-    return ModelLayout.build([(m, RATE) for m in models], 1.0 / RATE)
+    return ModelLayout.build([m.with_freq(RATE) for m in models], 1.0 / RATE)
 
 
 def _random_state(layout: ModelLayout, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -29,7 +29,7 @@ def _random_state(layout: ModelLayout, seed: int) -> tuple[np.ndarray, np.ndarra
 
 
 def test_swap_map_reset_keeps_navigation_and_total_error():
-    plain = [m for m, _ in default_axis_models(RATE)]  # bias + slow GM per axis
+    plain = default_axis_models(RATE)  # bias + slow GM per axis
     old = _layout(plain)
     new = _layout([Model([AR1(phi=0.99, sigma2=1e-8), WN(sigma2=1e-6), DR(omega=1e-9)])] * 6)
     x, P = _random_state(old, 1)
@@ -51,7 +51,7 @@ def test_swap_map_reset_keeps_navigation_and_total_error():
 
 
 def test_swap_map_preserve_carries_states_over_exactly():
-    plain = [m for m, _ in default_axis_models(RATE)]
+    plain = default_axis_models(RATE)
     assert plain[0].params["AR1_1.phi"] > 0.995  # the added AR1s below differ from the slow GM
     old = _layout(plain)
     new = _layout([m + AR1(phi=0.99, sigma2=1e-8) for m in plain])
@@ -79,7 +79,7 @@ def test_ekf_swap_model_is_swap_map_on_its_state():
     cfg = EkfConfig()
     ekf = LooselyCoupledEKF(cfg, None, init, imu_rate_hz=RATE)
     old, x, P = ekf.layout, ekf.xm.copy(), ekf.P.copy()
-    models = [Model([AR1(phi=0.999, sigma2=1e-10), WN(sigma2=1e-6), RW(gamma2=1e-14)])] * 6
+    models = [Model([AR1(phi=0.999, sigma2=1e-10), WN(sigma2=1e-6), RW(gamma2=1e-14)], RATE)] * 6
     counts = ekf.swap_model(models, preserve=True, imu_rate_hz=RATE)
     ref = swap_map(old, ekf.layout, x, P, initial_covariance(cfg, ekf.layout), preserve=True)
     assert counts == {"kept": ref.kept, "reset": ref.reset}

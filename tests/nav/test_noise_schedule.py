@@ -62,7 +62,7 @@ def test_injected_noise_integrates_to_the_schedule(drive):
     i0 = int(np.searchsorted(sc.imu.t, sc.init.t, side="right")) - 1
     steps = slice(i0 + 1, i0 + lf.imu.t.size)  # the schedule's samples of the filter's steps
     dt = lf.ekf.dt_nom
-    rw = [sum(c.values[0] for c in m.components if c.kind == "RW") for m, _ in law_models(sc)]
+    rw = [sum(c.values[0] for c in m.components if c.kind == "RW") for m in law_models(sc)]
     b = lf.noise.bias_index + N_NAV
     P_end = log[-1][1]
     dep = set(int(d) for d in sched.departure_index) & set(range(steps.start, steps.stop))

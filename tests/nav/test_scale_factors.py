@@ -94,7 +94,7 @@ def test_bad_scale_settings_are_model_errors(kw):
 def test_swap_carries_scale_states_exactly(preserve):
     cfg = EkfConfig(scale_factors=True)
     old = _layout(scale_spec(cfg))
-    faster = [(m + AR1(phi=0.99, sigma2=1e-8), f) for m, f in default_axis_models(RATE)]
+    faster = [m + AR1(phi=0.99, sigma2=1e-8) for m in default_axis_models(RATE)]
     new = ModelLayout.build(faster, 1.0 / RATE, scale_spec(cfg))
     rng = np.random.default_rng(4)
     n = 9 + old.nm

@@ -67,7 +67,9 @@ def test_at_rate_keeps_the_continuous_time_parameters():
     assert c200.keys() == c100.keys()
     for k in c200:
         assert c100[k] == pytest.approx(c200[k], rel=1e-12), k
-    assert m.at_rate(200.0, 200.0) is m
+    assert m.at_rate(200.0, 200.0) == m and m.at_rate(200.0, 200.0).freq == 200.0  # the result carries its rate
+    rated = m.with_freq(200.0)
+    assert rated.at_rate(200.0, 200.0) is rated
 
 
 def test_filter_gets_the_fits_continuous_noise_at_its_own_rate():
@@ -75,13 +77,13 @@ def test_filter_gets_the_fits_continuous_noise_at_its_own_rate():
     fit_model = WN(sigma2=4e-6) + RW(gamma2=2.5e-13)
     fit = SimpleNamespace(model=fit_model, freq=200.0)
     cfg = OnlineConfig(floor="none")
-    (model, f), = filter_axis_models([fit], 100.0, cfg, floor=[None])
-    assert f == 100.0
+    (model,) = filter_axis_models([fit], 100.0, cfg, floor=[None])
+    assert model.freq == 100.0
     want, got = fit_model.continuous(200.0), model.continuous(100.0)
     assert got["WN.noise_density"] == pytest.approx(want["WN.noise_density"], rel=1e-12, abs=0)
     assert got["RW.random_walk"] == pytest.approx(want["RW.random_walk"], rel=1e-12, abs=0)
     # same rate: the per-sample model passes unchanged
-    (same, _), = filter_axis_models([SimpleNamespace(model=fit_model, freq=100.0)], 100.0, cfg, floor=[None])
+    (same,) = filter_axis_models([SimpleNamespace(model=fit_model, freq=100.0)], 100.0, cfg, floor=[None])
     assert same.vector.tolist() == fit_model.vector.tolist()
     assert math.isclose(same.continuous(100.0)["WN.noise_density"], math.sqrt(4e-6 / 100.0), rel_tol=1e-15)
 

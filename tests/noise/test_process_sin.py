@@ -145,9 +145,9 @@ def test_the_filter_tracks_the_line_with_its_oscillator_states():
     line = 0.02 * np.sin(s.values[1] * k + 1.1)
     noise = np.random.default_rng(4525).normal(0.0, 0.005, k.size)
     wn = Model([WN(sigma2=1e-6)])
-    with_line = [(wn, RATE)] * 2 + [(WN(sigma2=1e-6) + s, RATE)] + [(wn, RATE)] * 3
+    with_line = [wn.with_freq(RATE)] * 2 + [(WN(sigma2=1e-6) + s).with_freq(RATE)] + [wn.with_freq(RATE)] * 3
     rms_line = np.sqrt(np.mean((_track(with_line, line, noise) - line)[1000:] ** 2))
-    rms_white = np.sqrt(np.mean((_track([(wn, RATE)] * 6, line, noise) - line)[1000:] ** 2))
+    rms_white = np.sqrt(np.mean((_track([wn.with_freq(RATE)] * 6, line, noise) - line)[1000:] ** 2))
     assert rms_line < 0.1 * 0.02 / math.sqrt(2)  # under a tenth of the line's RMS
     assert rms_white > 0.7 * 0.02 / math.sqrt(2)
 

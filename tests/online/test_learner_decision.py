@@ -94,15 +94,15 @@ def test_compose_adds_gauss_markov_white_and_the_departure_variance():
             LearnedProcess("step", "gyro", 1e-4))
     out = compose(base, spec, 100.0)
     for a in range(3):
-        assert out[a][0].white_variance() == pytest.approx(4.0 * base[a][0].white_variance())
-        assert sum(isinstance(c, AR1) for c in out[a][0].components) == sum(
-            isinstance(c, AR1) for c in base[a][0].components)
+        assert out[a].white_variance() == pytest.approx(4.0 * base[a].white_variance())
+        assert sum(isinstance(c, AR1) for c in out[a].components) == sum(
+            isinstance(c, AR1) for c in base[a].components)
     for a in range(3, 6):
-        ar = [c for c in out[a][0].components if isinstance(c, AR1)][-1]
+        ar = [c for c in out[a].components if isinstance(c, AR1)][-1]
         phi, s2 = ar.values
         assert phi == pytest.approx(math.exp(-1 / (100.0 * 100.0)))
         assert s2 / (1 - phi ** 2) == pytest.approx(0.01 ** 2)
-        assert sum(isinstance(c, WN) for c in out[a][0].components) <= 1
+        assert sum(isinstance(c, WN) for c in out[a].components) <= 1
     assert departure_variance(spec) == [1e-8] * 3 + [0.0] * 3 and departure_variance(spec[:2]) is None
 
 

@@ -84,9 +84,9 @@ def test_add_motion_gm_adds_the_gauss_markov_process_to_the_gyros_only():
     base = default_axis_models(100.0)
     out = add_motion_gm(base, [(100.0, 5.0), (0.0, 5.0), (100.0, 5.0)], 100.0)
     for a in range(6):
-        added = [c for c in out[a][0].components if c not in base[a][0].components]
+        added = [c for c in out[a].components if c not in base[a].components]
         if a >= 3 or a == 1:
-            assert out[a][0] is base[a][0]
+            assert out[a] is base[a]
             continue
         (gm,) = added
         assert isinstance(gm, AR1)
@@ -94,7 +94,7 @@ def test_add_motion_gm_adds_the_gauss_markov_process_to_the_gyros_only():
         assert phi == pytest.approx(math.exp(-1.0 / 500.0), rel=1e-12)
         sigma = math.sqrt(s2 / (1.0 - phi * phi))  # stationary σ
         assert sigma == pytest.approx(100.0 * math.pi / 180.0 / 3600.0, rel=1e-12)
-    assert all(o[0] is b[0] for o, b in zip(add_motion_gm(base, [(0.0, 5.0)] * 3, 100.0), base))
+    assert all(o is b for o, b in zip(add_motion_gm(base, [(0.0, 5.0)] * 3, 100.0), base))
 
 
 @pytest.mark.parametrize("kw", [{"families": ()}, {"outage_s": 0.0}, {"every_s": 10.0}, {"choose_rounds": 0},
@@ -189,8 +189,8 @@ def test_a_carried_model_runs_from_the_first_sample(drive):
     cfg = cfg.with_(latency=1.0, motion_noise=MotionNoiseConfig(prior=prior))
     nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models)
     for j in range(3):
-        n_gm = sum(isinstance(c, AR1) for c in nav.current_models[j][0].components)
-        n_static = sum(isinstance(c, AR1) for c in nav.static_models[j][0].components)
+        n_gm = sum(isinstance(c, AR1) for c in nav.current_models[j].components)
+        n_static = sum(isinstance(c, AR1) for c in nav.static_models[j].components)
         assert n_gm == n_static + 1
     assert nav.learner.motion.evidence().rounds == 7
 

@@ -268,9 +268,9 @@ def test_swap_preserving_keeps_learned_states(scenario):
     A = rng.normal(size=ekf.P.shape)
     ekf.P = ekf.P + 1e-8 * (A @ A.T)
     plain = default_axis_models(100.0)
-    slow = [m for m, _ in plain]
+    slow = list(plain)
     # first swap: plain (bias + slow GM) → slow GM + a new AR1 per axis: the slow GM state is kept
-    new = [(m + AR1(phi=0.99, sigma2=1e-8), 100.0) for m in slow]
+    new = [m + AR1(phi=0.99, sigma2=1e-8) for m in slow]  # the sum keeps the rate (100 Hz)
     x0, P0 = ekf.xm.copy(), ekf.P.copy()
     counts = ekf.swap_model(new, preserve=True, imu_rate_hz=100.0)
     assert counts == {"kept": 6, "reset": 6}
@@ -284,7 +284,7 @@ def test_swap_preserving_keeps_learned_states(scenario):
     assert np.array_equal(ekf.P[:9, :9], P0[:9, :9])
     # a refit of the same structure keeps every state exactly
     x1, P1 = ekf.xm.copy(), ekf.P.copy()
-    refit = [(m + AR1(phi=0.995, sigma2=2e-8), 100.0) for m in slow]
+    refit = [m + AR1(phi=0.995, sigma2=2e-8) for m in slow]
     assert ekf.swap_model(refit, preserve=True, imu_rate_hz=100.0) == {"kept": 12, "reset": 0}
     assert np.array_equal(ekf.xm, x1) and np.array_equal(ekf.P, P1)
 

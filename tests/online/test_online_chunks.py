@@ -51,7 +51,7 @@ def _same(a, b):
         assert x.shape == y.shape and np.array_equal(x, y), name
     assert _events(a) == _events(b)
     assert [(s.i0, s.i1) for s in a.segments] == [(s.i0, s.i1) for s in b.segments]
-    assert [str(m) for m, _ in a.final_models] == [str(m) for m, _ in b.final_models]
+    assert [str(m) for m in a.final_models] == [str(m) for m in b.final_models]
 
 
 @pytest.mark.timeout(900)

@@ -123,7 +123,7 @@ def test_scenario_oracle_uses_the_moving_models():
         sc = simulate_scenario(2, n_outages=0, motion_noise=motion, **SHORT)
         cfg, models = method_config("oracle", sc)
         want = filter_models([sc.truth_models[ax] for ax in AXES], sc.rate, cfg.with_(floor="none"))
-        assert all(m.params == pytest.approx(w.params) for (m, _), (w, _) in zip(models, want, strict=True))
+        assert all(m.params == pytest.approx(w.params) for m, w in zip(models, want, strict=True))
         same = sc.truth_models == sc.extra["static_models"]
         assert same == (motion == "none")
 

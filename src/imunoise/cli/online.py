@@ -305,7 +305,7 @@ def _print(m: dict, res) -> None:
 
 
 def _in_motion(args: argparse.Namespace, imu, models, rate: float):
-    """(in-motion part, static pairs, moving flag per IMU sample) of a model file with an in-motion part, else
+    """(in-motion part, static models, moving flag per IMU sample) of a model file with an in-motion part, else
     None. The moving flag is ``nav``'s (:func:`imunoise.inuse.stops.moving_flag`)."""
     if not args.imu_model:
         return None

@@ -49,7 +49,7 @@ BRANCH_MARGIN_S = 1.0
 
 
 def law_models(sc, base=None) -> list:
-    """The six (model, freq) filter pairs of ``oracle_law``: the static true models through the oracle's mapping
+    """The six filter models (with their rate) of ``oracle_law``: the static true models through the oracle's mapping
     (no floor), each axis with σ_j > 0 plus its moving Gauss–Markov as an AR1 (φ = e^{−1/(τ f)}, σ²(1 − φ²))."""
     from imunoise.experiments.common import filter_models
     from imunoise.noise.model import Model
@@ -64,12 +64,12 @@ def law_models(sc, base=None) -> list:
     cfg = (base or OnlineConfig()).with_(ekf=sc.ekf_config(), floor="none")
     pairs = filter_models([static.get(ax, none) for ax in AXES], sc.rate, cfg)
     out = []
-    for a, (m, f) in enumerate(pairs):
+    for a, (m, f) in enumerate((m, m.freq) for m in pairs):
         sig, tau = float(sched.gm_sigma[a]), float(sched.gm_tau_s[a])
         if sig > 0:
             phi = math.exp(-1.0 / (tau * f))
-            m = Model([*m.components, AR1(phi=phi, sigma2=sig * sig * (1.0 - phi * phi))])
-        out.append((m, f))
+            m = Model([*m.components, AR1(phi=phi, sigma2=sig * sig * (1.0 - phi * phi))], f)
+        out.append(m)
     return out
 
 
@@ -81,7 +81,7 @@ def _folded_psd(sc, models: list) -> np.ndarray:
     none = Model([WN(sigma2=1e-30)])
     static = sc.extra["static_models"]
     out = np.zeros(6)
-    for a, (m, f) in enumerate(models):
+    for a, (m, f) in enumerate((m, m.freq) for m in models):
         true_white = static.get(AXES[a], none).white_variance() / f
         out[a] = max(m.white_variance() / f - true_white, 0.0)
     return out
@@ -90,7 +90,7 @@ def _folded_psd(sc, models: list) -> np.ndarray:
 def _gm_index(ekf: LooselyCoupledEKF, models: list, sched) -> np.ndarray:
     """Layout index of each axis' moving GM state (the AR1 whose φ and σ² are the GM's), −1 where none."""
     idx = np.full(6, -1, dtype=np.int64)
-    for a, (m, f) in enumerate(models):
+    for a, (m, f) in enumerate((m, m.freq) for m in models):
         if not sched.gm_sigma[a] > 0:
             continue
         ar1 = [c for c in m.components if c.kind == "AR1"]
@@ -144,7 +144,7 @@ def _rate_gate(sc, base, i0: int, n: int) -> np.ndarray:
 def law_filter(sc, extra_bounds_t=(), base=None, *, models: list | None = None) -> LawFilter:
     """The ``oracle_law`` filter of scenario ``sc`` from its start ``sc.init``; ``extra_bounds_t``: times where a
     piece must start (window starts: the piece starts at the last sample before each). ``models``: fixed
-    (model, freq) pairs with the schedule off (a constant-model filter through the same batch path)."""
+    models (each carrying its rate) with the schedule off (a constant-model filter through the same batch path)."""
     sched = sc.extra["law_schedule"] if models is None else None
     models = law_models(sc, base) if models is None else models
     init = sc.init

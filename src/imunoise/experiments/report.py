@@ -165,7 +165,7 @@ def write_online_real(results: dict, sc: Any, out: Path, *, title: str | None = 
         rep.heading("Online GMWM models (final, per axis)", 2)
         rep.table(["axis", "GMWM structure", "GOF", "filter model (after mapping)"],
                   [[a, str(f.model) if f else "–", f.objective if f else None, str(m)]
-                   for a, f, (m, _) in zip(plots.AXES, full.fits, full.final_models)])
+                   for a, f, m in zip(plots.AXES, full.fits, full.final_models)])
         for p in plots.wv_figures(full.fits, out, "wv"):
             rep.figure(p, f"{p.stem[3:]}: pooled WV of the static segments with the online GMWM fit")
         if "av" in obj and "_fits" in obj["av"]:

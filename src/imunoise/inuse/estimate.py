@@ -67,11 +67,11 @@ class InMotionEstimate:
 
 def static_pairs(static_model: Any, freq: float) -> list:
     """The six static filter pairs through the door: a model file / :class:`~imunoise.noise.imu_model.ImuModel` /
-    parsed dict (:func:`imunoise.nav.defaults.load_axis_models`), or six (model, freq) pairs as they are."""
-    from imunoise.nav.defaults import load_axis_models
+    parsed dict (:func:`imunoise.nav.defaults.load_axis_models`), or six filter models as they are."""
+    from imunoise.nav.defaults import load_axis_models, normalize_axis_models
 
     if isinstance(static_model, list | tuple):
-        return list(static_model)
+        return normalize_axis_models(list(static_model), freq)
     if hasattr(static_model, "to_dict"):
         static_model = static_model.to_dict()
     return load_axis_models(static_model, freq)
@@ -84,8 +84,8 @@ def static_nk(pairs: list, horizon_s: float) -> list[tuple[float, float]]:
     from imunoise.noise.equivalent_noise import equivalent_noise
 
     out = []
-    for m, f in pairs:
-        eq = equivalent_noise(m, f, horizon_s=horizon_s)
+    for m in pairs:
+        eq = equivalent_noise(m, m.freq, horizon_s=horizon_s)
         out.append((eq.N, eq.K))
     return out
 
@@ -231,7 +231,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     static_model : object
         The static part (the stops' model), mapped to the filter by the door: an
         :class:`~imunoise.noise.imu_model.ImuModel`, its parsed JSON, a model file's path, or the six
-        (model, rate) filter pairs as they are.
+        filter models as they are.
     freq : float
         IMU rate [Hz] (the static model's parameters per sample at its own rate).
     seed : int, optional

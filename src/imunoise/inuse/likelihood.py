@@ -78,7 +78,7 @@ DriveMapper = Callable[[Callable[[Any, np.ndarray, Any], float], Sequence[Any], 
 @dataclass
 class DriveLikelihood:
     """The pooled NLL of the GNSS fixes of ``drives`` (module docstring) under the static filter ``pairs`` (the six
-    (model, freq) pairs of the door) plus an in-motion :class:`Theta`; ``nll(theta)`` is cached. ``mapper``
+    models of the door, each with its rate) plus an in-motion :class:`Theta`; ``nll(theta)`` is cached. ``mapper``
     (a :data:`DriveMapper`): where the drives' runs go (default: one after the other, here)."""
 
     drives: Sequence[Any]

@@ -75,14 +75,15 @@ class AdaptiveNoise:
     Parameters
     ----------
     base_models : sequence
-        The nominal six (model, freq) pairs (or models) the factor scales.
+        The nominal six models the factor scales, each carrying its rate (pairs: deprecated,
+        :func:`~imunoise.nav.defaults.normalize_axis_models`).
     config : AdaptiveConfig, optional
         Settings.
     """
 
     def __init__(self, base_models, config: AdaptiveConfig | None = None):
         self.config = config or AdaptiveConfig()
-        self.base = [m if isinstance(m, tuple) else (m, None) for m in base_models]
+        self.base = list(base_models)
         self.factor = 1.0
         self.applied = 1.0
         self.nis_mean = float("nan")
@@ -97,7 +98,8 @@ class AdaptiveNoise:
     def models(self, factor: float | None = None) -> list:
         """The nominal models with the bias noise scaled by ``factor`` (default: the applied α)."""
         f = self.applied if factor is None else factor
-        return [(scale_bias_noise(m, f), fr) if fr is not None else scale_bias_noise(m, f) for m, fr in self.base]
+        return [(scale_bias_noise(m[0], f), m[1]) if isinstance(m, tuple) else scale_bias_noise(m, f)
+                for m in self.base]
 
     def add_nis(self, nis: float) -> None:
         """One NIS into the exponentially weighted mean (normalised by the weight sum, so early means are

@@ -16,12 +16,13 @@ accel bias σ 5000 mGal, correlation time 1 h.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from imunoise.errors import ModelError
-from imunoise.noise.model import Model
+from imunoise.noise.model import Model, as_model
 from imunoise.noise.processes import AR1, RW, WN
 
 DEG = math.pi / 180.0
@@ -65,7 +66,8 @@ class ImuSpec:
     accel_tau_s: float = 3600.0
 
     def models(self, freq: float) -> tuple[Model, Model]:
-        """(gyro model, accel model) with per-sample parameters at ``freq`` Hz (module docstring)."""
+        """(gyro model, accel model) with per-sample parameters at ``freq`` Hz, which they carry (module
+        docstring)."""
         return (
             _wn_rw_gm(self.gyro_n, self.gyro_k, self.gyro_sigma_gm, self.gyro_tau_s, freq),
             _wn_rw_gm(self.accel_n, self.accel_k, self.accel_sigma_gm, self.accel_tau_s, freq),
@@ -82,10 +84,7 @@ def _wn_rw_gm(n: float, k: float, sigma_gm: float, tau: float, freq: float) -> M
         parts.append(WN(sigma2=n * n * freq))
     if k > 0:
         parts.append(RW(gamma2=k * k / freq))
-    model = parts[0]
-    for p in parts[1:]:
-        model = model + p
-    return model if isinstance(model, Model) else Model([model])
+    return Model(parts, freq)
 
 
 def plain_default() -> ImuSpec:
@@ -98,10 +97,11 @@ def kfgins_loose() -> ImuSpec:
     return ImuSpec(gyro_k=0.0, accel_k=0.0)
 
 
-def default_axis_models(freq: float, spec: ImuSpec | None = None) -> list[tuple[Model, float]]:
-    """Six (model, freq) pairs, gyro x/y/z then accel x/y/z, from ``spec`` (default :func:`plain_default`)."""
+def default_axis_models(freq: float, spec: ImuSpec | None = None) -> list[Model]:
+    """Six models at ``freq`` Hz (each carries the rate), gyro x/y/z then accel x/y/z, from ``spec`` (default
+    :func:`plain_default`)."""
     g, a = (spec or plain_default()).models(freq)
-    return [(g, freq)] * 3 + [(a, freq)] * 3
+    return [g] * 3 + [a] * 3
 
 
 @dataclass(frozen=True)
@@ -169,7 +169,7 @@ class EkfConfig:
 _SI_UNITS = {"gyro": ("rad/s", "rad s^-1", "rad/s/sample"), "accel": ("m/s^2", "m/s²", "m/s2", "m s^-2")}
 
 
-def _model_from_entry(entry: dict, sensor: str, where: str, freq_default: float) -> tuple[Model, float]:
+def _model_from_entry(entry: dict, sensor: str, where: str, freq_default: float) -> Model:
     from imunoise.errors import UnitError
 
     if not isinstance(entry, dict) or "model" not in entry:
@@ -184,20 +184,21 @@ def _model_from_entry(entry: dict, sensor: str, where: str, freq_default: float)
     if not model.known:
         raise ModelError(f"{where}: model {model} has no parameter values")
     freq = float(entry.get("freq_hz", entry.get("rate_hz", freq_default)))
+    model = model.with_freq(freq)
     scales = (entry.get("wv") or {}).get("scales") if isinstance(entry.get("wv"), dict) else None
     horizon = float(scales[-1]) if scales else None  # a fit file carries the WV it was fitted on
     # imported here: the door loads the equivalent-noise fit (scipy.optimize), which `nav` without a model file
     # never needs (tests/cli/test_cli_startup.py)
     from imunoise.nav.filter_model import AxisFit, filter_axis_models
 
-    (mapped, rate), = filter_axis_models([AxisFit(model, freq, horizon)], freq, [None])
-    return mapped, rate
+    (mapped,) = filter_axis_models([AxisFit(model, freq, horizon)], freq, [None])
+    return mapped
 
 
-def load_axis_models(src, freq_default: float) -> list[tuple[Model, float]]:
-    """Six filter (model, freq) pairs from a model JSON (path or parsed dict), each axis through the one door
-    into the filter (:func:`imunoise.nav.filter_model.filter_axis_models`, without a floor; a fit file's WV gives
-    the horizon): ``nav --imu-model`` and ``online --imu-model``.
+def load_axis_models(src, freq_default: float) -> list[Model]:
+    """Six filter models (each carrying its rate) from a model JSON (path or parsed dict), each axis through the
+    one door into the filter (:func:`imunoise.nav.filter_model.filter_axis_models`, without a floor; a fit file's
+    WV gives the horizon): ``nav --imu-model`` and ``online --imu-model``.
 
     Accepted layouts: the multi-axis model file (``kind: imunoise.noise.imu_model`` with ``axes``),
     ``{"gyro": FIT, "accel": FIT}`` (one model per sensor), ``{"gyro": {"x": FIT, "y":
@@ -215,7 +216,7 @@ def load_axis_models(src, freq_default: float) -> list[tuple[Model, float]]:
 
     where = "model JSON" if isinstance(src, dict) else str(src)
     entries = axis_fit_dicts(src, where)  # every accepted layout, parsed in imunoise.noise.imu_model
-    out: list[tuple[Model, float] | None] = [None] * 6
+    out: list[Model | None] = [None] * 6
     for a, axis in enumerate(AXES):
         if axis in entries:
             out[a] = _model_from_entry(entries[axis], "gyro" if a < 3 else "accel", f"{where}[{axis}]", freq_default)
@@ -227,20 +228,17 @@ def load_axis_models(src, freq_default: float) -> list[tuple[Model, float]]:
     return out  # type: ignore[return-value]
 
 
-def normalize_axis_models(axis_models, freq: float) -> list[tuple[object, float]]:
-    """Six (model, freq) pairs (gyro x,y,z, accel x,y,z) from the accepted spellings.
+def normalize_axis_models(axis_models, freq: float) -> list[Model]:
+    """Six models (gyro x,y,z, accel x,y,z), each carrying the rate its parameters are per sample at.
 
-    Accepted: ``None`` (the plain default); a sequence of 6 models or (model, freq) pairs; a dict
-    ``{"gyro": m | [mx, my, mz], "accel": ...}``. A model is anything with ``state_space(dt, freq)``;
-    without an explicit freq the IMU rate ``freq`` is used (parameters per sample at the fitted rate).
+    Accepted: ``None`` (the plain default at ``freq``, the IMU rate); a sequence of 6 models; a dict
+    ``{"gyro": m | [mx, my, mz], "accel": ...}``. A model is an imunoise :class:`Model` with its rate
+    (``freq``: set by the fits and model files, or stated with ``model.with_freq(rate_hz)``); one without a rate
+    is refused (its parameters are per sample at a rate only its fit knows). Deprecated, for one release: a
+    (model, freq) pair in place of a model (a DeprecationWarning; ``freq`` 0 or None: the IMU rate).
     """
     if axis_models is None:
         return default_axis_models(freq)
-
-    def pair(m):
-        if isinstance(m, tuple) and len(m) == 2:
-            return m[0], float(m[1] if m[1] else freq)
-        return m, float(getattr(m, "freq", None) or freq)
 
     if isinstance(axis_models, dict):
         out = []
@@ -251,13 +249,28 @@ def normalize_axis_models(axis_models, freq: float) -> list[tuple[object, float]
             ms = list(m) if isinstance(m, list | np.ndarray) else [m] * 3
             if len(ms) != 3:
                 raise ModelError(f"'{sensor}' needs one model or three (x, y, z), got {len(ms)}")
-            out += [pair(x) for x in ms]
+            out += [_rated(x, freq) for x in ms]
         models = out
     else:
-        models = [pair(m) for m in axis_models]
+        models = [_rated(m, freq) for m in axis_models]
     if len(models) != 6:
         raise ModelError(f"need 6 axis models (gyro x,y,z, accel x,y,z), got {len(models)}")
-    for m, _ in models:
-        if not hasattr(m, "state_space"):
-            raise ModelError(f"axis model {m!r} has no state_space(dt, freq); pass an imunoise Model")
     return models
+
+
+def _rated(m, freq: float):
+    """One axis' model with its rate (:func:`normalize_axis_models`): a model as it is, a pair (deprecated) as
+    its model stating the pair's rate."""
+    if isinstance(m, tuple) and len(m) == 2:
+        warnings.warn(
+            "(model, freq) pairs for the filter are deprecated and will be refused in the next release: a model "
+            "carries its rate; pass the model (fits and model files set it) or model.with_freq(rate_hz)",
+            DeprecationWarning, stacklevel=4,
+        )
+        m, f = as_model(m[0]), float(m[1] if m[1] else freq)
+        return m.with_freq(m.sample_rate(f, "the filter"))
+    if not isinstance(m, Model):
+        raise ModelError(f"axis model {m!r} is not an imunoise Model; pass e.g. "
+                         "(WN(sigma2=...) + RW(gamma2=...)).with_freq(rate_hz)")
+    m.sample_rate(None, "the filter")  # refused without a rate, with the fix
+    return m

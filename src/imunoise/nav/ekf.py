@@ -227,7 +227,8 @@ def run_ekf(
         Filter settings (default ``EkfConfig()``).
     axis_models : optional
         Error model of each sensor axis (:func:`~imunoise.nav.defaults.normalize_axis_models`): ``None`` for the
-        defaults, six models or (model, freq) pairs, or ``{"gyro": ..., "accel": ...}``.
+        defaults, six models that carry their rate, or ``{"gyro": ..., "accel": ...}`` ((model, freq) pairs:
+        deprecated).
     t_end : float, optional
         Last epoch [s] (default: the end of the IMU data).
     gate, zupt : numpy.ndarray, optional

@@ -89,14 +89,15 @@ class ModelLayout:
 
     @classmethod
     def build(
-        cls, models: list[tuple[object, float]], dt: float, scale: tuple[float, float, float] | None = None
+        cls, models: list, dt: float, scale: tuple[float, float, float] | None = None
     ) -> ModelLayout:
-        """Layout of the six axes' models at step ``dt``; ``scale`` = :func:`scale_spec` appends the six
-        scale-factor states (Gauss–Markov: φ = exp(−dt/τ), q = σ²(1 − φ²), P0 = σ²; τ = ∞: φ = 1, q = 0)."""
+        """Layout of the six axes' models (each carrying its rate) at step ``dt``; ``scale`` = :func:`scale_spec`
+        appends the six scale-factor states (Gauss–Markov: φ = exp(−dt/τ), q = σ²(1 − φ²), P0 = σ²; τ = ∞: φ = 1,
+        q = 0)."""
         labels, axis_of, kind, h = [], [], [], []
         blocks_phi, blocks_q, blocks_p0, wpsd = [], [], [], np.zeros(6)
-        for a, (m, f) in enumerate(models):
-            ss = m.state_space(dt, f)
+        for a, m in enumerate(models):
+            ss = m.state_space(dt, m.sample_rate(None, "the filter"))
             for lab, role in zip(ss.labels, ss.roles):  # roles: imunoise.noise.processes.ROLE_* = kinds 0–2 here
                 labels.append(f"{AXES[a]}.{lab}")
                 kind.append(role)
@@ -144,7 +145,7 @@ class ModelLayout:
             phi_pow,
             q_pow,
             wpsd,
-            [m for m, _ in models],
+            list(models),
             scale_index,
         )
 

@@ -50,16 +50,17 @@ class AxisFit(NamedTuple):
     horizon: float | None
 
 
-def filter_model(model: Model, freq: float, floor: Model | None = None, *, fold_tau_s: float = 1.0,
+def filter_model(model: Model, freq: float | None = None, floor: Model | None = None, *, fold_tau_s: float = 1.0,
                  dr: str | None = None, horizon: float | None = None, qn: str = "white") -> Model:
     """Filter model of one axis from a fitted model (module docstring).
 
     Parameters
     ----------
     model : Model
-        Known parameters per sample at ``freq``.
-    freq : float
-        Sample rate of the parameters [Hz].
+        Known parameters per sample at its rate.
+    freq : float, optional
+        Sample rate of the parameters [Hz]: the model's own (given only for a model without one; a different
+        one is refused, :meth:`~imunoise.noise.model.Model.sample_rate`).
     floor : Model, optional
         A WN + RW + AR1 model at ``freq``: bounds the white variance and γ² from below and contributes its AR1
         when the model has no AR1 at least as slow.
@@ -76,7 +77,9 @@ def filter_model(model: Model, freq: float, floor: Model | None = None, *, fold_
     Returns
     -------
     Model
+        Carrying ``freq``.
     """
+    freq = model.sample_rate(freq, "the filter door")
     dr = dr or ("state" if horizon is None else "rw")
     ar1: list[tuple[float, float]] = []
     ramp = None
@@ -133,7 +136,7 @@ def filter_model(model: Model, freq: float, floor: Model | None = None, *, fold_
         comps.append(DR(omega=ramp))
     if not comps:
         comps.append(WN(sigma2=1e-30))
-    return Model(comps)
+    return Model(comps, freq)
 
 
 def _stationary_variance(c: Process) -> float:
@@ -146,15 +149,16 @@ def _stationary_variance(c: Process) -> float:
 
 
 def filter_axis_models(fits: list, freq: float, floor: list[Model | None], *, fold_tau_s: float = 1.0,
-                       dr: str | None = None, qn: str = "white") -> list[tuple[Model, float]]:
-    """The six (model, freq) pairs the filter gets from per-axis fits (gyro x,y,z, accel x,y,z).
+                       dr: str | None = None, qn: str = "white") -> list[Model]:
+    """The six models the filter gets from per-axis fits (gyro x,y,z, accel x,y,z), each carrying its rate.
 
     Parameters
     ----------
     fits : list
         Per axis a :class:`~imunoise.noise.estimator.GMWMFit` (or anything with ``model``, ``freq`` and optionally
         ``wv``: converted to ``freq`` with :meth:`Model.at_rate`), an :class:`AxisFit` (kept at its own rate), a
-        bare :class:`Model` (per sample at ``freq``, no horizon), or None (the axis' ``floor`` model as it is).
+        bare :class:`Model` (kept at its own rate, ``freq`` when it has none; no horizon), or None (the axis'
+        ``floor`` model as it is).
     freq : float
         Filter (IMU) rate [Hz].
     floor : list
@@ -164,30 +168,32 @@ def filter_axis_models(fits: list, freq: float, floor: list[Model | None], *, fo
 
     Returns
     -------
-    list of (Model, float)
+    list of Model
     """
     out = []
     for a, f in enumerate(fits):
         if f is None:
-            out.append((floor[a], freq))
+            out.append(floor[a].with_freq(floor[a].sample_rate(freq, "the floor")))
             continue
         rate, model, horizon = freq, f, None
-        if isinstance(f, AxisFit):  # a model file's axis: mapped at the rate its parameters are given at
+        if isinstance(f, Model) and f.freq is not None:  # a bare model: mapped at the rate it carries
+            rate = f.freq
+        elif isinstance(f, AxisFit):  # a model file's axis: mapped at the rate its parameters are given at
             rate, model, horizon = f.freq, f.model, f.horizon
         elif hasattr(f, "model"):  # per sample at the fit's own rate: the same continuous-time model at freq
             model, horizon = f.model.at_rate(float(f.freq), freq), data_horizon(f)
             if horizon is not None and float(f.freq) != freq:
                 horizon = horizon * freq / float(f.freq)
         fl = floor[a] if rate == freq else None
-        out.append((filter_model(model, rate, fl, fold_tau_s=fold_tau_s, dr=dr, horizon=horizon, qn=qn), rate))
+        out.append(filter_model(model, rate, fl, fold_tau_s=fold_tau_s, dr=dr, horizon=horizon, qn=qn))
     return out
 
 
 class InMotionFilter(NamedTuple):
-    """What the door gives the filter for a model with an in-motion part: the six (model, freq) pairs of the
-    static part, each axis with a moving bias wander plus its Gauss–Markov as the last AR1 (the moving state,
-    evolving while moving, frozen at stops: :class:`imunoise.nav.noise_schedule.NoiseControl`); ``white``: per
-    axis the white-PSD scale while moving (the white factor squared); ``gm_axes``: per axis whether it has the
+    """What the door gives the filter for a model with an in-motion part: the six models of the static part
+    (each with its rate), each axis with a moving bias wander plus its Gauss–Markov as the last AR1 (the moving
+    state, evolving while moving, frozen at stops: :class:`imunoise.nav.noise_schedule.NoiseControl`); ``white``:
+    per axis the white-PSD scale while moving (the white factor squared); ``gm_axes``: per axis whether it has the
     moving state; ``gm_index``: per axis the index of the moving state's AR1 in its model's ``components`` (−1
     where none): the one appended, wherever :class:`~imunoise.noise.model.Model`'s ordering of its AR1s by φ put
     it, even beside a static AR1 of the same φ."""
@@ -198,34 +204,35 @@ class InMotionFilter(NamedTuple):
     gm_index: tuple[int, ...]
 
 
-def in_motion_filter(pairs: list, white_factor, gm_sigma, gm_tau_s) -> InMotionFilter:
-    """The filter of the in-motion part (docs/guide/theory.rst, 'In-use noise') on top of the static pairs the
+def in_motion_filter(models: list, white_factor, gm_sigma, gm_tau_s) -> InMotionFilter:
+    """The filter of the in-motion part (docs/guide/theory.rst, 'In-use noise') on top of the static models the
     door mapped (:func:`filter_axis_models`): per axis j with σ_j > 0 an AR1 φ = e^{−1/(τ_j f)}, q = σ_j²(1 − φ²)
     appended (P0 = σ_j²), and the white scale ``white_factor_j²`` while moving.
 
     Parameters
     ----------
-    pairs : list of (Model, float)
-        The six static filter pairs.
+    models : list of Model
+        The six static filter models, each carrying its rate.
     white_factor, gm_sigma, gm_tau_s : sequence of 6 floats
         The white factor (σ scale), the moving GM σ [unit] and τ [s] per axis (σ = 0: no moving state).
     """
     out, gm, index = [], [], []
-    for (m, f), s, tau in zip(pairs, gm_sigma, gm_tau_s, strict=True):
+    for m, s, tau in zip(models, gm_sigma, gm_tau_s, strict=True):
+        f = m.sample_rate(None, "the in-motion filter")
         k = -1
         if s > 0:
             phi = math.exp(-1.0 / (float(tau) * f))
             moving = AR1(phi=phi, sigma2=float(s) ** 2 * (1.0 - phi * phi))
-            m = Model([*m.components, moving])
+            m = Model([*m.components, moving], f)
             k = next(i for i, c in enumerate(m.components) if c is moving)  # the object: φ may equal a static one's
-        out.append((m, f))
+        out.append(m)
         gm.append(bool(s > 0))
         index.append(k)
     return InMotionFilter(out, tuple(float(w) ** 2 for w in white_factor), tuple(gm), tuple(index))
 
 
-def in_motion_of(src, pairs: list) -> InMotionFilter | None:
-    """The in-motion filter of a model file (path or parsed JSON) on top of its static ``pairs``
+def in_motion_of(src, models: list) -> InMotionFilter | None:
+    """The in-motion filter of a model file (path or parsed JSON) on top of its static ``models``
     (:func:`imunoise.nav.defaults.load_axis_models`), or None when the file has no in-motion part (the filter is
     then the static model's, unchanged)."""
     from collections.abc import Mapping
@@ -238,4 +245,4 @@ def in_motion_of(src, pairs: list) -> InMotionFilter | None:
         return None
     part = InMotionPart.from_dict(d["in_motion"])
     sig, tau = part.moving_gm()
-    return in_motion_filter(pairs, part.white_factors(), sig, tau)
+    return in_motion_filter(models, part.white_factors(), sig, tau)

@@ -29,7 +29,7 @@ def moving_control(ekf, imf: InMotionFilter) -> NoiseControl:
     layout by its canonical name."""
     model, _ = ekf.kernel_parts()
     idx = np.full(6, -1, dtype=np.int64)
-    for a, ((m, _f), k) in enumerate(zip(imf.models, imf.gm_index, strict=True)):
+    for a, (m, k) in enumerate(zip(imf.models, imf.gm_index, strict=True)):
         if k >= 0:
             idx[a] = ekf.layout.labels.index(f"{AXES[a]}.{m.component_names()[k]}")
     return NoiseControl(ekf.layout, model, ekf.dt_nom, idx)

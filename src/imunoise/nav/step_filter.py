@@ -57,11 +57,12 @@ class LooselyCoupledEKF(StepUpdates):
         Noise, gating and update settings.
     axis_models
         Error model of each sensor axis (:func:`~imunoise.nav.defaults.normalize_axis_models`): ``None`` for the
-        defaults, six models or (model, freq) pairs, or ``{"gyro": ..., "accel": ...}``.
+        defaults, six models that carry their rate, or ``{"gyro": ..., "accel": ...}`` ((model, freq) pairs:
+        deprecated).
     init : InitialState
         State at the start.
     imu_rate_hz : float
-        Nominal IMU rate [Hz]; default rate of models given without one.
+        Nominal IMU rate [Hz] (and the rate of a deprecated pair given with freq 0).
 
     Attributes
     ----------
@@ -264,7 +265,7 @@ class LooselyCoupledEKF(StepUpdates):
         counterpart in the new model (same structure: by position; else an AR1 with the same φ) is carried
         over 1:1 instead (:func:`~imunoise.nav.error_states.swap_map`); ``kept`` counts those, ``reset``
         the states that start fresh. ``axis_models``: as for the constructor
-        (:func:`~imunoise.nav.defaults.normalize_axis_models`, with ``imu_rate_hz`` as the default rate).
+        (:func:`~imunoise.nav.defaults.normalize_axis_models`).
 
         Parameters
         ----------
@@ -273,7 +274,7 @@ class LooselyCoupledEKF(StepUpdates):
         preserve : bool
             Carry matching AR1/DR states over instead of resetting them.
         imu_rate_hz : float, optional
-            Rate of models given without one (default: the filter's nominal rate).
+            Rate of a deprecated pair given with freq 0 (default: the filter's nominal rate).
         """
         self.flush()
         rate = imu_rate_hz or 1.0 / self.dt_nom

@@ -207,7 +207,7 @@ def _worst(pair: np.ndarray, target: np.ndarray, m: np.ndarray, freq: float) -> 
 
 def equivalent_noise(
     model: Model,
-    freq: float,
+    freq: float | None = None,
     *,
     horizon_s: float | None = None,
     white_below_s: float | None = None,
@@ -219,9 +219,10 @@ def equivalent_noise(
     Parameters
     ----------
     model
-        A model with known parameters (per sample at ``freq``).
+        A model with known parameters (per sample at its rate).
     freq
-        Update (= sample) rate [Hz]; the matching starts at Δt = 1/freq.
+        Update (= sample) rate [Hz]; the matching starts at Δt = 1/freq. The model's own rate; given only for a
+        model without one (a different one is refused: :meth:`~imunoise.noise.model.Model.sample_rate`).
     horizon_s
         Longest averaging time matched on [s] (default for fits: :func:`default_horizon_s`). Required when
         the model has a process that needs matching (an AR1 slower than ``white_below_s``, a DR).
@@ -238,6 +239,7 @@ def equivalent_noise(
     Equivalent
         The pair (per sample and continuous), its diagnostics and the route of every process.
     """
+    freq = model.sample_rate(freq, "equivalent_noise")
     eq = _model_pair(model, freq, horizon_s=horizon_s, white_below_s=white_below_s, qn=qn)
     eq = replace(eq, K_model=eq.K)
     if data_av is None:

@@ -5,9 +5,11 @@
 by decreasing φ (slowest first, which removes label switching), then the others in the registry's order
 (:data:`imunoise.noise.processes.ORDER`: WN, QN, RW, DR, MA1); parameters carry canonical names ``AR1_1.phi``,
 ``AR1_1.sigma2``, ..., ``WN.sigma2``, ``QN.q2``, ``RW.gamma2``, ``DR.omega``, ``MA1.theta``. All parameters are
-per sample at the rate of the data they describe. The model's forms (WV, state space, white part, rate change)
-are sums or stacks of its processes' own (:class:`imunoise.noise.process_base.Process`); nothing here branches on a
-kind except the AR1 ordering.
+per sample at the rate of the data they describe, which the model carries (``freq`` [Hz]: set by fits, model files
+and :meth:`Model.with_freq`; None when unknown); every form needing a rate (continuous values, state space, the
+filter) takes it from there, and the algebra keeps it (a sum of models at different rates is refused). Its forms
+(WV, state space, white part, rate change) are sums or stacks of its processes' own
+(:class:`imunoise.noise.process_base.Process`); nothing here branches on a kind except the AR1 ordering.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from imunoise.errors import ModelError
+from imunoise.noise.model_rate import checked_freq, resolve_rate
 from imunoise.noise.process_ar1 import AR1
 from imunoise.noise.process_base import Process
 from imunoise.noise.process_bias import DR, RW
@@ -41,14 +44,17 @@ class Model:
     components : list or tuple of Process
         The processes, all with parameters or all without; WN, QN, RW and DR at most once each. AR1
         components are ordered by decreasing φ, the others canonically (:data:`ORDER`).
+    freq : float, optional
+        Rate [Hz] the per-sample parameters refer to; None when not known (module docstring).
 
     Raises
     ------
     ModelError
-        For an empty list, a non-process, a repeated singleton or a mix of known and unknown processes.
+        For an empty list, a non-process, a repeated singleton, a mix of known and unknown processes, a bad rate.
     """
 
-    def __init__(self, components: list[Process] | tuple[Process, ...]) -> None:
+    def __init__(self, components: list[Process] | tuple[Process, ...], freq: float | None = None) -> None:
+        self.freq: float | None = checked_freq(freq)
         comps = list(components)
         if not comps:
             raise ModelError("a model needs at least one process, e.g. WN() + RW()")
@@ -110,9 +116,15 @@ class Model:
 
     def __add__(self, other: Process | Model) -> Model:
         if isinstance(other, Process):
-            return Model(list(self.components) + [other])
+            return Model(list(self.components) + [other], self.freq)
         if isinstance(other, Model):
-            return Model(list(self.components) + list(other.components))
+            if self.freq is not None and other.freq is not None and self.freq != other.freq:
+                raise ModelError(
+                    f"cannot add a model at {self.freq:g} Hz to one at {other.freq:g} Hz (parameters are per sample "
+                    f"at their rate); convert one first, e.g. b.at_rate({other.freq:g}, {self.freq:g})"
+                )
+            freq = self.freq if self.freq is not None else other.freq
+            return Model(list(self.components) + list(other.components), freq)
         return NotImplemented
 
     def __radd__(self, other: object) -> Model:
@@ -123,7 +135,7 @@ class Model:
     def __mul__(self, k: int) -> Model:
         if not isinstance(k, int) or isinstance(k, bool) or k < 1:
             raise ModelError(f"a model can be repeated a positive whole number of times, got {k!r}")
-        return Model(list(self.components) * k)
+        return Model(list(self.components) * k, self.freq)
 
     __rmul__ = __mul__
 
@@ -150,11 +162,23 @@ class Model:
             return " + ".join(repr(c) for c in self.components)
         return f"Model({str(self)!r})"
 
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, Model) and self.components == other.components
+    def __eq__(self, other: object) -> bool:  # a model without a rate matches any rate (fit starts, caches)
+        return (isinstance(other, Model) and self.components == other.components
+                and (self.freq is None or other.freq is None or self.freq == other.freq))
 
     def __hash__(self) -> int:
         return hash(self.components)
+
+    # -- sample rate ---------------------------------------------------------------------------------
+    def with_freq(self, freq: float | None) -> Model:
+        """This model stating that its parameters are per sample at ``freq`` [Hz] (no conversion: use
+        :meth:`at_rate` to express the same continuous-time model at another rate); None forgets the rate."""
+        return Model(self.components, freq)
+
+    def sample_rate(self, freq: float | None = None, what: str = "this") -> float:
+        """The rate [Hz] the parameters refer to: the model's own, else ``freq``; ModelError when neither is
+        known or they differ (:func:`imunoise.noise.model_rate.resolve_rate`, whose message names the fix)."""
+        return resolve_rate(self, self.freq, freq, what)
 
     def nests(self, other: Model) -> bool:
         """True when every process of ``other`` is also in this model (this model ⊇ other)."""
@@ -163,7 +187,7 @@ class Model:
 
     def unknown(self) -> Model:
         """The same structure with parameters to be estimated."""
-        return Model([c.unknown() for c in self.components])
+        return Model([c.unknown() for c in self.components], self.freq)
 
     @property
     def known(self) -> bool:
@@ -217,7 +241,7 @@ class Model:
             k = len(c.param_names)
             comps.append(c.with_values(theta[i : i + k]))
             i += k
-        return Model(comps)
+        return Model(comps, self.freq)
 
     def with_params(self, params: dict[str, float]) -> Model:
         """The same structure with parameters given by canonical name (all must be present)."""
@@ -279,22 +303,24 @@ class Model:
         return np.sum([c.simulate(int(n), rng) for c in self.components], axis=0)
 
     # -- continuous-time and filter forms --------------------------------------------------------------
-    def continuous(self, freq: float) -> dict[str, float]:
+    def continuous(self, freq: float | None = None) -> dict[str, float]:
         """Continuous-time equivalents with canonical keys (docs/guide/theory.rst, 'Latent processes'): noise density,
         K, T_c, ...
 
         Parameters
         ----------
-        freq : float
-            Sample rate the per-sample parameters refer to [Hz].
+        freq : float, optional
+            Sample rate the per-sample parameters refer to [Hz]; default (and only accepted value when it has
+            one) the model's own (:meth:`sample_rate`).
 
         Returns
         -------
         dict
             Value per key, e.g. ``"WN.noise_density"``, ``"RW.random_walk"``, ``"AR1_1.tau_c"``.
         """
-        if not freq > 0:
+        if freq is not None and not freq > 0:
             raise ModelError(f"sampling frequency must be > 0 Hz, got {freq}")
+        freq = self.sample_rate(freq, "continuous()")
         out: dict[str, float] = {}
         for name, c in zip(self.component_names(), self.components):
             out.update(c.continuous(freq, name))
@@ -315,37 +341,42 @@ class Model:
         motion law's moving regime (:func:`imunoise.sim.motion.scaled_models`) and of the adaptive baseline
         (:func:`imunoise.nav.adaptive.scale_bias_noise`)."""
         out = [c.scaled(white, bias) for c in self.components]
-        return Model(out)
+        return Model(out, self.freq)
 
     def state_space(self, dt: float, freq: float | None = None) -> StateSpace:
         """Discrete (Φ, Q, H) blocks over a filter step dt for parameters per sample at ``freq``
         (docs/guide/theory.rst, 'Navigation filter').
 
         AR1 over dt: Φ = φ^{dt·f}, Q = σ²_GM(1 − Φ²). RW adds γ²·dt·f to the bias state. DR is a constant
-        ramp state r (unit/s) with bias_{k+1} = bias_k + r·dt. ``freq`` defaults to 1/dt.
+        ramp state r (unit/s) with bias_{k+1} = bias_k + r·dt. ``freq`` defaults to the model's own rate
+        (:meth:`sample_rate`), else 1/dt.
 
         Parameters
         ----------
         dt : float
             Filter step [s].
         freq : float, optional
-            Sample rate the parameters refer to [Hz] (default 1/dt).
+            Sample rate the parameters refer to [Hz] (default the model's own, else 1/dt; a different one is
+            refused).
 
         Returns
         -------
         StateSpace
         """
+        if self.freq is not None:
+            freq = self.sample_rate(freq, "state_space()")
         return stack_state_space(self, dt, freq)
 
     def at_rate(self, freq_from: float, freq_to: float) -> Model:
         """The same continuous-time model with parameters per sample at ``freq_to`` instead of ``freq_from``
         (N, K, R, Q_IEEE, T_c and σ_GM kept; docs/guide/theory.rst, 'Latent processes' last column). Unchanged when the
-        rates are equal."""
+        rates are equal. ``freq_from`` must be the model's own rate when it has one; the result carries ``freq_to``."""
         if not (freq_from > 0 and freq_to > 0):
             raise ModelError(f"sample rates must be > 0 Hz, got {freq_from} and {freq_to}")
+        self.sample_rate(freq_from, "at_rate()")
         if freq_from == freq_to:
-            return self
-        return Model([c.at_rate(float(freq_from), float(freq_to)) for c in self.components])
+            return self if self.freq == freq_to else self.with_freq(freq_to)
+        return Model([c.at_rate(float(freq_from), float(freq_to)) for c in self.components], float(freq_to))
 
     # -- serialisation -----------------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
@@ -356,10 +387,12 @@ class Model:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Model:
-        """Inverse of :meth:`to_dict`; also reads fit JSON (keys ``model`` and ``params``)."""
+        """Inverse of :meth:`to_dict`; also reads fit JSON (keys ``model`` and ``params``, and the rate from
+        ``freq_hz`` or ``rate_hz`` when present)."""
         if "model" not in d:
             raise ModelError("model JSON needs a 'model' key, e.g. {'model': '2*AR1 + WN', 'params': {...}}")
-        model = cls.parse(d["model"])
+        rate = d.get("freq_hz", d.get("rate_hz"))
+        model = cls.parse(d["model"]).with_freq(None if rate is None else float(rate))
         params = d.get("params")
         return model.with_params(params) if params else model
 

@@ -37,9 +37,9 @@ class InMotionSchedule:
         self.control = None
         self.moving: bool | None = None
 
-    def compose(self, static_pairs: Any) -> list:
-        """The filter pairs: the static ones plus the moving states."""
-        self.imf = in_motion_filter(normalize_axis_models(static_pairs, self.rate), self.white, self.sigma, self.tau)
+    def compose(self, static_models: Any) -> list:
+        """The filter models: the static ones plus the moving states."""
+        self.imf = in_motion_filter(normalize_axis_models(static_models, self.rate), self.white, self.sigma, self.tau)
         return self.imf.models
 
     def attach(self, ekf: Any) -> None:
@@ -85,5 +85,5 @@ def attach_in_motion(nav: Any, part: InMotionPart, static_models: list, moving: 
 
 
 def initial_models(part: InMotionPart, static_models: list, rate: float) -> list:
-    """The navigator's first filter pairs: the static part plus the moving states."""
+    """The navigator's first filter models: the static part plus the moving states."""
     return InMotionSchedule(part, rate).compose(static_models)

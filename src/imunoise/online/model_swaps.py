@@ -65,4 +65,4 @@ def swap_models(nav: Any, t: float, upd: ModelUpdate) -> None:
     swap = nav.ekf.swap_model if nav.in_motion is None else nav.in_motion.swap_into(nav.ekf)
     counts = swap(models, preserve=nav.config.swap == "preserve", imu_rate_hz=nav.rate)
     nav.current_models = models
-    nav.state.event("swap", t, job=upd.kind, t_stop=upd.t_stop, filter_models=[str(m) for m, _ in models], **counts)
+    nav.state.event("swap", t, job=upd.kind, t_stop=upd.t_stop, filter_models=[str(m) for m in models], **counts)

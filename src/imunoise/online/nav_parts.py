@@ -31,7 +31,7 @@ class Zupt:
         self.config = config
         self.state = state
 
-    def step(self, t: float, gate: bool, ekf: Any, models: Sequence[tuple[Model, float]]) -> None:
+    def step(self, t: float, gate: bool, ekf: Any, models: Sequence[Model]) -> None:
         """A ZUPT (and ZARU) where the one rule says it is due (:func:`~imunoise.nav.zupt_policy.zupt_due_at`:
         every ``zupt_every`` samples of a static run of ``zupt_after`` or more, the gate closed) and the filter is
         slower than ``zupt_max_speed``; ``models``: the filter's current axis models."""
@@ -47,12 +47,12 @@ class Zupt:
                 st.zupt_rejected = True
                 st.event("zupt_rejected", t, speed_mps=float(np.linalg.norm(ekf.view.vel)))
 
-    def zaru_sigma(self, models: Sequence[tuple[Model, float]]) -> float:
+    def zaru_sigma(self, models: Sequence[Model]) -> float:
         """σ of one ZARU sample: the larger of the configured σ, the current gyro model's per-sample white σ
         and the gyro scatter measured over this stop so far (the update uses a single increment, whose noise
         on a vibrating car is the vibration, not the datasheet's)."""
         s = self.config.zaru_sigma_w
-        for m, _ in models[:3]:
+        for m in models[:3]:
             s = max(s, math.sqrt(m.white_variance()))
         rows = self.state.rows
         n = min(self.state.static_run, 200, len(rows))

@@ -153,9 +153,9 @@ class OnlineNavigator(ModellerViews):
         # the models without the learned in-motion part (the stops' model; what the learner adds to)
         self.static_models = normalize_axis_models(models, self.rate)
         self.learner = LearnerHost(config, self.state, self.rate)
-        models = self.learner.first_models(models, self.static_models)  # a carried prior's from the first sample
+        models = self.learner.first_models(self.static_models, self.static_models)  # a carried prior's from the start
         self.ekf = LooselyCoupledEKF(config.ekf, models, init, imu_rate_hz=self.rate)
-        self.floor = [m for m, _ in default_axis_models(self.rate, config.ekf.fallback)]
+        self.floor = default_axis_models(self.rate, config.ekf.fallback)
         self.feed = DetectorFeed(self.state, self.rate, config.learn_lambda0_s, config.detector)
         self.guard = StopGuard(config, self.state, self.rate)
         self.zupt = Zupt(config, self.state)
@@ -387,8 +387,8 @@ class OnlineNavigator(ModellerViews):
             st.drop_old_rows(16)
 
     # -- modelling ------------------------------------------------------------------------------------
-    def filter_models(self) -> list[tuple[Model, float]]:
-        """The six (model, freq) the filter gets from the current fits (plain default where none)."""
+    def filter_models(self) -> list[Model]:
+        """The six models (with their rate) the filter gets from the current fits (plain default where none)."""
         return filter_axis_models(self.fits, self.rate, self.config, floor=self.floor)
 
 

@@ -64,7 +64,7 @@ class OnlineResult(NavSolution):
     static_raw: np.ndarray
     lambda0: float
     elapsed_s: float
-    final_models: list[tuple[Model, float]]
+    final_models: list[Model]
     fits: list[GMWMFit | None] = field(default_factory=list)
     sample_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rejected_segments: list[StaticSegment] = field(default_factory=list)

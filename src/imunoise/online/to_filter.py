@@ -16,8 +16,8 @@ __all__ = ["data_horizon", "dr_equivalent_rw", "ekf_axis_model", "filter_axis_mo
 
 
 def filter_axis_models(fits: list, freq: float, config: OnlineConfig | None = None,
-                       floor: list[Model] | None = None) -> list[tuple[Model, float]]:
-    """The six (model, freq) pairs the filter gets from per-axis fits (gyro x,y,z, accel x,y,z):
+                       floor: list[Model] | None = None) -> list[Model]:
+    """The six models (each carrying its rate) the filter gets from per-axis fits (gyro x,y,z, accel x,y,z):
     :func:`imunoise.nav.filter_model.filter_axis_models` with ``config``'s settings; the one six-axis loop of the
     online engine (:meth:`OnlineNavigator.filter_models`) and the experiments' fixed-model baselines.
 
@@ -25,10 +25,10 @@ def filter_axis_models(fits: list, freq: float, config: OnlineConfig | None = No
     ----------
     fits : list
         Per axis a :class:`~imunoise.noise.estimator.GMWMFit` (or any fit with ``model``, ``freq`` and optionally
-        ``wv``), a bare :class:`Model` (per sample at ``freq``, no horizon), or None (the plain default of
-        ``config.ekf.fallback``).
+        ``wv``), a bare :class:`Model` (at its own rate, ``freq`` when it has none; no horizon), or None (the
+        plain default of ``config.ekf.fallback``).
     freq : float
-        IMU rate in Hz (the rate of the returned pairs).
+        IMU rate in Hz (the rate of the returned models but those of bare models at another rate).
     config : OnlineConfig, optional
         The mapping settings (default :class:`OnlineConfig`).
     floor : list of Model, optional
@@ -36,10 +36,11 @@ def filter_axis_models(fits: list, freq: float, config: OnlineConfig | None = No
 
     Returns
     -------
-    list of (Model, float)
+    list of Model
     """
     config = config or OnlineConfig()
-    defaults = floor if floor is not None else [m for m, _ in default_axis_models(freq, config.ekf.fallback)]
+    defaults = floor if floor is not None else default_axis_models(freq, config.ekf.fallback)
     out = _door.filter_axis_models(fits, freq, defaults if config.floor == "default" else [None] * len(fits),
                                    fold_tau_s=config.fold_tau_s, dr=config.dr, qn=config.qn)
-    return [(defaults[a], freq) if f is None else pair for a, (f, pair) in enumerate(zip(fits, out, strict=True))]
+    return [defaults[a].with_freq(defaults[a].sample_rate(freq, "the floor")) if f is None else m
+            for a, (f, m) in enumerate(zip(fits, out, strict=True))]

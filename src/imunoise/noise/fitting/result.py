@@ -101,6 +101,11 @@ class GMWMFit:
     method: str = "gmwm"
     extra: dict[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        # the fitted model carries the rate its parameters are per sample at (Model.freq); one at another rate
+        # is refused with the fix (imunoise.noise.model_rate.resolve_rate)
+        self.model = self.model.with_freq(self.model.sample_rate(self.freq, "a fit"))
+
     @classmethod
     def from_problem(
         cls,

@@ -28,8 +28,8 @@ from imunoise.errors import ModelError
 from imunoise.noise.model import Model
 from imunoise.noise.processes import AR1, WN
 
-__all__ = ["LearnedProcess", "Family", "DEFAULT_FAMILIES", "LIKELIHOOD_FAMILIES", "compose", "with_process", "describe",
-           "departure_variance", "search_candidates", "refine", "spec_from_dicts", "DPH"]
+__all__ = ["LearnedProcess", "Family", "DEFAULT_FAMILIES", "LIKELIHOOD_FAMILIES", "compose", "rated", "with_process",
+           "describe", "departure_variance", "search_candidates", "refine", "spec_from_dicts", "DPH"]
 
 DPH = math.pi / 180.0 / 3600.0  # °/h → rad/s
 SENSORS = ("gyro", "accel")
@@ -155,11 +155,13 @@ def refine(families: Sequence[Family], best: dict[tuple[str, str], LearnedProces
 
 
 def compose(static_models: Sequence[Any], spec: Spec, rate_hz: float) -> list:
-    """The six (model, freq) pairs of the filter: the static models with the Gauss–Markov and white parts of
-    ``spec`` added (a departure step is not a process of the model: :func:`departure_variance`)."""
+    """The six models of the filter (each carrying its rate; ``rate_hz`` for one without): the static models with
+    the Gauss–Markov and white parts of ``spec`` added (a departure step is not a process of the model:
+    :func:`departure_variance`)."""
     out = []
     for a, mm in enumerate(static_models):
-        m, fr = mm if isinstance(mm, tuple) else (mm, rate_hz)
+        m = rated(mm, rate_hz)
+        fr = m.freq
         sensor = SENSORS[a // 3]
         comps = list(m.components)
         for p in spec:
@@ -175,8 +177,15 @@ def compose(static_models: Sequence[Any], spec: Spec, rate_hz: float) -> list:
                     comps[wn[0]] = WN(sigma2=float(comps[wn[0]].values[0]) + extra)
                 else:
                     comps.append(WN(sigma2=extra))
-        out.append((Model(comps) if any(p.sensor == sensor for p in spec) else m, fr))
+        out.append(Model(comps, fr) if any(p.sensor == sensor for p in spec) else m)
     return out
+
+
+def rated(m: Any, rate_hz: float) -> Model:
+    """``m`` as a model carrying its rate: its own, ``rate_hz`` for one without, a (model, freq) pair's freq."""
+    if isinstance(m, tuple):
+        return m[0].with_freq(m[0].sample_rate(m[1]))
+    return m if m.freq is not None else m.with_freq(rate_hz)
 
 
 def departure_variance(spec: Spec) -> list[float] | None:
