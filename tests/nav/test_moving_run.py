@@ -23,15 +23,16 @@ STATIC_SIGMA = 2.0e-5  # σ of the static AR1 with the same φ [rad/s]
 
 def _filter():
     phi = math.exp(-1.0 / (TAU * F))  # exactly the φ in_motion_filter computes for τ at F
-    static_gx = Model([AR1(phi=phi, sigma2=STATIC_SIGMA**2 * (1 - phi * phi)), WN(sigma2=1e-7), RW(gamma2=1e-14)])
-    pairs = [(static_gx, F)] + [(Model([WN(sigma2=1e-6)]), F)] * 5
+    static_gx = Model([AR1(phi=phi, sigma2=STATIC_SIGMA**2 * (1 - phi * phi)), WN(sigma2=1e-7), RW(gamma2=1e-14)],
+                      F)
+    models = [static_gx] + [Model([WN(sigma2=1e-6)], F)] * 5
     sigma = [GM_SIGMA, 0, 0, 0, 0, 0]
-    return phi, in_motion_filter(pairs, [3.0] * 6, sigma, [TAU] * 6)
+    return phi, in_motion_filter(models, [3.0] * 6, sigma, [TAU] * 6)
 
 
 def test_the_door_returns_the_appended_state_beside_an_equal_phi():
     phi, imf = _filter()
-    m, _ = imf.models[0]
+    m = imf.models[0]
     ar1 = [c for c in m.components if c.kind == "AR1"]
     assert len(ar1) == 2 and ar1[0].values[0] == ar1[1].values[0] == phi  # the ambiguous case: two equal φ
     k = imf.gm_index[0]
