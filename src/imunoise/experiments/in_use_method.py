@@ -1,7 +1,7 @@
 """The ``in_use`` row of the dense-window evidence: the model a vehicle's earlier drives give, used on its next
 drive from the first sample (docs/guide/theory.rst, 'In-use noise' and 'Experiments').
 
-Learning (:func:`learn_in_use`), on the earlier drives alone, as ``imunoise calibrate LOG... --in-motion`` would:
+Learning (:func:`learn_in_use`), on the earlier drives alone:
 
 * the static part: the fits the online engine (the ``gmwm`` row) holds at the end of its GNSS-aided run on the
   earlier drives (:func:`imunoise.experiments.dense_warm.gmwm_on_drives`: the stops its stop guard kept, identified
@@ -9,8 +9,8 @@ Learning (:func:`learn_in_use`), on the earlier drives alone, as ``imunoise cali
   (:func:`imunoise.experiments.common.filter_models`). One way of fitting stops for both rows: ``in_use`` is
   ``gmwm``'s static model plus the in-motion part. (The earlier fit, GMWM with GOF selection on every segment the
   IMU-only detector finds, pooled the false stops a noisy IMU's detector lets through while the car cruises: on
-  the ADIS16405 replay 15 of 20 such segments of a drive were moving, and accel_x got a random walk from them;
-  docs/evidence/in_use_carry_over.md);
+  the ADIS16405 replay 15 and 16 of a learning drive's 20 such segments failed the stop guard, and accel_x got a
+  random walk from them: docs/evidence/in_use_carry_over.md);
 * the in-motion part: :func:`imunoise.inuse.estimate_in_motion` on the earlier drives, GNSS-aided throughout in the
   run's GNSS regime (:func:`imunoise.experiments.carry_over.learning_drives`), on top of that static part.
 
