@@ -84,7 +84,7 @@ from imunoise.experiments.dense_methods import (
 )
 from imunoise.experiments.dense_paired import METRICS, assemble, paired_list, parse_pairs, significance_text
 from imunoise.experiments.dense_spec import BRANCH_MARGIN_S, MAX_GAP_S, DenseSpec, dense_windows, parse_outages
-from imunoise.experiments.dense_warm import PRIOR_SEED_OFFSET, earlier_prior, earlier_stops, learn_prior
+from imunoise.experiments.dense_warm import PRIOR_SEED_OFFSET, earlier_prior, earlier_stops, gmwm_on_drives, learn_prior
 from imunoise.experiments.gnss_regimes import GnssRegime
 from imunoise.experiments.runner import tick
 from imunoise.experiments.window_errors import branch_errors, window_metrics
@@ -165,9 +165,12 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
         others = [load_real(p) for p in learn_from]
         for ri, rg in enumerate(regimes):
             for s in (noise_seeds if rg.random else [0]):
-                _REAL["in_use"][(ri, s)] = (
-                    learn_in_use([(o, rg.apply(o.gnss, s)) for o in others], base) if halves is None
-                    else dh.learn_on_half(sc, rg.apply(sc.gnss, s), learn_half, base, _REAL["cache"]))
+                if halves is None:
+                    d = [(o, rg.apply(o.gnss, s)) for o in others]
+                    _REAL["in_use"][(ri, s)] = learn_in_use(d, gmwm_on_drives(d, base).fits, base)
+                else:
+                    _REAL["in_use"][(ri, s)] = dh.learn_on_half(sc, rg.apply(sc.gnss, s), learn_half, base,
+                                                                _REAL["cache"])
     for m in methods:  # fixed fits once, before forking: the workers inherit them
         if base_method(m) in ("av", "em", "gmwm_hindsight", "static_var_hindsight"):
             hindsight_fits(sc, base_method(m), _REAL["cache"])
@@ -225,8 +228,10 @@ def _sim_job(args: tuple) -> dict:
                       for n in sorted(set(n_warm.values()))}
             stops = {n: earlier_stops(seed, rg, ns, n_drives=n, base=base, earlier=earlier)
                      for n in sorted(set(n_stops.values()))}
-            learned = (learn_in_use(learning_drives(seed, vehicle_drives, earlier, rg, ns), base)
-                       if "in_use" in methods else None)
+            learned = None
+            if "in_use" in methods:  # the static part: the gmwm row's fits on the earlier drives
+                d = learning_drives(seed, vehicle_drives, earlier, rg, ns)
+                learned = learn_in_use(d, gmwm_on_drives(d, base).fits, base)
             for m in methods:
                 prior = priors[n_warm[m]] if m in n_warm else None
                 pooled = stops[n_stops[m]] if m in n_stops else None

@@ -1,5 +1,6 @@
 """The warm methods' earlier drives of the same vehicle (simulator): what ``gmwm_dyn`` learned on them
-(:func:`learn_prior`, :func:`earlier_prior`) and the stops ``gmwm`` pooled on them (:func:`earlier_stops`); the
+(:func:`learn_prior`, :func:`earlier_prior`) and the stops ``gmwm`` pooled on them (:func:`earlier_stops`; the run
+itself, whose fits are ``in_use``'s static part: :func:`gmwm_on_drives`); the
 k-th drive before drive ``seed`` is the simulated drive of seed + k · :data:`PRIOR_SEED_OFFSET` (with a replayed
 recording, its own stretch of the recording: :func:`earlier_kw`)."""
 
@@ -17,7 +18,7 @@ from imunoise.experiments.dense_methods import method_setup
 from imunoise.experiments.gnss_regimes import GnssRegime
 from imunoise.online import MotionNoisePrior, OnlineConfig
 
-__all__ = ["PRIOR_SEED_OFFSET", "earlier_kw", "learn_prior", "earlier_prior", "earlier_stops"]
+__all__ = ["PRIOR_SEED_OFFSET", "earlier_kw", "learn_prior", "earlier_prior", "earlier_stops", "gmwm_on_drives"]
 
 PRIOR_SEED_OFFSET = 7_000_000  # the k-th drive before drive seed on the simulator: seed + k · this
 
@@ -79,11 +80,24 @@ def earlier_stops(seed: int, regime: GnssRegime, noise_seed: int, *, n_drives: i
     """The static pieces ``gmwm`` pooled on ``n_drives`` earlier drives of the same vehicle (the drives of
     :func:`earlier_prior`, in the same order and GNSS), each run online GNSS-aided starting with the pieces
     of the drives before it (:attr:`OnlineResult.static_pieces`): the ``earlier_static`` of drive ``seed``."""
+    drives = [(sc, regime.apply(sc.gnss, 1_000_003 * s + noise_seed))
+              for s, sc in _earlier_drives(seed, n_drives, earlier, scen_kw)]
+    return gmwm_on_drives(drives, base).static_pieces
+
+
+def gmwm_on_drives(drives: Sequence[tuple[Scenario, Any]], base: OnlineConfig | None = None) -> Any:
+    """The ``gmwm`` row's GNSS-aided run (no outage) on each of ``drives`` ((scenario, GNSS) pairs, oldest
+    first), each starting with the static pieces the runs before it pooled (``earlier_static``): the last run's
+    :class:`~imunoise.online.result.OnlineResult`. Its ``fits`` are what the online engine identified at the
+    drives' stops (the stop guard's kept segments, identified at the first ``min_static_s`` of them and refit at
+    every later stop: :class:`~imunoise.online.modeller.StopModeller`), its ``static_pieces`` the pooled stops."""
+    if not drives:
+        raise ModelError("the gmwm run on earlier drives needs at least one drive")
     pieces: list[np.ndarray] | None = None
-    for s, sc in _earlier_drives(seed, n_drives, earlier, scen_kw):
+    full = None
+    for sc, gnss in drives:
         cfg, models, upd = method_setup("gmwm", sc, base, {})
-        full = run_windows(sc, cfg, regime.apply(sc.gnss, 1_000_003 * s + noise_seed), [], initial_models=models,
-                           updater=upd, keep=True, earlier_static=pieces)["_full"]
+        full = run_windows(sc, cfg, gnss, [], initial_models=models, updater=upd, keep=True,
+                           earlier_static=pieces)["_full"]
         pieces = full.static_pieces
-    assert pieces is not None
-    return pieces
+    return full

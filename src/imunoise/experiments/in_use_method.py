@@ -1,11 +1,16 @@
 """The ``in_use`` row of the dense-window evidence: the model a vehicle's earlier drives give, used on its next
 drive from the first sample (docs/guide/theory.rst, 'In-use noise' and 'Experiments').
 
-Learning (:func:`learn_in_use`), on the earlier drives alone, as ``imunoise calibrate LOG... --in-motion`` would:
+Learning (:func:`learn_in_use`), on the earlier drives alone:
 
-* the static part: GMWM (GOF selection, as ``gmwm_hindsight``) on the stops of the earlier drives pooled (the
-  static detector's segments, bias removed), mapped to the filter as every method's models are
-  (:func:`imunoise.experiments.common.filter_models`);
+* the static part: the fits the online engine (the ``gmwm`` row) holds at the end of its GNSS-aided run on the
+  earlier drives (:func:`imunoise.experiments.dense_warm.gmwm_on_drives`: the stops its stop guard kept, identified
+  and refit by :class:`~imunoise.online.modeller.StopModeller`), mapped to the filter as every method's models are
+  (:func:`imunoise.experiments.common.filter_models`). One way of fitting stops for both rows: ``in_use`` is
+  ``gmwm``'s static model plus the in-motion part. (The earlier fit, GMWM with GOF selection on every segment the
+  IMU-only detector finds, pooled the false stops a noisy IMU's detector lets through while the car cruises: on
+  the ADIS16405 replay 15 and 16 of a learning drive's 20 such segments failed the stop guard, and accel_x got a
+  random walk from them: docs/evidence/in_use_carry_over.md);
 * the in-motion part: :func:`imunoise.inuse.estimate_in_motion` on the earlier drives, GNSS-aided throughout in the
   run's GNSS regime (:func:`imunoise.experiments.carry_over.learning_drives`), on top of that static part.
 
@@ -25,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from imunoise.experiments.common import Scenario, filter_models, static_segments
+from imunoise.errors import ModelError
+from imunoise.experiments.common import Scenario, filter_models
 
 __all__ = ["learn_in_use", "run_windows_in_use", "InUseModel"]
 
@@ -43,24 +49,19 @@ class InUseModel:
                 "drives": self.drives}
 
 
-def _static_fits(scs: Sequence[Scenario]) -> list:
-    """GMWM (GOF selection, ``gmwm_hindsight``'s) of the six axes on the stops of ``scs`` pooled."""
-    from imunoise.noise.selection import select_model
-    from imunoise.online import COMPLETE
-
-    segs = [s for sc in scs for s in static_segments(sc)[0]]
-    return [select_model([s[:, a] for s in segs], freq=scs[0].rate, complete=COMPLETE, criterion="gof", top=1,
-                         unit="rad/s" if a < 3 else "m/s²").best for a in range(6)]
-
-
-def learn_in_use(drives: Sequence[tuple[Scenario, Any]], base=None) -> InUseModel:
-    """The ``in_use`` model of a vehicle from its earlier ``drives`` ((scenario, GNSS) pairs; module docstring)."""
+def learn_in_use(drives: Sequence[tuple[Scenario, Any]], fits: Sequence[Any], base=None) -> InUseModel:
+    """The ``in_use`` model of a vehicle from its earlier ``drives`` ((scenario, GNSS) pairs) and ``fits``, the six
+    per-axis fits the online engine identified at their stops (``gmwm_on_drives(drives, base).fits``; module
+    docstring)."""
     from imunoise.inuse import estimate_in_motion
     from imunoise.online import OnlineConfig
 
+    if len(fits) != 6:
+        raise ModelError(f"in_use needs the six per-axis fits of the online engine (gyro x, y, z, accel x, y, z), "
+                         f"got {len(fits)}; pass gmwm_on_drives(drives).fits")
     scs = [replace(sc, gnss=g) for sc, g in drives]
     cfg = (base or OnlineConfig()).with_(ekf=scs[0].ekf_config())
-    pairs = filter_models(_static_fits(scs), scs[0].rate, cfg)
+    pairs = filter_models(list(fits), scs[0].rate, cfg)
     est = estimate_in_motion(scs, pairs, freq=scs[0].rate, names=[sc.name for sc in scs])
     return InUseModel(pairs, est.part, est.cpu_s, est.runs, [sc.name for sc in scs])
 
