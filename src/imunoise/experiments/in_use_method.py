@@ -37,8 +37,8 @@ __all__ = ["learn_in_use", "run_windows_in_use", "InUseModel"]
 
 
 class InUseModel:
-    """What ``in_use`` carries to the next drive: the six static filter pairs and the in-motion part, with the
-    estimate's cost and the learning drives' names."""
+    """What ``in_use`` carries to the next drive: the six static filter models (``pairs``: each model with its
+    rate) and the in-motion part, with the estimate's cost and the learning drives' names."""
 
     def __init__(self, pairs: list, part: Any, cpu_s: float, runs: int, drives: list[str]) -> None:
         self.pairs, self.part, self.cpu_s, self.runs, self.drives = pairs, part, cpu_s, runs, drives
