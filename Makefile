@@ -21,12 +21,12 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
-	$(BIN)/python -m pytest -q -p no:cacheprovider --timeout=900 -n auto --maxprocesses=4 --dist loadfile
+	$(BIN)/python -m pytest -q -p no:cacheprovider --timeout=900 -n auto --maxprocesses=4 --dist loadfile --no-loadscope-reorder
 
 # the suite without the tests marked slow (Monte Carlo, end-to-end runs, the docs build and its examples)
 test-fast: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
-	$(BIN)/python -m pytest -q -p no:cacheprovider --timeout=900 -m "not slow" -n 2 --dist loadfile
+	$(BIN)/python -m pytest -q -p no:cacheprovider --timeout=900 -m "not slow" -n 2 --dist loadfile --no-loadscope-reorder
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py --out BENCHMARKS.md

@@ -84,6 +84,7 @@ def test_scored_on_the_last_drive_and_one_drive_is_todays_run():
     assert n["oracle_law"]["share_inside"] > n["plain"]["share_inside"]  # the true law's filter is consistent
 
 
+@pytest.mark.slow  # eight evaluate_method runs: minutes
 def test_the_nees_leaves_every_window_value_as_it_was():
     """The NEES reads the aided run's state at its 1 Hz epochs (the chunk path split there, the per-sample path
     as it runs, the law's batch filter with its covariance kept): the windows are the same to the bit."""
