@@ -17,11 +17,11 @@ About 5 minutes per ``run`` on one core.
 from __future__ import annotations
 
 import hashlib
-import logging
-import pickle
 import sys
 import tempfile
 from pathlib import Path
+
+from identity_harness import run_or_compare, same_exactly
 
 AXES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 
@@ -79,21 +79,7 @@ def run() -> dict:
 
 
 def main(argv: list[str]) -> int:
-    logging.disable(logging.WARNING)
-    if len(argv) == 2 and argv[0] == "run":
-        with open(argv[1], "wb") as fh:
-            pickle.dump(run(), fh)
-        return 0
-    if len(argv) == 3 and argv[0] == "compare":
-        with open(argv[1], "rb") as fa, open(argv[2], "rb") as fb:
-            a, b = pickle.load(fa), pickle.load(fb)
-        assert set(a) == set(b), set(a) ^ set(b)
-        for k in a:
-            assert a[k] == b[k], (k, a[k], b[k])
-            print("identical:", k)
-        return 0
-    print(__doc__, file=sys.stderr)
-    return 2
+    return run_or_compare(argv, run, same_exactly, __doc__)
 
 
 if __name__ == "__main__":

@@ -41,6 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
+from imunoise.cli.options import sigma_triple
+
 PAIRS = (("in_use", "gmwm"), ("in_use", "static_var"), ("gmwm", "static_var"))
 NO_HARM_UPPER = 1.01  # the acceptance's bound on in_use/gmwm
 COVER_SHARE = 0.90  # the acceptance's share of unit-axes whose interval contains 1
@@ -208,13 +210,6 @@ def summary_md(results: list[dict], labels: list[str], entries: list[dict], cov:
     return "\n".join(lines)
 
 
-def _triple(text: str) -> tuple[float, float, float]:
-    v = tuple(float(x) for x in text.split(","))
-    if len(v) != 3 or min(v) <= 0:
-        raise argparse.ArgumentTypeError(f"need three σ > 0 (N,E,D in m), got {text!r}")
-    return v  # type: ignore[return-value]
-
-
 def main(argv: list[str]) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("recordings", nargs="+", help="one static recording (.npz) per IMU unit")
@@ -233,7 +228,7 @@ def main(argv: list[str]) -> int:
     p.add_argument("--noise-seeds", type=int, default=1, help="GNSS noise seeds (default 1)")
     p.add_argument("--methods", default="plain,static_var,gmwm,in_use")
     p.add_argument("--latency", type=float, default=0.5, help="model latency [s] (default 0.5)")
-    p.add_argument("--rtk-sigma", type=_triple, default=(0.02, 0.02, 0.05), help="the drives' fixes' σ N,E,D [m]")
+    p.add_argument("--rtk-sigma", type=sigma_triple, default=(0.02, 0.02, 0.05), help="the drives' fixes' σ N,E,D [m]")
     p.add_argument("--bootstrap", type=int, default=2000)
     p.add_argument("--pool-only", action="store_true", help="pool the unit folders already in --out, run nothing")
     a = p.parse_args(argv)

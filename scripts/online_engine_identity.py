@@ -18,11 +18,10 @@ the compile/warm-up timings of the ``warm_up`` event. About 5 minutes per ``run`
 
 from __future__ import annotations
 
-import logging
-import pickle
 import sys
 
 import numpy as np
+from identity_harness import run_or_compare
 
 ARRAYS = ("t", "llh", "vel_ned", "euler", "gyro_error", "accel_error", "std", "gate_open", "static_raw", "sample_t")
 TIMING = ("time_s", "compiled", "loaded", "already", "kernels")  # warm-up timings, not outputs
@@ -118,21 +117,7 @@ def same(x, y, path: str) -> None:
 
 
 def main(argv: list[str]) -> int:
-    logging.disable(logging.WARNING)
-    if len(argv) == 2 and argv[0] == "run":
-        with open(argv[1], "wb") as fh:
-            pickle.dump(run(), fh)
-        return 0
-    if len(argv) == 3 and argv[0] == "compare":
-        with open(argv[1], "rb") as fa, open(argv[2], "rb") as fb:
-            a, b = pickle.load(fa), pickle.load(fb)
-        assert set(a) == set(b), set(a) ^ set(b)
-        for k in a:
-            same(a[k], b[k], k)
-            print("identical:", k)
-        return 0
-    print(__doc__, file=sys.stderr)
-    return 2
+    return run_or_compare(argv, run, same, __doc__)
 
 
 if __name__ == "__main__":

@@ -28,6 +28,8 @@ import sys
 import time
 from pathlib import Path
 
+from imunoise.cli.options import sigma_triple
+
 STEP = 10  # seed offset between units
 
 
@@ -69,13 +71,6 @@ def _denial(rec: str, seeds: list[int], a: argparse.Namespace, out: Path, sigma:
               f"({len(seeds)} seeds)")
 
 
-def _triple(text: str) -> tuple[float, float, float]:
-    v = tuple(float(x) for x in text.split(","))
-    if len(v) != 3 or min(v) <= 0:
-        raise argparse.ArgumentTypeError(f"need three σ > 0 (N,E,D in m), got {text!r}")
-    return v  # type: ignore[return-value]
-
-
 def main(argv: list[str]) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("recordings", nargs="+", help="one static recording (.npz) per IMU unit")
@@ -95,8 +90,8 @@ def main(argv: list[str]) -> int:
     p.add_argument("--methods", default="plain,static_var,av,em,gmwm")
     p.add_argument("--pairs", default="gmwm/av,gmwm/em,em/av")
     p.add_argument("--latency", type=float, default=1.0, help="online: model latency [s] (default 1)")
-    p.add_argument("--rtk-sigma", type=_triple, default=(0.02, 0.02, 0.05), help="RTK fixes' σ N,E,D [m]")
-    p.add_argument("--meter-sigma", type=_triple, default=(1.5, 1.5, 3.0), help="denial: meter-level σ N,E,D [m]")
+    p.add_argument("--rtk-sigma", type=sigma_triple, default=(0.02, 0.02, 0.05), help="RTK fixes' σ N,E,D [m]")
+    p.add_argument("--meter-sigma", type=sigma_triple, default=(1.5, 1.5, 3.0), help="denial: meter-level σ N,E,D [m]")
     p.add_argument("--bootstrap", type=int, default=2000)
     a = p.parse_args(argv)
     a.gnss_regime = a.gnss_regime or ["rtk", "noise:1.5,3"]

@@ -97,7 +97,7 @@ def test_in_use_learned_on_one_half_navigates_the_other(drive):
     cache: dict = {}
     model = dh.learn_on_half(drive, drive.gnss, "first", BASE, cache)
     ref = dense.method_setup("gmwm_hindsight", drive, BASE, cache)[1]
-    assert [(m.to_dict(), m.freq) for m in model.pairs] == [(m.to_dict(), m.freq) for m in ref]
+    assert [(m.to_dict(), m.freq) for m in model.models] == [(m.to_dict(), m.freq) for m in ref]
     assert model.drives == [f"{drive.name} (first half)"] and model.runs > 0
     w = dense.dense_windows(drive, SPEC)
     sub = dh.windows_in(w, dh.half_spans(drive)["second"])

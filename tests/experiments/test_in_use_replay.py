@@ -62,3 +62,15 @@ def test_the_interval_share_counts_bounds_and_no_wander_apart():
     assert k["counts"] == {"in": 3, "out": 3, "one": 9, "bound": 0, "none": 3}  # u2's gyros give no K factor
     assert k["share_contains_1"] == pytest.approx(12 / 15)
     assert not any(math.isnan(x) for x in w["share_ci95_units"])
+
+
+@pytest.mark.parametrize("text", ["0.02,0.02", "0.02,0.02,0.05,1", "0.02,0,0.05", "0.02,-1,0.05"])
+def test_rtk_sigma_needs_three_positive_values(text, capsys):
+    with pytest.raises(SystemExit) as e:
+        mod.main(["--rtk-sigma", text])
+    assert e.value.code == 2
+    assert f"need three σ > 0 (N,E,D in m), got {text!r}" in capsys.readouterr().err
+
+
+def test_sigma_triple_reads_north_east_down():
+    assert mod.sigma_triple("0.02,0.03,0.05") == (0.02, 0.03, 0.05)

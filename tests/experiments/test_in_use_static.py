@@ -40,7 +40,7 @@ def _modeller_on_kept_stops(sc, full) -> StopModeller:
 
 
 @pytest.mark.slow
-def test_in_use_static_pairs_are_the_online_modellers_on_the_same_stops():
+def test_in_use_static_models_are_the_online_modellers_on_the_same_stops():
     sc = simulate_scenario(4960, n_outages=0, duration_s=200.0, n_stops=1, motion_noise="none")
     full = gmwm_on_drives([(sc, sc.gnss)], BASE)
     m = _modeller_on_kept_stops(sc, full)
@@ -50,8 +50,8 @@ def test_in_use_static_pairs_are_the_online_modellers_on_the_same_stops():
         assert np.array_equal(full.fits[a].model.vector, m.fits[a].model.vector)
     model = learn_in_use([(sc, sc.gnss)], full.fits, BASE)
     expected = filter_models(m.fits, sc.rate, BASE.with_(ekf=sc.ekf_config()))
-    assert len(model.pairs) == 6
-    for got, want in zip(model.pairs, expected, strict=True):  # models, each with its rate
+    assert len(model.models) == 6
+    for got, want in zip(model.models, expected, strict=True):  # models, each with its rate
         assert got.freq == want.freq == sc.rate and str(got) == str(want)
         assert np.array_equal(got.vector, want.vector)
 

@@ -73,6 +73,7 @@ __all__ = [
     "nonnegative_float",
     "positive_int",
     "int_at_least",
+    "sigma_triple",
     "finite_floats_everywhere",
     "DeprecatedAlias",
     "add_deprecated_alias",
@@ -143,6 +144,15 @@ def int_at_least(low: int) -> Any:
 
 positive_int = int_at_least(1)
 """``type=``: a whole number ≥ 1 (``--workers``, ``--cov-every``)."""
+
+
+def sigma_triple(text: str) -> tuple[float, float, float]:
+    """``type=``: three σ > 0 ``N,E,D`` [m] of a position fix (the replay scripts' ``--rtk-sigma``,
+    ``--meter-sigma``)."""
+    v = tuple(float(x) for x in text.split(","))
+    if len(v) != 3 or min(v) <= 0:
+        raise argparse.ArgumentTypeError(f"need three σ > 0 (N,E,D in m), got {text!r}")
+    return v  # type: ignore[return-value]
 
 
 def _walk(parser: argparse.ArgumentParser) -> Iterable[argparse.ArgumentParser]:

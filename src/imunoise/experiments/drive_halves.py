@@ -93,7 +93,7 @@ def learn_on_half(sc: Scenario, gnss, which: str, base=None, cache: dict | None 
     from imunoise.online import OnlineConfig
 
     cfg = (base or OnlineConfig()).with_(ekf=sc.ekf_config())
-    pairs = filter_models(hindsight_fits(sc, "gmwm_hindsight", cache if cache is not None else {}), sc.rate, cfg)
+    models = filter_models(hindsight_fits(sc, "gmwm_hindsight", cache if cache is not None else {}), sc.rate, cfg)
     d = learning_half(sc, gnss, which)
-    est = estimate_in_motion([d], pairs, freq=sc.rate, names=[d.name])
-    return InUseModel(pairs, est.part, est.cpu_s, est.runs, [d.name])
+    est = estimate_in_motion([d], models, freq=sc.rate, names=[d.name])
+    return InUseModel(models, est.part, est.cpu_s, est.runs, [d.name])

@@ -37,11 +37,11 @@ __all__ = ["learn_in_use", "run_windows_in_use", "InUseModel"]
 
 
 class InUseModel:
-    """What ``in_use`` carries to the next drive: the six static filter models (``pairs``: each model with its
-    rate) and the in-motion part, with the estimate's cost and the learning drives' names."""
+    """What ``in_use`` carries to the next drive: the six static filter models (``models``: each model with
+    its rate) and the in-motion part, with the estimate's cost and the learning drives' names."""
 
-    def __init__(self, pairs: list, part: Any, cpu_s: float, runs: int, drives: list[str]) -> None:
-        self.pairs, self.part, self.cpu_s, self.runs, self.drives = pairs, part, cpu_s, runs, drives
+    def __init__(self, models: list, part: Any, cpu_s: float, runs: int, drives: list[str]) -> None:
+        self.models, self.part, self.cpu_s, self.runs, self.drives = models, part, cpu_s, runs, drives
 
     def summary(self) -> dict[str, Any]:
         """The part as the model file writes it, and the cost of the estimate."""
@@ -61,9 +61,9 @@ def learn_in_use(drives: Sequence[tuple[Scenario, Any]], fits: Sequence[Any], ba
                          f"got {len(fits)}; pass gmwm_on_drives(drives).fits")
     scs = [replace(sc, gnss=g) for sc, g in drives]
     cfg = (base or OnlineConfig()).with_(ekf=scs[0].ekf_config())
-    pairs = filter_models(list(fits), scs[0].rate, cfg)
-    est = estimate_in_motion(scs, pairs, freq=scs[0].rate, names=[sc.name for sc in scs])
-    return InUseModel(pairs, est.part, est.cpu_s, est.runs, [sc.name for sc in scs])
+    models = filter_models(list(fits), scs[0].rate, cfg)
+    est = estimate_in_motion(scs, models, freq=scs[0].rate, names=[sc.name for sc in scs])
+    return InUseModel(models, est.part, est.cpu_s, est.runs, [sc.name for sc in scs])
 
 
 def _moving_law_filter(sc: Scenario, model: InUseModel, starts, base):
@@ -75,7 +75,7 @@ def _moving_law_filter(sc: Scenario, model: InUseModel, starts, base):
     from imunoise.nav.moving_run import moving_bounds, moving_control
 
     sig, tau = model.part.moving_gm()
-    imf = in_motion_filter(model.pairs, model.part.white_factors(), sig, tau)
+    imf = in_motion_filter(model.models, model.part.white_factors(), sig, tau)
     lf = law_filter(sc, starts, base, models=imf.models)  # constant pieces: 0, the window starts, n − 1
     n = lf.imu.t.size
     mv = drive_moving(sc)[-n:]  # filter sample k is drive sample k + i0 (the filter starts at sc.init)
