@@ -81,3 +81,31 @@ def test_bad_part_is_refused():
         InMotionPart.from_dict({"axes": {"gyro_q": {}}})
     with pytest.raises(ModelError, match="'axes'"):
         InMotionPart.from_dict({"bounds": {}})
+
+
+def test_a_walk_enters_the_filter_at_the_estimates_longest_tau():
+    """A random walk k is carried as the Gauss–Markov the estimate searched at its bound (τ = 3 × the moving time,
+    σ = k√(τ/2)): the filter state starts at k²τ/2, not at the near-infinite τ's degrees per second, and its
+    driving density per sample stays k²/f."""
+    from imunoise.nav.filter_model import in_motion_filter
+    from imunoise.noise.in_motion import WALK_TAU_NO_EVIDENCE_S, walk_tau_s
+    from imunoise.noise.processes import AR1
+
+    k = 8.25e-5  # rad/s/√s
+    walk = AxisInMotion(Interval(1.0, (0.9, 1.1)), BiasWander("rw", k=k, ci95={"k": (5e-5, 1.4e-4)}))
+    hours = 540.0 / 3600.0
+    part = InMotionPart({"gyro_z": walk}, {}, {"hours_moving": hours, "freq_hz": 100.0})
+    sig, tau = part.moving_gm()
+    assert tau[2] == walk_tau_s(hours) == pytest.approx(3 * 540.0, rel=1e-12)
+    assert sig[2] == pytest.approx(k * math.sqrt(1620.0 / 2.0), rel=1e-12)
+    assert sig[:2] == [0.0, 0.0] and sig[3:] == [0.0, 0.0, 0.0]
+    static = [Model([WN(sigma2=1e-6)], 100.0) for _ in range(6)]
+    imf = in_motion_filter(static, part.white_factors(), sig, tau)
+    moving = imf.models[2].components[imf.gm_index[2]]
+    assert isinstance(moving, AR1)
+    phi, q = moving.values
+    assert q / (1 - phi * phi) == pytest.approx(k * k * 1620.0 / 2.0, rel=1e-9)  # P0: 0.31 °/s, not 3.3 °/s
+    assert q == pytest.approx(k * k / 100.0, rel=2e-3)  # the walk's density per sample (φ ≈ 1 − 1/(τ f))
+    # without the evidence (a hand-written part) the old near-infinite τ
+    bare = InMotionPart({"gyro_z": walk}, {}, {})
+    assert bare.moving_gm()[1][2] == WALK_TAU_NO_EVIDENCE_S

@@ -35,7 +35,15 @@ from scipy.optimize import minimize
 from imunoise.errors import DataError
 from imunoise.imu import AXES
 from imunoise.inuse.likelihood import DriveLikelihood, Theta
-from imunoise.noise.in_motion import AxisInMotion, BiasWander, Bound, InMotionPart, Interval, gm_equivalent_k
+from imunoise.noise.in_motion import (
+    AxisInMotion,
+    BiasWander,
+    Bound,
+    InMotionPart,
+    Interval,
+    gm_equivalent_k,
+    walk_tau_s,
+)
 
 __all__ = ["GROUPS", "InMotionEstimate", "estimate_in_motion", "static_nk", "static_pairs"]
 
@@ -43,7 +51,7 @@ GROUPS = {"gyro": (0, 1, 2), "accel": (3, 4, 5)}
 SIGMA0 = {"gyro": 1e-4, "accel": 5e-3}  # start of σ [rad/s, m/s²]
 SIGMA_RANGE = {"gyro": (1e-7, 1e-1), "accel": (1e-5, 1.0)}
 WHITE_RANGE = (0.2, 50.0)
-TAU_MIN_S = 2.0
+TAU_MIN_S = 2.0  # the longest τ searched is walk_tau_s (≥ 10 × this)
 LR_WANDER = 5.991  # χ²₂(0.95)
 HALF_LR1 = 1.92  # ½ χ²₁(0.95)
 WIDE_SD = math.log(10.0) / 1.96
@@ -256,7 +264,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     del seed
     t0 = time.process_time()
     lik = DriveLikelihood(list(drives), static_pairs(static_model, freq), mapper=mapper)
-    tau_max = max(3600.0 * lik.hours_moving() * 3.0, 10.0 * TAU_MIN_S)
+    tau_max = walk_tau_s(lik.hours_moving())  # a walk is reported at this bound and used in this form
     th = Theta()
     nll_static = lik.nll(th)
     if not math.isfinite(nll_static):

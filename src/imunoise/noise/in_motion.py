@@ -30,9 +30,26 @@ from typing import Any
 from imunoise.errors import ModelError
 from imunoise.imu import AXES
 
-__all__ = ["Interval", "BiasWander", "AxisInMotion", "Bound", "InMotionPart", "gm_equivalent_k"]
+__all__ = ["Interval", "BiasWander", "AxisInMotion", "Bound", "InMotionPart", "gm_equivalent_k", "walk_tau_s"]
 
 BIAS_MODELS = ("gm", "rw", "none")
+WALK_TAU_NO_EVIDENCE_S = 1e6
+"""τ [s] of a random walk's Gauss–Markov when the part does not say how long its drives moved."""
+
+
+def walk_tau_s(hours_moving: float | None) -> float:
+    """The τ [s] of the Gauss–Markov that carries a bias random walk in the filter: the longest τ the in-motion
+    estimate searches, 3 × the moving time of the drives it saw and at least 20 s (the estimate reports a walk
+    when τ reaches that bound, so the filter uses the walk in the form it was estimated in). Without that
+    evidence (``None``: a hand-written part), :data:`WALK_TAU_NO_EVIDENCE_S`.
+
+    Why not a near-infinite τ: the moving state starts at its stationary variance σ² = k²τ/2. With τ = 1e6 s a
+    gyro walk of k = 8e-5 rad/s/√s starts at 3 °/s (1σ); on a simulated vehicle the GNSS-aided run then took
+    heading errors for gyro bias and diverged (33 m aided horizontal RMS against 1.7 m with τ of the order of
+    the moving time: docs/evidence/in_use_ceiling.md, 'One vehicle')."""
+    if hours_moving is None or not math.isfinite(float(hours_moving)) or hours_moving <= 0:
+        return WALK_TAU_NO_EVIDENCE_S
+    return max(3600.0 * float(hours_moving) * 3.0, 20.0)
 
 
 def gm_equivalent_k(sigma: float, tau_s: float) -> float:
@@ -178,16 +195,17 @@ class InMotionPart:
 
     def moving_gm(self) -> tuple[list[float], list[float]]:
         """The six moving Gauss–Markov (σ, τ [s]) of the filter (σ = 0 where none; a random walk k as a GM with
-        τ = 1e6 s and σ = k√(τ/2), the same driving noise)."""
+        τ = :func:`walk_tau_s` of the evidence's moving hours and σ = k√(τ/2), the same driving noise)."""
         sig, tau = [], []
+        t_walk = walk_tau_s(self.evidence.get("hours_moving"))
         for a in AXES:
             b = self.axis(a).bias
             if b.model == "gm" and b.sigma and b.tau_s:
                 sig.append(float(b.sigma))
                 tau.append(float(b.tau_s))
             elif b.model == "rw" and b.k:
-                sig.append(float(b.k) * math.sqrt(1e6 / 2.0))
-                tau.append(1e6)
+                sig.append(float(b.k) * math.sqrt(t_walk / 2.0))
+                tau.append(t_walk)
             else:
                 sig.append(0.0)
                 tau.append(60.0)
