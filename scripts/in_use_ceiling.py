@@ -1,0 +1,133 @@
+"""Where the in-use gap is: the constant-model ceilings against ``in_use`` and ``oracle_law``, law by law
+(docs/evidence/in_use_ceiling.md).
+
+    nice -n 10 python scripts/in_use_ceiling.py --laws gyro_departure_step --seeds 10 --seed0 7400030 \
+        --out out/in_use/ceiling
+
+Per law one ``imunoise experiment online --sim --vehicle-drives 2`` run in the carry-over protocol of
+``scripts/in_use_carry_over.py`` (vehicles of two 600 s drives with 4 stops, ``in_use`` learns on the first, every
+row is scored on the second; meter-level GNSS ``noise:1.5,3,1``, dense 60 s windows every 20 s, latency 0.5 s), rows
+gmwm, in_use, oracle_const, oracle_const_gmwm, oracle_law (:mod:`imunoise.experiments.oracle_const`); skipped when
+its ``results.json`` exists. ``--laws`` and ``--seed0`` pair up: law i gets the vehicles seed0_i … seed0_i + seeds − 1
+(one seed0: the same for every law). Then, per law and pooled over the laws, the share of ``oracle_law``'s log-gain
+over ``gmwm`` that each row keeps (:func:`imunoise.experiments.stats.gain_share`, 95 % percentile CI from a bootstrap
+over the vehicles (law, seed), as the carry-over acceptance computes it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REGIME = "noise:1.5,3,1"
+ROWS = ("in_use", "oracle_const", "oracle_const_gmwm", "oracle_law")
+METHODS = "gmwm," + ",".join(ROWS)
+PAIRS = "in_use/gmwm,oracle_const/gmwm,oracle_const_gmwm/gmwm,oracle_law/gmwm,in_use/oracle_const_gmwm," \
+        "oracle_const_gmwm/oracle_const,oracle_const/oracle_law"
+
+
+def run_law(law: str, seed0: int, args, out: Path) -> Path:
+    d = out / law
+    if (d / "results.json").exists():
+        print(f"{law}: results exist, not rerun ({d})", flush=True)
+        return d
+    cmd = [sys.executable, "-m", "imunoise", "experiment", "online", "--sim", "--vehicle-drives", "2",
+           "--seeds", str(args.seeds), "--seed0", str(seed0), "--duration", str(args.duration),
+           "--stops", str(args.stops), "--outages", "dense:60:20", "--gnss-regime", REGIME, "--noise-seeds", "1",
+           "--methods", METHODS, "--pairs", PAIRS, "--motion-noise", law, "--latency", "0.5",
+           "--workers", str(args.workers), "--out", str(d)]
+    print(f"{law}: running {' '.join(cmd[2:])}", flush=True)
+    t0 = time.time()
+    subprocess.run(cmd, check=True)
+    print(f"{law}: done in {(time.time() - t0) / 60:.1f} min wall", flush=True)
+    return d
+
+
+def _pair(res: dict, m: str, b: str) -> list:
+    p = next(p for p in res["paired"] if p["method"] == m and p["baseline"] == b and p["metric"] == "drift"
+             and p["gnss"] == REGIME)
+    return [p["ratio"], *p["ci"]]
+
+
+def summarize(dirs: dict[str, Path]) -> dict:
+    from imunoise.experiments.stats import drive_log_ratios, gain_share
+
+    laws, pooled = [], {m: ([], [], []) for m in ROWS[:-1]}
+    for law, d in dirs.items():
+        res = json.loads((d / "results.json").read_text())
+        drift = res["per_window"][REGIME]["drift"]
+        row = {"law": law, "vehicles": len(res["seeds"]), "seeds": [min(res["seeds"]), max(res["seeds"])],
+               "ratios": {p: _pair(res, *p.split("/")) for p in PAIRS.split(",")}, "share": {}}
+        refs = [drive_log_ratios(o, b) for o, b in zip(drift["oracle_law"], drift["gmwm"], strict=True)]
+        for m in ROWS[:-1]:
+            g = [drive_log_ratios(a, b) for a, b in zip(drift[m], drift["gmwm"], strict=True)]
+            units = [f"{law}/{s}" for s in res["seeds"]]
+            row["share"][m] = gain_share(g, refs, units=units, seed=0)
+            pooled[m][0].extend(g)
+            pooled[m][1].extend(refs)
+            pooled[m][2].extend(units)
+        laws.append(row)
+    share = {m: gain_share(g, r, units=u, seed=0) for m, (g, r, u) in pooled.items()}
+    return {"regime": REGIME, "laws": laws, "pooled_share": share}
+
+
+def _r(x) -> str:
+    return "–" if x is None or x[0] is None else f"{x[0]:.3f} [{x[1]:.3f}, {x[2]:.3f}]"
+
+
+def _s(sh) -> str:
+    if not sh or sh["share"] is None:
+        return "–"
+    return f"{100 * sh['share']:.1f} % [{100 * sh['ci'][0]:.1f}, {100 * sh['ci'][1]:.1f}]"
+
+
+def markdown(s: dict) -> str:
+    pairs = PAIRS.split(",")
+    out = ["| law | vehicles | " + " | ".join(p.replace("/", " / ") for p in pairs) + " |",
+           "|---|---|" + "---|" * len(pairs)]
+    for row in s["laws"]:
+        out.append(f"| {row['law']} | {row['vehicles']} | " + " | ".join(_r(row["ratios"][p]) for p in pairs) + " |")
+    out += ["", "Share of oracle_law's log-gain over gmwm kept (95 % CI, bootstrap over vehicles):", "",
+            "| law | vehicles | " + " | ".join(ROWS[:-1]) + " |", "|---|---|" + "---|" * (len(ROWS) - 1)]
+    for row in s["laws"]:
+        out.append(f"| {row['law']} | {row['vehicles']} | " + " | ".join(_s(row["share"][m]) for m in ROWS[:-1])
+                   + " |")
+    n = sum(r["vehicles"] for r in s["laws"])
+    out.append(f"| pooled | {n} | " + " | ".join(_s(s["pooled_share"][m]) for m in ROWS[:-1]) + " |")
+    return "\n".join(out) + "\n"
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--laws", nargs="+", required=True, help="shipped law names")
+    p.add_argument("--seed0", type=int, nargs="+", required=True, help="first vehicle seed, one per law or one")
+    p.add_argument("--seeds", type=int, default=10, help="vehicles per law")
+    p.add_argument("--duration", type=float, default=600.0, help="drive length [s]")
+    p.add_argument("--stops", type=int, default=4)
+    p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--summary-only", action="store_true", help="summarize the laws whose results.json exist")
+    p.add_argument("--out", required=True)
+    args = p.parse_args(argv)
+    if len(args.seed0) not in (1, len(args.laws)):
+        p.error(f"--seed0: give one seed or one per law ({len(args.laws)}), got {len(args.seed0)}")
+    seeds0 = args.seed0 * len(args.laws) if len(args.seed0) == 1 else args.seed0
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    if args.summary_only:
+        dirs = {law: out / law for law in args.laws if (out / law / "results.json").exists()}
+    else:
+        dirs = {law: run_law(law, s0, args, out) for law, s0 in zip(args.laws, seeds0, strict=True)}
+    s = summarize(dirs)
+    (out / "ceiling.json").write_text(json.dumps(s, indent=1))
+    (out / "ceiling.md").write_text(markdown(s))
+    print(markdown(s))
+    print(f"wrote {out / 'ceiling.json'}, {out / 'ceiling.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
