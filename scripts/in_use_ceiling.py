@@ -4,11 +4,12 @@
     nice -n 10 python scripts/in_use_ceiling.py --laws gyro_departure_step --seeds 10 --seed0 7400030 \
         --out out/in_use/ceiling
 
-Per law one ``imunoise experiment online --sim --vehicle-drives 2`` run in the carry-over protocol of
+Per law ``imunoise experiment online --sim --vehicle-drives 2`` runs in the carry-over protocol of
 ``scripts/in_use_carry_over.py`` (vehicles of two 600 s drives with 4 stops, ``in_use`` learns on the first, every
 row is scored on the second; meter-level GNSS ``noise:1.5,3,1``, dense 60 s windows every 20 s, latency 0.5 s), rows
-gmwm, in_use, oracle_const, oracle_const_gmwm, oracle_law (:mod:`imunoise.experiments.oracle_const`); skipped when
-its ``results.json`` exists. ``--laws`` and ``--seed0`` pair up: law i gets the vehicles seed0_i … seed0_i + seeds − 1
+gmwm, in_use, oracle_const, oracle_const_gmwm, oracle_law (:mod:`imunoise.experiments.oracle_const`), in batches
+of ``--batch`` vehicles (``out/LAW/sSEED``; a batch whose ``results.json`` exists is not rerun, so a stopped run
+keeps what it finished). ``--laws`` and ``--seed0`` pair up: law i gets the vehicles seed0_i … seed0_i + seeds − 1
 (one seed0: the same for every law). Then, per law and pooled over the laws, the share of ``oracle_law``'s log-gain
 over ``gmwm`` that each row keeps (:func:`imunoise.experiments.stats.gain_share`, 95 % percentile CI from a bootstrap
 over the vehicles (law, seed), as the carry-over acceptance computes it).
@@ -23,6 +24,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 REGIME = "noise:1.5,3,1"
 ROWS = ("in_use", "oracle_const", "oracle_const_gmwm", "oracle_law")
 METHODS = "gmwm," + ",".join(ROWS)
@@ -30,48 +33,64 @@ PAIRS = "in_use/gmwm,oracle_const/gmwm,oracle_const_gmwm/gmwm,oracle_law/gmwm,in
         "oracle_const_gmwm/oracle_const,oracle_const/oracle_law"
 
 
-def run_law(law: str, seed0: int, args, out: Path) -> Path:
-    d = out / law
-    if (d / "results.json").exists():
-        print(f"{law}: results exist, not rerun ({d})", flush=True)
-        return d
-    cmd = [sys.executable, "-m", "imunoise", "experiment", "online", "--sim", "--vehicle-drives", "2",
-           "--seeds", str(args.seeds), "--seed0", str(seed0), "--duration", str(args.duration),
-           "--stops", str(args.stops), "--outages", "dense:60:20", "--gnss-regime", REGIME, "--noise-seeds", "1",
-           "--methods", METHODS, "--pairs", PAIRS, "--motion-noise", law, "--latency", "0.5",
-           "--workers", str(args.workers), "--out", str(d)]
-    print(f"{law}: running {' '.join(cmd[2:])}", flush=True)
-    t0 = time.time()
-    subprocess.run(cmd, check=True)
-    print(f"{law}: done in {(time.time() - t0) / 60:.1f} min wall", flush=True)
-    return d
+def run_law(law: str, seed0: int, args, out: Path) -> list[Path]:
+    """The law's vehicles in batches of ``--batch`` (one experiment run each, ``out/LAW/sSEED``), so that a run
+    stopped midway keeps the batches it finished; a batch whose ``results.json`` exists is not rerun."""
+    done = []
+    for b0 in range(seed0, seed0 + args.seeds, args.batch):
+        d = out / law / f"s{b0}"
+        n = min(args.batch, seed0 + args.seeds - b0)
+        if not (d / "results.json").exists():
+            cmd = [sys.executable, "-m", "imunoise", "experiment", "online", "--sim", "--vehicle-drives", "2",
+                   "--seeds", str(n), "--seed0", str(b0), "--duration", str(args.duration), "--stops",
+                   str(args.stops), "--outages", "dense:60:20", "--gnss-regime", REGIME, "--noise-seeds", "1",
+                   "--methods", METHODS, "--pairs", PAIRS, "--motion-noise", law, "--latency", "0.5",
+                   "--workers", str(args.workers), "--out", str(d)]
+            print(f"{law}: running {' '.join(cmd[2:])}", flush=True)
+            t0 = time.time()
+            subprocess.run(cmd, check=True)
+            print(f"{law}: seeds {b0}-{b0 + n - 1} done in {(time.time() - t0) / 60:.1f} min wall", flush=True)
+        done.append(d)
+    return done
 
 
-def _pair(res: dict, m: str, b: str) -> list:
-    p = next(p for p in res["paired"] if p["method"] == m and p["baseline"] == b and p["metric"] == "drift"
-             and p["gnss"] == REGIME)
-    return [p["ratio"], *p["ci"]]
+def _finished(out: Path, law: str) -> list[Path]:
+    return sorted(p.parent for p in (out / law).glob("s*/results.json"))
 
 
-def summarize(dirs: dict[str, Path]) -> dict:
-    from imunoise.experiments.stats import drive_log_ratios, gain_share
+def summarize(dirs: dict[str, list[Path]]) -> dict:
+    """Per law (its batches pooled: the vehicles are the clusters) the paired drift ratios of :data:`PAIRS` and the
+    shares of ``oracle_law``'s log-gain over ``gmwm``; the shares pooled over the laws."""
+    from imunoise.experiments.stats import drive_log_ratios, gain_share, paired_entry
 
     laws, pooled = [], {m: ([], [], []) for m in ROWS[:-1]}
-    for law, d in dirs.items():
-        res = json.loads((d / "results.json").read_text())
-        drift = res["per_window"][REGIME]["drift"]
-        row = {"law": law, "vehicles": len(res["seeds"]), "seeds": [min(res["seeds"]), max(res["seeds"])],
-               "ratios": {p: _pair(res, *p.split("/")) for p in PAIRS.split(",")}, "share": {}}
+    for law, ds in dirs.items():
+        drift: dict[str, list] = {}
+        seeds: list[int] = []
+        for d in ds:
+            res = json.loads((d / "results.json").read_text())
+            seeds += res["seeds"]
+            for m, v in res["per_window"][REGIME]["drift"].items():
+                drift.setdefault(m, []).extend(v)
+        if not seeds:
+            continue
+        units = [f"{law}/{s}" for s in seeds]
+        ratios = {}
+        for p in PAIRS.split(","):
+            e = paired_entry(*p.split("/"), "drift", drift, seed=0)
+            ratios[p] = [e["ratio"], *e["ci"]]
+        row = {"law": law, "vehicles": len(seeds), "seeds": [min(seeds), max(seeds)], "ratios": ratios, "share": {},
+               "mean_drift_m": {m: float(np.nanmean([x for v in drift[m] for x in np.ravel(np.array(v, dtype=float))]))
+                                for m in ("gmwm", *ROWS)}}
         refs = [drive_log_ratios(o, b) for o, b in zip(drift["oracle_law"], drift["gmwm"], strict=True)]
         for m in ROWS[:-1]:
             g = [drive_log_ratios(a, b) for a, b in zip(drift[m], drift["gmwm"], strict=True)]
-            units = [f"{law}/{s}" for s in res["seeds"]]
             row["share"][m] = gain_share(g, refs, units=units, seed=0)
             pooled[m][0].extend(g)
             pooled[m][1].extend(refs)
             pooled[m][2].extend(units)
         laws.append(row)
-    share = {m: gain_share(g, r, units=u, seed=0) for m, (g, r, u) in pooled.items()}
+    share = {m: gain_share(g, r, units=u, seed=0) for m, (g, r, u) in pooled.items() if g}
     return {"regime": REGIME, "laws": laws, "pooled_share": share}
 
 
@@ -97,7 +116,11 @@ def markdown(s: dict) -> str:
         out.append(f"| {row['law']} | {row['vehicles']} | " + " | ".join(_s(row["share"][m]) for m in ROWS[:-1])
                    + " |")
     n = sum(r["vehicles"] for r in s["laws"])
-    out.append(f"| pooled | {n} | " + " | ".join(_s(s["pooled_share"][m]) for m in ROWS[:-1]) + " |")
+    out.append(f"| pooled | {n} | " + " | ".join(_s(s["pooled_share"].get(m)) for m in ROWS[:-1]) + " |")
+    out += ["", "Mean end-of-window drift [m]:", "", "| law | gmwm | " + " | ".join(ROWS) + " |",
+            "|---|---|" + "---|" * len(ROWS)]
+    for row in s["laws"]:
+        out.append(f"| {row['law']} | " + " | ".join(f"{row['mean_drift_m'][m]:.1f}" for m in ("gmwm", *ROWS)) + " |")
     return "\n".join(out) + "\n"
 
 
@@ -109,6 +132,7 @@ def main(argv=None) -> int:
     p.add_argument("--duration", type=float, default=600.0, help="drive length [s]")
     p.add_argument("--stops", type=int, default=4)
     p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--batch", type=int, default=2, help="vehicles per experiment run (a stopped run keeps its batches)")
     p.add_argument("--summary-only", action="store_true", help="summarize the laws whose results.json exist")
     p.add_argument("--out", required=True)
     args = p.parse_args(argv)
@@ -117,10 +141,10 @@ def main(argv=None) -> int:
     seeds0 = args.seed0 * len(args.laws) if len(args.seed0) == 1 else args.seed0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    if args.summary_only:
-        dirs = {law: out / law for law in args.laws if (out / law / "results.json").exists()}
-    else:
-        dirs = {law: run_law(law, s0, args, out) for law, s0 in zip(args.laws, seeds0, strict=True)}
+    if not args.summary_only:
+        for law, s0 in zip(args.laws, seeds0, strict=True):
+            run_law(law, s0, args, out)
+    dirs = {law: _finished(out, law) for law in args.laws}
     s = summarize(dirs)
     (out / "ceiling.json").write_text(json.dumps(s, indent=1))
     (out / "ceiling.md").write_text(markdown(s))

@@ -78,3 +78,11 @@ def test_oracle_const_is_oracle_law_under_a_moving_gauss_markov_and_runs_end_to_
     assert len(const["windows"]) == len(windows) >= 8 and const["nees"]["nees"]
     for a, b in zip(const["windows"], law["windows"], strict=True):  # the family holds this law exactly
         assert a["drift"] == pytest.approx(b["drift"], rel=1e-9)
+    # oracle_const_gmwm puts the same constant part on in_use's static part: handed the truth's, it is oracle_const
+    from types import SimpleNamespace
+
+    on = dense.evaluate_method(sc, "oracle_const_gmwm", sc.gnss, windows, in_use=SimpleNamespace(
+        pairs=true_static_models(sc)))
+    assert [w["drift"] for w in on["windows"]] == [w["drift"] for w in const["windows"]]
+    with pytest.raises(Exception, match="--vehicle-drives 2 or more"):
+        dense.evaluate_method(sc, "oracle_const_gmwm", sc.gnss, windows)
