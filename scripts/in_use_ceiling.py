@@ -94,6 +94,89 @@ def summarize(dirs: dict[str, list[Path]]) -> dict:
     return {"regime": REGIME, "laws": laws, "pooled_share": share}
 
 
+FAMILY_ROWS = ("static_truth", "oracle_const", "oracle_law")
+
+
+def run_family(law: str, seed0: int, args, out: Path) -> None:
+    """``--family``: the model-family gap alone, in-process and cheap (no learning, no online engine): per vehicle
+    (the scored drive only) the batch filter with the truth's static model and no in-motion part (``static_truth``:
+    the in_use family at white factor 1 and no wander), ``oracle_const`` and ``oracle_law``, all on the same static
+    part, written to ``out/family/LAW/SEED.json`` as each vehicle finishes."""
+    from imunoise.experiments import dense
+    from imunoise.experiments.common import simulate_scenario
+    from imunoise.experiments.gnss_regimes import parse_gnss
+    from imunoise.experiments.oracle_const import run_windows_const, true_static_models
+    from imunoise.experiments.oracle_law import run_windows_law
+    from imunoise.online import OnlineConfig
+
+    base = OnlineConfig(latency=0.5)
+    rg = parse_gnss(REGIME)
+    for seed in range(seed0, seed0 + args.seeds):
+        f = out / "family" / law / f"{seed}.json"
+        if f.exists():
+            continue
+        t0 = time.process_time()
+        sc = simulate_scenario(seed, n_outages=0, duration_s=args.duration, n_stops=args.stops, streams=[],
+                               motion_noise=law)
+        windows = dense.dense_windows(sc, dense.parse_outages("dense:60:20")[1])
+        gnss = rg.apply(sc.gnss, 1_000_003 * seed + 1)  # as the experiment's first noise seed
+        rows = {"static_truth": run_windows_law(sc, gnss, windows, base=base, models=true_static_models(sc, base)),
+                "oracle_const": run_windows_const(sc, gnss, windows, base=base),
+                "oracle_law": run_windows_law(sc, gnss, windows, base=base)}
+        f.parent.mkdir(parents=True, exist_ok=True)
+        f.write_text(json.dumps({"seed": seed, "law": law, "windows": windows, "oracle_const": rows["oracle_const"][
+            "oracle_const"], "drift": {m: [w["drift"] for w in r["windows"]] for m, r in rows.items()},
+            "cpu_s": time.process_time() - t0}))
+        means = {m: np.nanmean(np.array([w["drift"] for w in r["windows"]], dtype=float)) for m, r in rows.items()}
+        print(f"{law} {seed}: " + ", ".join(f"{m} {v:.1f} m" for m, v in means.items())
+              + f" ({time.process_time() - t0:.0f} s CPU)", flush=True)
+
+
+def summarize_family(out: Path, laws) -> dict:
+    """Per law and pooled: oracle_const / static_truth, oracle_law / static_truth, oracle_const / oracle_law and the
+    share of oracle_law's log-gain over static_truth that oracle_const keeps (vehicles the clusters)."""
+    from imunoise.experiments.stats import drive_log_ratios, gain_share, paired_entry
+
+    rows, g_all, r_all, u_all = [], [], [], []
+    for law in laws:
+        vs = [json.loads(p.read_text()) for p in sorted((out / "family" / law).glob("*.json"))]
+        if not vs:
+            continue
+        drift = {m: [v["drift"][m] for v in vs] for m in FAMILY_ROWS}
+        units = [f"{law}/{v['seed']}" for v in vs]
+        ratios = {}
+        for a, b in (("oracle_const", "static_truth"), ("oracle_law", "static_truth"), ("oracle_const", "oracle_law")):
+            e = paired_entry(a, b, "drift", drift, seed=0)
+            ratios[f"{a}/{b}"] = [e["ratio"], *e["ci"]]
+        g = [drive_log_ratios(a, b) for a, b in zip(drift["oracle_const"], drift["static_truth"], strict=True)]
+        r = [drive_log_ratios(a, b) for a, b in zip(drift["oracle_law"], drift["static_truth"], strict=True)]
+        rows.append({"law": law, "vehicles": len(vs), "seeds": [vs[0]["seed"], vs[-1]["seed"]], "ratios": ratios,
+                     "share": gain_share(g, r, units=units, seed=0),
+                     "mean_drift_m": {m: float(np.nanmean(np.array(drift[m], dtype=float))) for m in FAMILY_ROWS},
+                     "cpu_s": float(np.mean([v["cpu_s"] for v in vs]))})
+        g_all += g
+        r_all += r
+        u_all += units
+    return {"regime": REGIME, "laws": rows, "pooled_share": gain_share(g_all, r_all, units=u_all, seed=0)
+            if g_all else None}
+
+
+def markdown_family(s: dict) -> str:
+    out = ["| law | vehicles | mean drift static_truth / oracle_const / oracle_law [m] | oracle_const / static_truth "
+           "| oracle_law / static_truth | oracle_const / oracle_law | share kept by oracle_const |",
+           "|---|---|---|---|---|---|---|"]
+    for row in s["laws"]:
+        md = row["mean_drift_m"]
+        out.append(f"| {row['law']} | {row['vehicles']} | {md['static_truth']:.1f} / {md['oracle_const']:.1f} / "
+                   f"{md['oracle_law']:.1f} | " + " | ".join(_r(row["ratios"][k]) for k in (
+                       "oracle_const/static_truth", "oracle_law/static_truth", "oracle_const/oracle_law"))
+                   + f" | {_s(row['share'])} |")
+    n = sum(r["vehicles"] for r in s["laws"])
+    out.append(f"\nPooled share of oracle_law's log-gain over static_truth kept by oracle_const: "
+               f"{_s(s['pooled_share'])} ({n} vehicles)")
+    return "\n".join(out) + "\n"
+
+
 def _r(x) -> str:
     return "–" if x is None or x[0] is None else f"{x[0]:.3f} [{x[1]:.3f}, {x[2]:.3f}]"
 
@@ -133,6 +216,8 @@ def main(argv=None) -> int:
     p.add_argument("--stops", type=int, default=4)
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--batch", type=int, default=2, help="vehicles per experiment run (a stopped run keeps its batches)")
+    p.add_argument("--family", action="store_true", help="the model-family gap alone: rows static_truth, "
+                   "oracle_const, oracle_law on the scored drive, in-process (run_family)")
     p.add_argument("--summary-only", action="store_true", help="summarize the laws whose results.json exist")
     p.add_argument("--out", required=True)
     args = p.parse_args(argv)
@@ -141,6 +226,15 @@ def main(argv=None) -> int:
     seeds0 = args.seed0 * len(args.laws) if len(args.seed0) == 1 else args.seed0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.family:
+        if not args.summary_only:
+            for law, s0 in zip(args.laws, seeds0, strict=True):
+                run_family(law, s0, args, out)
+        fs = summarize_family(out, args.laws)
+        (out / "family.json").write_text(json.dumps(fs, indent=1))
+        (out / "family.md").write_text(markdown_family(fs))
+        print(markdown_family(fs))
+        return 0
     if not args.summary_only:
         for law, s0 in zip(args.laws, seeds0, strict=True):
             run_law(law, s0, args, out)
