@@ -94,9 +94,6 @@ def summarize(dirs: dict[str, list[Path]]) -> dict:
     return {"regime": REGIME, "laws": laws, "pooled_share": share}
 
 
-FAMILY_ROWS = ("static_truth", "oracle_const", "oracle_law")
-
-
 def run_family(law: str, seed0: int, args, out: Path) -> None:
     """``--family``: the model-family gap alone, in-process and cheap (no learning, no online engine): per vehicle
     (the scored drive only) the batch filter with the truth's static model and no in-motion part (``static_truth``:
@@ -123,6 +120,10 @@ def run_family(law: str, seed0: int, args, out: Path) -> None:
         rows = {"static_truth": run_windows_law(sc, gnss, windows, base=base, models=true_static_models(sc, base)),
                 "oracle_const": run_windows_const(sc, gnss, windows, base=base),
                 "oracle_law": run_windows_law(sc, gnss, windows, base=base)}
+        if args.gmwm_static:  # in_use's static part: the gmwm row's fits on the vehicle's earlier drive
+            pairs = _in_use_static(seed, law, args, base)
+            rows["gmwm_static"] = run_windows_law(sc, gnss, windows, base=base, models=pairs)
+            rows["oracle_const_gmwm"] = run_windows_const(sc, gnss, windows, base=base, pairs=pairs)
         f.parent.mkdir(parents=True, exist_ok=True)
         f.write_text(json.dumps({"seed": seed, "law": law, "windows": windows, "oracle_const": rows["oracle_const"][
             "oracle_const"], "drift": {m: [w["drift"] for w in r["windows"]] for m, r in rows.items()},
@@ -132,48 +133,68 @@ def run_family(law: str, seed0: int, args, out: Path) -> None:
               + f" ({time.process_time() - t0:.0f} s CPU)", flush=True)
 
 
+def _in_use_static(seed: int, law: str, args, base) -> list:
+    """``in_use``'s static filter models for vehicle ``seed`` (:func:`imunoise.experiments.in_use_method.learn_in_use`
+    without its in-motion estimate): the ``gmwm`` row's fits on the earlier drive, in the run's GNSS regime."""
+    from imunoise.experiments.carry_over import earlier_scenarios, learning_drives
+    from imunoise.experiments.common import filter_models
+    from imunoise.experiments.dense_warm import gmwm_on_drives
+    from imunoise.experiments.gnss_regimes import parse_gnss
+
+    kw = {"duration_s": args.duration, "n_stops": args.stops, "streams": [], "motion_noise": law}
+    d = learning_drives(seed, 2, earlier_scenarios(seed, 1, **kw), parse_gnss(REGIME), 1)
+    return filter_models(list(gmwm_on_drives(d, base).fits), d[0][0].rate, base.with_(ekf=d[0][0].ekf_config()))
+
+
 def summarize_family(out: Path, laws) -> dict:
-    """Per law and pooled: oracle_const / static_truth, oracle_law / static_truth, oracle_const / oracle_law and the
-    share of oracle_law's log-gain over static_truth that oracle_const keeps (vehicles the clusters)."""
+    """Per law and pooled, against each baseline B (``static_truth``; ``gmwm_static`` where run): the ratios of the
+    rows over B and over ``oracle_law``, and the share of ``oracle_law``'s log-gain over B that each row keeps
+    (vehicles the clusters)."""
     from imunoise.experiments.stats import drive_log_ratios, gain_share, paired_entry
 
-    rows, g_all, r_all, u_all = [], [], [], []
+    rows, pooled = [], {}
     for law in laws:
         vs = [json.loads(p.read_text()) for p in sorted((out / "family" / law).glob("*.json"))]
         if not vs:
             continue
-        drift = {m: [v["drift"][m] for v in vs] for m in FAMILY_ROWS}
+        names = [m for m in vs[0]["drift"] if all(m in v["drift"] for v in vs)]
+        drift = {m: [v["drift"][m] for v in vs] for m in names}
         units = [f"{law}/{v['seed']}" for v in vs]
-        ratios = {}
-        for a, b in (("oracle_const", "static_truth"), ("oracle_law", "static_truth"), ("oracle_const", "oracle_law")):
-            e = paired_entry(a, b, "drift", drift, seed=0)
-            ratios[f"{a}/{b}"] = [e["ratio"], *e["ci"]]
-        g = [drive_log_ratios(a, b) for a, b in zip(drift["oracle_const"], drift["static_truth"], strict=True)]
-        r = [drive_log_ratios(a, b) for a, b in zip(drift["oracle_law"], drift["static_truth"], strict=True)]
-        rows.append({"law": law, "vehicles": len(vs), "seeds": [vs[0]["seed"], vs[-1]["seed"]], "ratios": ratios,
-                     "share": gain_share(g, r, units=units, seed=0),
-                     "mean_drift_m": {m: float(np.nanmean(np.array(drift[m], dtype=float))) for m in FAMILY_ROWS},
-                     "cpu_s": float(np.mean([v["cpu_s"] for v in vs]))})
-        g_all += g
-        r_all += r
-        u_all += units
-    return {"regime": REGIME, "laws": rows, "pooled_share": gain_share(g_all, r_all, units=u_all, seed=0)
-            if g_all else None}
+        row = {"law": law, "vehicles": len(vs), "seeds": [vs[0]["seed"], vs[-1]["seed"]], "ratios": {},
+               "share": {}, "mean_drift_m": {m: float(np.nanmean(np.array(drift[m], dtype=float))) for m in names},
+               "cpu_s": float(np.mean([v["cpu_s"] for v in vs]))}
+        for b in (x for x in ("static_truth", "gmwm_static") if x in names):
+            ref = [drive_log_ratios(o, y) for o, y in zip(drift["oracle_law"], drift[b], strict=True)]
+            for m in (x for x in names if x not in (b, "oracle_law")):
+                e = paired_entry(m, b, "drift", drift, seed=0)
+                row["ratios"][f"{m}/{b}"] = [e["ratio"], *e["ci"]]
+                g = [drive_log_ratios(x, y) for x, y in zip(drift[m], drift[b], strict=True)]
+                row["share"][f"{m}/{b}"] = gain_share(g, ref, units=units, seed=0)
+                acc = pooled.setdefault(f"{m}/{b}", ([], [], []))
+                acc[0].extend(g)
+                acc[1].extend(ref)
+                acc[2].extend(units)
+            e = paired_entry("oracle_law", b, "drift", drift, seed=0)
+            row["ratios"][f"oracle_law/{b}"] = [e["ratio"], *e["ci"]]
+        for m in (x for x in names if x != "oracle_law"):
+            e = paired_entry(m, "oracle_law", "drift", drift, seed=0)
+            row["ratios"][f"{m}/oracle_law"] = [e["ratio"], *e["ci"]]
+        rows.append(row)
+    share = {k: dict(gain_share(g, r, units=u, seed=0), vehicles=len(set(u))) for k, (g, r, u) in pooled.items()}
+    return {"regime": REGIME, "laws": rows, "pooled_share": share}
 
 
 def markdown_family(s: dict) -> str:
-    out = ["| law | vehicles | mean drift static_truth / oracle_const / oracle_law [m] | oracle_const / static_truth "
-           "| oracle_law / static_truth | oracle_const / oracle_law | share kept by oracle_const |",
-           "|---|---|---|---|---|---|---|"]
+    out = ["| law | vehicles | mean drift [m] | ratios (95 % cluster CI) | share of oracle_law's log-gain kept |",
+           "|---|---|---|---|---|"]
     for row in s["laws"]:
-        md = row["mean_drift_m"]
-        out.append(f"| {row['law']} | {row['vehicles']} | {md['static_truth']:.1f} / {md['oracle_const']:.1f} / "
-                   f"{md['oracle_law']:.1f} | " + " | ".join(_r(row["ratios"][k]) for k in (
-                       "oracle_const/static_truth", "oracle_law/static_truth", "oracle_const/oracle_law"))
-                   + f" | {_s(row['share'])} |")
-    n = sum(r["vehicles"] for r in s["laws"])
-    out.append(f"\nPooled share of oracle_law's log-gain over static_truth kept by oracle_const: "
-               f"{_s(s['pooled_share'])} ({n} vehicles)")
+        md = ", ".join(f"{m} {v:.1f}" for m, v in row["mean_drift_m"].items())
+        ra = "; ".join(f"{k.replace('/', ' / ')} {_r(v)}" for k, v in row["ratios"].items())
+        sh = "; ".join(f"{k.replace('/', ' over ')} {_s(v)}" for k, v in row["share"].items())
+        out.append(f"| {row['law']} | {row['vehicles']} | {md} | {ra} | {sh} |")
+    out.append("")
+    for k, v in s["pooled_share"].items():
+        out.append(f"- pooled, share kept by {k.replace('/', ' over ')}: {_s(v)} ({v['vehicles']} vehicles)")
     return "\n".join(out) + "\n"
 
 
@@ -218,6 +239,9 @@ def main(argv=None) -> int:
     p.add_argument("--batch", type=int, default=2, help="vehicles per experiment run (a stopped run keeps its batches)")
     p.add_argument("--family", action="store_true", help="the model-family gap alone: rows static_truth, "
                    "oracle_const, oracle_law on the scored drive, in-process (run_family)")
+    p.add_argument("--gmwm-static", action="store_true", help="with --family: also in_use's static part (the "
+                   "gmwm row's fits on the earlier drive) alone (gmwm_static) and under the constant part "
+                   "(oracle_const_gmwm)")
     p.add_argument("--summary-only", action="store_true", help="summarize the laws whose results.json exist")
     p.add_argument("--out", required=True)
     args = p.parse_args(argv)
