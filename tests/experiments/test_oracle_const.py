@@ -75,7 +75,7 @@ def test_oracle_const_is_oracle_law_under_a_moving_gauss_markov_and_runs_end_to_
     const = dense.evaluate_method(sc, "oracle_const", sc.gnss, windows, nees=True)
     law = dense.evaluate_method(sc, "oracle_law", sc.gnss, windows)
     assert const["oracle_const"]["sigma"][:3] == list(c.sigma[:3])
-    assert len(const["windows"]) == len(windows) >= 8 and const["nees"]["nees"]
+    assert len(const["windows"]) == len(windows) >= 8 and const["nees"]["n"] > 100  # the aided run's NEES epochs
     for a, b in zip(const["windows"], law["windows"], strict=True):  # the family holds this law exactly
         assert a["drift"] == pytest.approx(b["drift"], rel=1e-9)
     # oracle_const_gmwm puts the same constant part on in_use's static part: handed the truth's, it is oracle_const
