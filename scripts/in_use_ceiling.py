@@ -185,16 +185,34 @@ def summarize_family(out: Path, laws) -> dict:
 
 
 def markdown_family(s: dict) -> str:
-    out = ["| law | vehicles | mean drift [m] | ratios (95 % cluster CI) | share of oracle_law's log-gain kept |",
-           "|---|---|---|---|---|"]
+    """Two tables: on the truth's static part (the model-family gap) and on ``in_use``'s (``--gmwm-static``)."""
+    def ratio(row, k):
+        return _r(row["ratios"].get(k))
+
+    def pooled(k):
+        v = s["pooled_share"].get(k)
+        return f"{_s(v)} ({v['vehicles']} vehicles)" if v else "–"
+
+    out = ["| law | vehicles | mean drift static_truth / oracle_const / oracle_law [m] | oracle_law / static_truth | "
+           "oracle_const / oracle_law | share kept by oracle_const |", "|---|---|---|---|---|---|"]
     for row in s["laws"]:
-        md = ", ".join(f"{m} {v:.1f}" for m, v in row["mean_drift_m"].items())
-        ra = "; ".join(f"{k.replace('/', ' / ')} {_r(v)}" for k, v in row["ratios"].items())
-        sh = "; ".join(f"{k.replace('/', ' over ')} {_s(v)}" for k, v in row["share"].items())
-        out.append(f"| {row['law']} | {row['vehicles']} | {md} | {ra} | {sh} |")
-    out.append("")
-    for k, v in s["pooled_share"].items():
-        out.append(f"- pooled, share kept by {k.replace('/', ' over ')}: {_s(v)} ({v['vehicles']} vehicles)")
+        md = row["mean_drift_m"]
+        out.append(f"| {row['law']} | {row['vehicles']} | {md['static_truth']:.1f} / {md['oracle_const']:.1f} / "
+                   f"{md['oracle_law']:.1f} | {ratio(row, 'oracle_law/static_truth')} | "
+                   f"{ratio(row, 'oracle_const/oracle_law')} | {_s(row['share'].get('oracle_const/static_truth'))} |")
+    out.append(f"| pooled | | | | | {pooled('oracle_const/static_truth')} |")
+    if not any("gmwm_static" in r["mean_drift_m"] for r in s["laws"]):
+        return "\n".join(out) + "\n"
+    out += ["", "| law | mean drift gmwm_static / oracle_const_gmwm [m] | gmwm_static / static_truth | oracle_law / "
+            "gmwm_static | oracle_const_gmwm / oracle_law | share kept by the truth's static part | share kept by "
+            "oracle_const_gmwm |", "|---|---|---|---|---|---|---|"]
+    for row in (r for r in s["laws"] if "gmwm_static" in r["mean_drift_m"]):
+        md = row["mean_drift_m"]
+        out.append(f"| {row['law']} | {md['gmwm_static']:.1f} / {md['oracle_const_gmwm']:.1f} | "
+                   f"{ratio(row, 'gmwm_static/static_truth')} | {ratio(row, 'oracle_law/gmwm_static')} | "
+                   f"{ratio(row, 'oracle_const_gmwm/oracle_law')} | {_s(row['share'].get('static_truth/gmwm_static'))}"
+                   f" | {_s(row['share'].get('oracle_const_gmwm/gmwm_static'))} |")
+    out.append(f"| pooled | | | | | {pooled('static_truth/gmwm_static')} | {pooled('oracle_const_gmwm/gmwm_static')} |")
     return "\n".join(out) + "\n"
 
 
