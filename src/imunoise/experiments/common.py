@@ -216,11 +216,11 @@ def imu_noise_kwargs(path: str | None, seed0: int, *, imu: Any = None, reserve_s
 def replay_methods(methods: Sequence[str], explicit: bool) -> tuple[str, ...]:
     """The methods of a replayed-noise run: ``oracle`` and ``oracle_law`` need true models, which a real
     recording has not; they are dropped from a default list and refused when asked for."""
-    for m in ("oracle", "oracle_law"):
+    for m in ("oracle", "oracle_law", "oracle_const"):
         if m in methods and explicit:
             raise ModelError(f"--methods {m} needs the simulator's true IMU models; with --imu-noise the errors are "
                              f"a real recording (no true model): leave {m} out")
-    return tuple(m for m in methods if m not in ("oracle", "oracle_law"))
+    return tuple(m for m in methods if m not in ("oracle", "oracle_law", "oracle_const"))
 
 
 # --------------------------------------------------------------------------------------------------

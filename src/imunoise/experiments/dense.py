@@ -70,6 +70,7 @@ from imunoise.experiments.dense_branches import evaluate_method, run_windows
 from imunoise.experiments.dense_methods import (
     EVIDENCE_METHODS,
     LABELS,
+    LEARNED_ROWS,
     NHC_SUFFIX,
     ONLINE_BASELINES,
     SF_SUFFIX,
@@ -229,7 +230,7 @@ def _sim_job(args: tuple) -> dict:
             stops = {n: earlier_stops(seed, rg, ns, n_drives=n, base=base, earlier=earlier)
                      for n in sorted(set(n_stops.values()))}
             learned = None
-            if "in_use" in methods:  # the static part: the gmwm row's fits on the earlier drives
+            if set(LEARNED_ROWS) & set(methods):  # the static part: the gmwm row's fits on the earlier drives
                 d = learning_drives(seed, vehicle_drives, earlier, rg, ns)
                 learned = learn_in_use(d, gmwm_on_drives(d, base).fits, base)
             for m in methods:
@@ -237,7 +238,7 @@ def _sim_job(args: tuple) -> dict:
                 pooled = stops[n_stops[m]] if m in n_stops else None
                 runs.append((m, ri, ns, evaluate_method(sc, m, gnss, windows, base=base, cache=cache, prior=prior,
                                                         earlier_static=pooled, nees=True,
-                                                        in_use=learned if m == "in_use" else None)))
+                                                        in_use=learned if m in LEARNED_ROWS else None)))
                 tick()
     return {"seed": seed, "name": sc.name, "windows": windows, "runs": runs,
             "vehicle_drives": vehicle_seeds(seed, vehicle_drives)}
@@ -289,7 +290,7 @@ def run_sim(seeds: Sequence[int], *, spec: DenseSpec = _DEFAULT_SPEC, regimes: S
     from imunoise.experiments.runner import run_jobs
 
     k = check_vehicle_drives(vehicle_drives)
-    if "in_use" in methods and k < 2:
+    if set(LEARNED_ROWS) & set(methods) and k < 2:
         raise ModelError("the in_use method learns on a vehicle's earlier drives: vehicle_drives must be 2 or more")
     if scen_kw.get("imu_noise"):
         if int(scen_kw.get("imu_noise_drives", 1)) != k:

@@ -12,7 +12,7 @@ import numpy as np
 
 from imunoise.errors import ModelError
 from imunoise.experiments.common import Scenario
-from imunoise.experiments.dense_methods import STATIC_WARM_METHODS, Updater, base_method, method_setup
+from imunoise.experiments.dense_methods import LEARNED_ROWS, STATIC_WARM_METHODS, Updater, base_method, method_setup
 from imunoise.experiments.dense_spec import BRANCH_MARGIN_S
 from imunoise.experiments.nees import drive_nees, epoch_error, nees6, scored_epochs
 from imunoise.experiments.window_errors import (
@@ -218,12 +218,12 @@ def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfi
     """:func:`run_windows` for one method (:func:`method_setup`); ``earlier_static`` the earlier drives' stops
     a ``gmwm_warm`` method pools (:func:`~imunoise.experiments.dense_warm.earlier_stops`); ``in_use`` the model
     the ``in_use`` method learned on the vehicle's earlier drives (:mod:`imunoise.experiments.in_use_method`)."""
-    if base_method(name) == "in_use" and name != "in_use":
-        raise ModelError(f"{name}: in_use runs the in-motion batch filter, which has no scale-factor or NHC variant; "
-                         "use in_use")
-    if (name == "in_use") != (in_use is not None):
-        raise ModelError("in_use navigates with the model learned on the vehicle's earlier drives, and only it takes "
-                         "one: run it on the simulator with --vehicle-drives 2 or more")
+    if base_method(name) in (*LEARNED_ROWS, "oracle_const") and name != base_method(name):
+        raise ModelError(f"{name}: {base_method(name)} runs the in-motion batch filter, which has no scale-factor or "
+                         f"NHC variant; use {base_method(name)}")
+    if (name in LEARNED_ROWS) != (in_use is not None):
+        raise ModelError(f"{', '.join(LEARNED_ROWS)} navigate with the model learned on the vehicle's earlier drives, "
+                         "and only they take one: run them on the simulator with --vehicle-drives 2 or more")
     if name == "in_use":
         from imunoise.experiments.in_use_method import run_windows_in_use
 
@@ -235,6 +235,14 @@ def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfi
         from imunoise.experiments.oracle_law import run_windows_law
 
         return run_windows_law(sc, gnss, windows, base=base, nees=nees)
+    if name == "oracle_const":  # the in_use filter with the truth's constant model (imunoise.experiments.oracle_const)
+        from imunoise.experiments.oracle_const import run_windows_const
+
+        return run_windows_const(sc, gnss, windows, base=base, nees=nees)
+    if name == "oracle_const_gmwm":  # the same on in_use's static part
+        from imunoise.experiments.oracle_const import run_windows_const
+
+        return run_windows_const(sc, gnss, windows, base=base, nees=nees, models=in_use.models)
     cfg, models, upd = method_setup(name, sc, base, cache, prior=prior)
     return run_windows(sc, cfg, gnss, windows, initial_models=models, updater=upd, earlier_static=earlier_static,
                        nees=nees)

@@ -17,7 +17,7 @@ from imunoise.online import MotionNoisePrior, OnlineConfig, OnlineNavigator
 
 __all__ = ["EVIDENCE_METHODS", "SIM_EXTRA", "ONLINE_BASELINES", "SF_SUFFIX", "NHC_SUFFIX", "LABELS", "WARM_METHODS",
            "STATIC_WARM_METHODS", "base_method", "with_nhc", "StopRefit", "AdaptiveUpdater", "Updater",
-           "static_var_models", "hindsight_fits", "method_setup"]
+           "static_var_models", "hindsight_fits", "method_setup", "LEARNED_ROWS"]
 
 EVIDENCE_METHODS = ("plain", "static_var", "av", "em", "av_online", "em_online", "gmwm", "gmwm_hindsight")
 SIM_EXTRA = ("oracle_law", "oracle")
@@ -39,7 +39,12 @@ LABELS = {
     "gmwm_warm3": "GMWM pooling the stops of three earlier drives of the same vehicle",
     "gmwm_dyn_warm3_stops": "gmwm_dyn_warm3 also pooling the stops of its three earlier drives",
     "in_use": "static + in-motion model learned on the vehicle's earlier drives, from the first sample",
+    "oracle_const": "true static model + the law's constant in-motion average (in_use's family; simulator only)",
+    "oracle_const_gmwm": "in_use's static part + the law's constant in-motion average (simulator only)",
 }
+# the rows that navigate with what in_use learned on the vehicle's earlier drives (in_use itself; the constant-model
+# ceiling on in_use's static part: imunoise.experiments.oracle_const)
+LEARNED_ROWS = ("in_use", "oracle_const_gmwm")
 # method → earlier drives whose learner evidence it carries
 WARM_METHODS: dict[str, int] = {"gmwm_dyn_warm": 1, "gmwm_dyn_warm3": 3, "gmwm_dyn_warm3_stops": 3}
 # method → (the method it is, earlier drives whose stops it pools)

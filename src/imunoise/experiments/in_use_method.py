@@ -33,7 +33,7 @@ import numpy as np
 from imunoise.errors import ModelError
 from imunoise.experiments.common import Scenario, filter_models
 
-__all__ = ["learn_in_use", "run_windows_in_use", "InUseModel"]
+__all__ = ["learn_in_use", "run_windows_in_use", "in_motion_law_filter", "InUseModel"]
 
 
 class InUseModel:
@@ -66,16 +66,16 @@ def learn_in_use(drives: Sequence[tuple[Scenario, Any]], fits: Sequence[Any], ba
     return InUseModel(models, est.part, est.cpu_s, est.runs, [sc.name for sc in scs])
 
 
-def _moving_law_filter(sc: Scenario, model: InUseModel, starts, base):
-    """The oracle-law batch filter's inputs with the in-motion filter of ``model`` and its pieces where the
-    moving flag flips (and at the window starts)."""
+def in_motion_law_filter(sc: Scenario, models: list, white_factor, gm_sigma, gm_tau_s, starts, base):
+    """The oracle-law batch filter's inputs with the in-motion filter of the static filter models ``models`` and the
+    per-axis white factor, moving GM σ and τ (:func:`imunoise.nav.filter_model.in_motion_filter`), its pieces where
+    the moving flag flips (and at the window starts); also the ``oracle_const`` row's filter."""
     from imunoise.experiments.oracle_law import LawFilter, law_filter
     from imunoise.inuse.likelihood import drive_moving
     from imunoise.nav.filter_model import in_motion_filter
     from imunoise.nav.moving_run import moving_bounds, moving_control
 
-    sig, tau = model.part.moving_gm()
-    imf = in_motion_filter(model.models, model.part.white_factors(), sig, tau)
+    imf = in_motion_filter(models, white_factor, gm_sigma, gm_tau_s)
     lf = law_filter(sc, starts, base, models=imf.models)  # constant pieces: 0, the window starts, n − 1
     n = lf.imu.t.size
     mv = drive_moving(sc)[-n:]  # filter sample k is drive sample k + i0 (the filter starts at sc.init)
@@ -86,6 +86,12 @@ def _moving_law_filter(sc: Scenario, model: InUseModel, starts, base):
     k = bounds.size
     return LawFilter(lf.ekf, moving_control(lf.ekf, imf), lf.imu, bounds, white, np.ones((k, 6)), moving,
                      np.zeros(k, dtype=bool), np.zeros(6))
+
+
+def _moving_law_filter(sc: Scenario, model: InUseModel, starts, base):
+    """:func:`in_motion_law_filter` of ``model``."""
+    sig, tau = model.part.moving_gm()
+    return in_motion_law_filter(sc, model.models, model.part.white_factors(), sig, tau, starts, base)
 
 
 def run_windows_in_use(sc: Scenario, gnss, windows, model: InUseModel, *, base=None, nees: bool = False) -> dict:
