@@ -82,7 +82,7 @@ def test_oracle_const_is_oracle_law_under_a_moving_gauss_markov_and_runs_end_to_
     from types import SimpleNamespace
 
     on = dense.evaluate_method(sc, "oracle_const_gmwm", sc.gnss, windows, in_use=SimpleNamespace(
-        pairs=true_static_models(sc)))
+        models=true_static_models(sc)))
     assert [w["drift"] for w in on["windows"]] == [w["drift"] for w in const["windows"]]
     with pytest.raises(Exception, match="--vehicle-drives 2 or more"):
         dense.evaluate_method(sc, "oracle_const_gmwm", sc.gnss, windows)
