@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from imunoise.nav.earth import OMEGA_E, gravity, radii
-from imunoise.nav.mechanization import quat_mul, quat_to_dcm, rotvec_to_quat, strapdown_step
+from imunoise.nav.mechanization import dcm9, quat_mul, rotvec_to_quat, strapdown
 from imunoise.nav.state import (
     A_CDT,
     A_CDTH,
@@ -35,7 +35,8 @@ from imunoise.nav.state import (
     X_VEL,
 )
 
-__all__ = ["ACC_LEN", "nav_step", "propagate_cov", "kf_update", "feedback", "sensor_errors_of", "std_nav"]
+__all__ = ["ACC_LEN", "nav_step", "propagate_cov", "kf_update", "feedback", "sensor_errors_of",
+           "sensor_errors_into", "std_nav"]
 
 
 @njit(cache=True)
@@ -118,44 +119,60 @@ def _spd_inv(S):
 
 
 @njit(cache=True)
+def sensor_errors_into(xm, hvec, axis_of, e):
+    """:func:`sensor_errors_of` written into ``e`` (6,), e.g. an output row (no array per sample)."""
+    for a in range(6):
+        e[a] = 0.0
+    for s in range(xm.shape[0]):
+        e[axis_of[s]] += hvec[s] * xm[s]
+
+
+@njit(cache=True)
 def sensor_errors_of(xm, hvec, axis_of):
     """Current total error estimate of the six axes: e_a = Σ_{s ∈ a} h_s x̂_s (rad/s, m/s²)."""
     e = np.zeros(6)
-    for s in range(xm.shape[0]):
-        e[axis_of[s]] += hvec[s] * xm[s]
+    sensor_errors_into(xm, hvec, axis_of, e)
     return e
+
+
+@njit(cache=True)
+def _sf(c, xm, k):
+    """Increment ``c`` with the scale factor of state ``k`` removed (÷ (1 + x̂_k)); unchanged when k < 0."""
+    return c / (1.0 + xm[k]) if k >= 0 else c
 
 
 @njit(cache=True)
 def nav_step(nav, xm, acc, dth, dv, dt, hvec, axis_of, gate, sf_idx):
     """Correct one increment with the current error estimate (bias, then scale factor where ``sf_idx``
-    has a state), run the strapdown, accumulate for Φ."""
-    e = sensor_errors_of(xm, hvec, axis_of)
-    dthc = np.empty(3)
-    dvc = np.empty(3)
-    for i in range(3):
-        dthc[i] = dth[i] - e[i] * dt
-        dvc[i] = dv[i] - e[3 + i] * dt
-    for i in range(3):
-        if sf_idx[i] >= 0:
-            dthc[i] = dthc[i] / (1.0 + xm[sf_idx[i]])
-        if sf_idx[3 + i] >= 0:
-            dvc[i] = dvc[i] / (1.0 + xm[sf_idx[3 + i]])
-    C0 = quat_to_dcm(nav[I_Q : I_Q + 4])
-    dvn = strapdown_step(nav, dthc, dvc, dt)
-    C1 = quat_to_dcm(nav[I_Q : I_Q + 4])
-    for i in range(3):
-        acc[A_DVN + i] += dvn[i]
+    has a state), run the strapdown, accumulate for Φ. On scalars (small arrays cost more to allocate than to
+    compute with), in the operations and order of the array form."""
+    e0 = e1 = e2 = e3 = e4 = e5 = 0.0  # e_a = Σ_{s ∈ a} h_s x̂_s; e_a + 0.0 = e_a (e_a is never −0.0)
+    for s in range(xm.shape[0]):
+        a, v = axis_of[s], hvec[s] * xm[s]
+        e0, e1, e2 = e0 + (v if a == 0 else 0.0), e1 + (v if a == 1 else 0.0), e2 + (v if a == 2 else 0.0)
+        e3, e4, e5 = e3 + (v if a == 3 else 0.0), e4 + (v if a == 4 else 0.0), e5 + (v if a == 5 else 0.0)
+    t0, t1, t2 = _sf(dth[0] - e0 * dt, xm, sf_idx[0]), _sf(dth[1] - e1 * dt, xm, sf_idx[1]), _sf(
+        dth[2] - e2 * dt, xm, sf_idx[2])
+    u0, u1, u2 = _sf(dv[0] - e3 * dt, xm, sf_idx[3]), _sf(dv[1] - e4 * dt, xm, sf_idx[4]), _sf(
+        dv[2] - e5 * dt, xm, sf_idx[5])
+    C0 = dcm9(nav[I_Q], nav[I_Q + 1], nav[I_Q + 2], nav[I_Q + 3])
+    d0, d1, d2 = strapdown(nav, t0, t1, t2, u0, u1, u2, dt)
+    C1 = dcm9(nav[I_Q], nav[I_Q + 1], nav[I_Q + 2], nav[I_Q + 3])
+    acc[A_DVN] += d0
+    acc[A_DVN + 1] += d1
+    acc[A_DVN + 2] += d2
     for i in range(3):
         for j in range(3):
-            acc[A_CDT + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dt
+            acc[A_CDT + 3 * i + j] += 0.5 * (C0[3 * i + j] + C1[3 * i + j]) * dt
+    th = (t0, t1, t2)
+    uv = (u0, u1, u2)
     for j in range(3):
         if sf_idx[j] >= 0:
             for i in range(3):
-                acc[A_CDTH + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dthc[j]
+                acc[A_CDTH + 3 * i + j] += 0.5 * (C0[3 * i + j] + C1[3 * i + j]) * th[j]
         if sf_idx[3 + j] >= 0:
             for i in range(3):
-                acc[A_CDV + 3 * i + j] += 0.5 * (C0[i, j] + C1[i, j]) * dvc[j]
+                acc[A_CDV + 3 * i + j] += 0.5 * (C0[3 * i + j] + C1[3 * i + j]) * uv[j]
     acc[A_T] += dt
     acc[A_STEPS] += 1.0
     if gate:

@@ -27,11 +27,11 @@ import numpy as np
 from numba import njit
 
 from imunoise.nav.earth import dcm_to_euler
-from imunoise.nav.ekf_kernels import kf_update, nav_step, propagate_cov, sensor_errors_of, std_nav
+from imunoise.nav.ekf_kernels import kf_update, nav_step, propagate_cov, sensor_errors_into, std_nav
 from imunoise.nav.measurements.gnss_position import gnss_position
 from imunoise.nav.measurements.nhc import nhc, nhc_gate
 from imunoise.nav.measurements.zupt import zupt
-from imunoise.nav.mechanization import quat_to_dcm
+from imunoise.nav.mechanization import quat_euler, quat_to_dcm
 from imunoise.nav.state import A_LAST_DT, A_STEPS, I_POS, I_Q, I_VEL, N_NAV, X_VEL
 from imunoise.nav.streams import C_CHI2, C_GATE_ABS, C_MAX_REJECT, S_NEXT, S_REJECT, measure
 
@@ -276,9 +276,11 @@ def run_steps(imu, f, m, s, nh, streams, carry, out, row0, k_end):
             for i in range(3):
                 out.pos[r, i] = f.nav[I_POS + i]
                 out.vel[r, i] = f.nav[I_VEL + i]
-            out.att[r] = dcm_to_euler(quat_to_dcm(f.nav[I_Q : I_Q + 4]))
-            out.err[r] = sensor_errors_of(f.xm, m.hvec, m.axis_of)
-            out.std[r] = std
+            out.att[r, 0], out.att[r, 1], out.att[r, 2] = quat_euler(f.nav[I_Q], f.nav[I_Q + 1], f.nav[I_Q + 2],
+                                                                     f.nav[I_Q + 3])
+            sensor_errors_into(f.xm, m.hvec, m.axis_of, out.err[r])
+            for i in range(N_NAV):
+                out.std[r, i] = std[i]
         if out.cov.shape[0] == n_out:
             out.cov[r] = f.P[0:N_NAV, 0:N_NAV]
         if out.sf.shape[0] == n_out:
@@ -289,7 +291,7 @@ def run_steps(imu, f, m, s, nh, streams, carry, out, row0, k_end):
             w[0] = t[k]
             for i in range(10):
                 w[1 + i] = f.nav[I_POS + i]
-            w[11:17] = sensor_errors_of(f.xm, m.hvec, m.axis_of)
+            sensor_errors_into(f.xm, m.hvec, m.axis_of, w[11:17])
             w[17:26] = std
         if out.pv.shape[0] == n_out:
             for i in range(3):

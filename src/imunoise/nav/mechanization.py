@@ -30,51 +30,85 @@ __all__ = [
     "nav_dcm",
     "nav_euler",
     "quat_mul",
+    "quat_mul4",
     "rotvec_to_quat",
+    "rotvec_quat4",
     "quat_to_dcm",
+    "dcm9",
+    "quat_euler",
     "dcm_to_quat",
+    "strapdown",
     "strapdown_step",
     "integrate",
 ]
 
 
 @njit(cache=True)
+def quat_mul4(p0, p1, p2, p3, q0, q1, q2, q3):
+    """Hamilton product p ⊗ q of quaternions given as scalars [w, x, y, z]; four scalars (no array: the
+    strapdown calls it every sample)."""
+    return (p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3,
+            p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
+            p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1,
+            p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0)
+
+
+@njit(cache=True)
 def quat_mul(p, q):
     """Hamilton product p ⊗ q of quaternions [w, x, y, z]."""
-    return np.array(
-        [
-            p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3],
-            p[0] * q[1] + p[1] * q[0] + p[2] * q[3] - p[3] * q[2],
-            p[0] * q[2] - p[1] * q[3] + p[2] * q[0] + p[3] * q[1],
-            p[0] * q[3] + p[1] * q[2] - p[2] * q[1] + p[3] * q[0],
-        ]
-    )
+    w, x, y, z = quat_mul4(p[0], p[1], p[2], p[3], q[0], q[1], q[2], q[3])
+    return np.array([w, x, y, z])
+
+
+@njit(cache=True)
+def rotvec_quat4(v0, v1, v2):
+    """Quaternion of the rotation vector (v0, v1, v2) (rad) as four scalars: [cos(‖v‖/2), sin(‖v‖/2) v/‖v‖]
+    (series near 0)."""
+    a2 = v0 * v0 + v1 * v1 + v2 * v2
+    if a2 < 1e-16:
+        # Taylor series: exact to double precision below 1e-8 rad
+        s = 0.5 - a2 / 48.0
+        return 1.0 - a2 / 8.0, s * v0, s * v1, s * v2
+    a = np.sqrt(a2)
+    s = np.sin(0.5 * a) / a
+    return np.cos(0.5 * a), s * v0, s * v1, s * v2
 
 
 @njit(cache=True)
 def rotvec_to_quat(v):
     """Quaternion of the rotation vector v (rad): [cos(‖v‖/2), sin(‖v‖/2) v/‖v‖] (series near 0)."""
-    a2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-    if a2 < 1e-16:
-        # Taylor series: exact to double precision below 1e-8 rad
-        s = 0.5 - a2 / 48.0
-        return np.array([1.0 - a2 / 8.0, s * v[0], s * v[1], s * v[2]])
-    a = np.sqrt(a2)
-    s = np.sin(0.5 * a) / a
-    return np.array([np.cos(0.5 * a), s * v[0], s * v[1], s * v[2]])
+    w, x, y, z = rotvec_quat4(v[0], v[1], v[2])
+    return np.array([w, x, y, z])
+
+
+@njit(cache=True)
+def dcm9(w, x, y, z):
+    """Rotation matrix of the unit quaternion (w, x, y, z) as nine scalars, row by row (C_b^n for q_b^n)."""
+    return (w * w + x * x - y * y - z * z, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
+            2.0 * (x * y + w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z - w * x),
+            2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z)
 
 
 @njit(cache=True)
 def quat_to_dcm(q):
     """Rotation matrix of a unit quaternion (C_b^n for q_b^n)."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    return np.array(
-        [
-            [w * w + x * x - y * y - z * z, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-            [2.0 * (x * y + w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z - w * x)],
-            [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z],
-        ]
-    )
+    c = dcm9(q[0], q[1], q[2], q[3])
+    C = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            C[i, j] = c[3 * i + j]
+    return C
+
+
+@njit(cache=True)
+def quat_euler(w, x, y, z):
+    """ZYX Euler angles (roll, pitch, yaw; rad) of the unit quaternion (w, x, y, z): the arithmetic of
+    ``dcm_to_euler(quat_to_dcm(q))`` without its two arrays."""
+    c = dcm9(w, x, y, z)
+    roll = np.arctan2(c[7], c[8])
+    pitch = np.arctan2(-c[6], np.sqrt(c[7] ** 2 + c[8] ** 2))
+    yaw = np.arctan2(c[3], c[0])
+    return roll, pitch, yaw
 
 
 @njit(cache=True)
@@ -139,87 +173,105 @@ def nav_euler(nav: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def _rates(lat, h, vn, ve):
-    """ω_ie^n + ω_en^n (the n-frame rate), 2ω_ie^n + ω_en^n (Coriolis), as two (3,) arrays."""
+    """ω_ie^n + ω_en^n (the n-frame rate) and 2ω_ie^n + ω_en^n (Coriolis), as six scalars (x, y, z of each)."""
     rm, rn = radii(lat)
     sl, cl = np.sin(lat), np.cos(lat)
-    wie = np.array([OMEGA_E * cl, 0.0, -OMEGA_E * sl])
-    wen = np.array([ve / (rn + h), -vn / (rm + h), -ve * sl / cl / (rn + h)])
-    return wie + wen, 2.0 * wie + wen
+    ie0, ie1, ie2 = OMEGA_E * cl, 0.0, -OMEGA_E * sl
+    en0, en1, en2 = ve / (rn + h), -vn / (rm + h), -ve * sl / cl / (rn + h)
+    return ie0 + en0, ie1 + en1, ie2 + en2, 2.0 * ie0 + en0, 2.0 * ie1 + en1, 2.0 * ie2 + en2
 
 
 @njit(cache=True)
-def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+def _cross(a0, a1, a2, b0, b1, b2):
+    """a × b of two vectors given as scalars."""
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@njit(cache=True)
+def strapdown(nav, t0, t1, t2, u0, u1, u2, dt):
+    """Advance ``nav`` in place by one IMU increment Δθ = (t0, t1, t2), Δv = (u0, u1, u2) over dt; returns
+    Δv_f^n (specific force, m/s) as three scalars.
+
+    Two-sample coning/sculling with rotation compensation, Earth and transport rate, normal gravity
+    (module docstring; Shin 2001 Eqs. 2.48-2.53). Written on scalars, every vector operation in the order of
+    its array form (bit for bit): the filter runs it every sample, and small arrays cost more to allocate
+    than to compute with. The body-to-n projection stays a matrix product (BLAS, as before).
+    """
+    if nav[I_PREV] == 0.0:
+        # first step: no previous increment, assume the same motion before t_{k-1}
+        nav[I_DTH], nav[I_DTH + 1], nav[I_DTH + 2] = t0, t1, t2
+        nav[I_DV], nav[I_DV + 1], nav[I_DV + 2] = u0, u1, u2
+        nav[I_PREV] = 1.0
+    p0, p1, p2 = nav[I_DTH], nav[I_DTH + 1], nav[I_DTH + 2]
+    r0, r1, r2 = nav[I_DV], nav[I_DV + 1], nav[I_DV + 2]
+    lat, lon, h = nav[0], nav[1], nav[2]
+    vn, ve, vd = nav[I_VEL], nav[I_VEL + 1], nav[I_VEL + 2]
+    qw, qx, qy, qz = nav[I_Q], nav[I_Q + 1], nav[I_Q + 2], nav[I_Q + 3]
+    C0 = quat_to_dcm(nav[I_Q : I_Q + 4])
+
+    # --- velocity: specific-force increment with rotation + sculling compensation
+    a0, a1, a2 = _cross(t0, t1, t2, u0, u1, u2)
+    b0, b1, b2 = _cross(p0, p1, p2, u0, u1, u2)
+    c0, c1, c2 = _cross(r0, r1, r2, t0, t1, t2)
+    dvfb = np.empty(3)
+    dvfb[0] = u0 + 0.5 * a0 + (b0 + c0) / 12.0
+    dvfb[1] = u1 + 0.5 * a1 + (b1 + c1) / 12.0
+    dvfb[2] = u2 + 0.5 * a2 + (b2 + c2) / 12.0
+    cvb = C0 @ dvfb
+    w0, w1, w2, k0, k1, k2 = _rates(lat, h, vn, ve)
+    x0, x1, x2 = _cross(0.5 * dt * w0, 0.5 * dt * w1, 0.5 * dt * w2, cvb[0], cvb[1], cvb[2])
+    f0, f1, f2 = cvb[0] - x0, cvb[1] - x1, cvb[2] - x2
+    # mid-epoch extrapolation for gravity/Coriolis and the n-frame rotation
+    g = gravity(lat, h)
+    y0, y1, y2 = _cross(k0, k1, k2, vn, ve, vd)
+    g0, g1, g2 = (0.0 - y0) * dt, (0.0 - y1) * dt, (g - y2) * dt
+    m0, m1, m2 = vn + 0.5 * (f0 + g0), ve + 0.5 * (f1 + g1), vd + 0.5 * (f2 + g2)
+    rm, rn = radii(lat)
+    hmid = h - 0.5 * m2 * dt
+    latmid = lat + 0.5 * m0 * dt / (rm + hmid)
+    w0, w1, w2, k0, k1, k2 = _rates(latmid, hmid, m0, m1)
+    x0, x1, x2 = _cross(0.5 * dt * w0, 0.5 * dt * w1, 0.5 * dt * w2, cvb[0], cvb[1], cvb[2])
+    f0, f1, f2 = cvb[0] - x0, cvb[1] - x1, cvb[2] - x2
+    g = gravity(latmid, hmid)
+    y0, y1, y2 = _cross(k0, k1, k2, m0, m1, m2)
+    g0, g1, g2 = (0.0 - y0) * dt, (0.0 - y1) * dt, (g - y2) * dt
+    v1n, v1e, v1d = vn + f0 + g0, ve + f1 + g1, vd + f2 + g2
+
+    # --- position: trapezoidal velocity, radii at the mid epoch
+    mn, me, md = 0.5 * (vn + v1n), 0.5 * (ve + v1e), 0.5 * (vd + v1d)
+    h1 = h - md * dt
+    hm = 0.5 * (h + h1)
+    rm, rn = radii(lat)
+    lat1 = lat + mn * dt / (rm + hm)
+    latm = 0.5 * (lat + lat1)
+    rm, rn = radii(latm)
+    lat1 = lat + mn * dt / (rm + hm)
+    latm = 0.5 * (lat + lat1)
+    lon1 = lon + me * dt / ((rn + hm) * np.cos(latm))
+
+    # --- attitude: body rotation with coning, n-frame rotation at the mid epoch
+    w0, w1, w2, k0, k1, k2 = _rates(latm, hm, mn, me)
+    e0, e1, e2 = _cross(p0, p1, p2, t0, t1, t2)
+    bw, bx, by, bz = rotvec_quat4(t0 + e0 / 12.0, t1 + e1 / 12.0, t2 + e2 / 12.0)
+    nw, nx, ny, nz = rotvec_quat4(-w0 * dt, -w1 * dt, -w2 * dt)
+    sw, sx, sy, sz = quat_mul4(nw, nx, ny, nz, qw, qx, qy, qz)
+    sw, sx, sy, sz = quat_mul4(sw, sx, sy, sz, bw, bx, by, bz)
+    norm = np.sqrt(sw * sw + sx * sx + sy * sy + sz * sz)
+
+    nav[0], nav[1], nav[2] = lat1, lon1, h1
+    nav[I_VEL], nav[I_VEL + 1], nav[I_VEL + 2] = v1n, v1e, v1d
+    nav[I_DTH], nav[I_DTH + 1], nav[I_DTH + 2] = t0, t1, t2
+    nav[I_DV], nav[I_DV + 1], nav[I_DV + 2] = u0, u1, u2
+    nav[I_Q], nav[I_Q + 1], nav[I_Q + 2], nav[I_Q + 3] = sw / norm, sx / norm, sy / norm, sz / norm
+    return f0, f1, f2
 
 
 @njit(cache=True)
 def strapdown_step(nav, dth, dv, dt):
-    """Advance ``nav`` in place by one IMU increment (Δθ, Δv over dt); returns Δv_f^n (specific force, m/s).
-
-    Two-sample coning/sculling with rotation compensation, Earth and transport rate, normal gravity
-    (module docstring; Shin 2001 Eqs. 2.48-2.53).
-    """
-    if nav[I_PREV] == 0.0:
-        # first step: no previous increment, assume the same motion before t_{k-1}
-        for i in range(3):
-            nav[I_DTH + i] = dth[i]
-            nav[I_DV + i] = dv[i]
-        nav[I_PREV] = 1.0
-    dth_p = nav[I_DTH : I_DTH + 3].copy()
-    dv_p = nav[I_DV : I_DV + 3].copy()
-    lat, lon, h = nav[0], nav[1], nav[2]
-    v0 = nav[I_VEL : I_VEL + 3].copy()
-    q0 = nav[I_Q : I_Q + 4].copy()
-    C0 = quat_to_dcm(q0)
-
-    # --- velocity: specific-force increment with rotation + sculling compensation
-    dvfb = dv + 0.5 * _cross(dth, dv) + (_cross(dth_p, dv) + _cross(dv_p, dth)) / 12.0
-    win, wcor = _rates(lat, h, v0[0], v0[1])
-    zeta = 0.5 * dt * win
-    cvb = C0 @ dvfb
-    dvfn = cvb - _cross(zeta, cvb)
-    # mid-epoch extrapolation for gravity/Coriolis and the n-frame rotation
-    g = gravity(lat, h)
-    dvg = (np.array([0.0, 0.0, g]) - _cross(wcor, v0)) * dt
-    vmid = v0 + 0.5 * (dvfn + dvg)
-    rm, rn = radii(lat)
-    hmid = h - 0.5 * vmid[2] * dt
-    latmid = lat + 0.5 * vmid[0] * dt / (rm + hmid)
-    win, wcor = _rates(latmid, hmid, vmid[0], vmid[1])
-    zeta = 0.5 * dt * win
-    dvfn = cvb - _cross(zeta, cvb)
-    g = gravity(latmid, hmid)
-    dvg = (np.array([0.0, 0.0, g]) - _cross(wcor, vmid)) * dt
-    v1 = v0 + dvfn + dvg
-
-    # --- position: trapezoidal velocity, radii at the mid epoch
-    vm = 0.5 * (v0 + v1)
-    h1 = h - vm[2] * dt
-    hm = 0.5 * (h + h1)
-    rm, rn = radii(lat)
-    lat1 = lat + vm[0] * dt / (rm + hm)
-    latm = 0.5 * (lat + lat1)
-    rm, rn = radii(latm)
-    lat1 = lat + vm[0] * dt / (rm + hm)
-    latm = 0.5 * (lat + lat1)
-    lon1 = lon + vm[1] * dt / ((rn + hm) * np.cos(latm))
-
-    # --- attitude: body rotation with coning, n-frame rotation at the mid epoch
-    win, wcor = _rates(latm, hm, vm[0], vm[1])
-    phib = dth + _cross(dth_p, dth) / 12.0
-    qbb = rotvec_to_quat(phib)
-    qnn = rotvec_to_quat(-win * dt)
-    q1 = quat_mul(quat_mul(qnn, q0), qbb)
-    q1 = q1 / np.sqrt(np.sum(q1 * q1))
-
-    nav[0], nav[1], nav[2] = lat1, lon1, h1
-    for i in range(3):
-        nav[I_VEL + i] = v1[i]
-        nav[I_DTH + i] = dth[i]
-        nav[I_DV + i] = dv[i]
-    for i in range(4):
-        nav[I_Q + i] = q1[i]
-    return dvfn
+    """Advance ``nav`` in place by one IMU increment (Δθ, Δv over dt); returns Δv_f^n (specific force, m/s)
+    (:func:`strapdown` on arrays)."""
+    f0, f1, f2 = strapdown(nav, dth[0], dth[1], dth[2], dv[0], dv[1], dv[2], dt)
+    return np.array([f0, f1, f2])
 
 
 @njit(cache=True)
