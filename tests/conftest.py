@@ -64,3 +64,17 @@ def pytest_collection_modifyitems(config, items):
         first.setdefault(f, i)
         slow[f] = slow.get(f, 0) + (item.get_closest_marker("slow") is not None)
     items.sort(key=lambda it: (-slow[it.nodeid.split("::", 1)[0]], first[it.nodeid.split("::", 1)[0]]))
+
+
+@pytest.fixture(autouse=True)
+def _default_sigint_handling():
+    """Every test starts with SIGINT handled as in a fresh process (Python's default handler) and gives back what
+    it found. A test run earlier in the same worker may leave SIGINT ignored (a preload or a library that sets it
+    and does not restore it), and the interrupt tests send a real SIGINT: they must not depend on the order of
+    files (``make test`` gives each worker whole files in an order set by their slow tests)."""
+    import signal
+
+    before = signal.getsignal(signal.SIGINT)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
