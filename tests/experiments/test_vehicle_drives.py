@@ -182,7 +182,7 @@ def test_learn_from_logs_gives_in_use_its_drives_on_real_data():
 
 def test_in_use_has_no_filter_variants():
     sc = simulate_scenario(4800, n_outages=0, **SCEN)
-    with pytest.raises(ModelError, match="in_use\\+sf: in_use runs the in-motion batch filter"):
+    with pytest.raises(ModelError, match="in_use\\+sf: in_use has no scale-factor or NHC variant"):
         dense.evaluate_method(sc, "in_use+sf", sc.gnss, [], in_use=object())
     with pytest.raises(ModelError, match="--vehicle-drives 2 or more"):
         dense.evaluate_method(sc, "in_use", sc.gnss, [])

@@ -141,7 +141,8 @@ def select_methods(which: str, sim: bool, methods: str | None, evidence: bool = 
     allowed = tuple(dict.fromkeys((*mod.METHODS, *default)))
     if evidence:
         sim_only = ("oracle", "oracle_const", "oracle_const_gmwm", *dense.WARM_METHODS, *dense.STATIC_WARM_METHODS)
-        extra = ("static_var_hindsight", "adaptive", "gmwm_dyn", "gmwm_lik", "in_use", *(sim_only if sim else ()))
+        extra = ("static_var_hindsight", "adaptive", "gmwm_dyn", "gmwm_lik", "in_use", "in_use_stops",
+                 *(sim_only if sim else ()))
         allowed = tuple(dict.fromkeys((*allowed, *extra)))
     chosen = tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else default
     if evidence:  # any evidence method with the scale-factor states: NAME+sf
@@ -286,8 +287,10 @@ def _check_vehicle(args: argparse.Namespace, evidence: bool) -> None:
     if args.learn_half and (args.sim or not evidence):
         raise ModelError("--learn-half cross-fits on the halves of a real drive in the dense-window evidence "
                          "(--data ... --outages dense:L:S); on the simulator use --vehicle-drives K")
-    if {"in_use", "oracle_const_gmwm"} & set((args.methods or "").split(",")) and args.sim and args.vehicle_drives < 2:
-        raise ModelError("--methods in_use learns on a vehicle's earlier drives: give --vehicle-drives 2 or more")
+    learned = {"in_use", "in_use_stops", "oracle_const_gmwm"} & set((args.methods or "").split(","))
+    if learned and args.sim and args.vehicle_drives < 2:
+        raise ModelError(f"--methods {sorted(learned)[0]} learns on a vehicle's earlier drives: give --vehicle-drives "
+                         "2 or more")
     if args.imu_noise and args.sim and evidence and args.seeds >= 1:  # every vehicle's stretches fit the recording
         from imunoise.sim import DriveConfig
         from imunoise.sim.replay import check_vehicles

@@ -118,7 +118,7 @@ def _real_job(job: tuple[str, int, int]) -> tuple[str, int, int, dict]:
     regime: GnssRegime = _REAL["regimes"][ri]
     gnss = regime.apply(sc.gnss, seed)
     res = evaluate_method(sc, name, gnss, _REAL["windows"], base=_REAL["base"], cache=_REAL["cache"], nees=True,
-                          in_use=_REAL["in_use"].get((ri, seed)) if name == "in_use" else None)
+                          in_use=_REAL["in_use"].get((ri, seed)) if name in LEARNED_ROWS else None)
     return name, ri, seed, res
 
 
@@ -157,7 +157,7 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
                              f"[{span[0]:.1f}, {span[1]:.1f}) s; use shorter windows or a shorter lead")
     _REAL.update(sc=sc if halves is None else dh.scored_half(sc, learn_half), regimes=list(regimes),
                  windows=dense + paper, base=base, cache={}, in_use={})
-    if "in_use" in methods:  # learned once per GNSS realisation, before forking
+    if set(LEARNED_ROWS) & set(methods):  # learned once per GNSS realisation, before forking
         from imunoise.experiments.in_use_method import learn_in_use
 
         if not (learn_from or halves):
@@ -168,7 +168,8 @@ def run_real(data_dir: str | Path, *, spec: DenseSpec = _DEFAULT_SPEC, regimes: 
             for s in (noise_seeds if rg.random else [0]):
                 if halves is None:
                     d = [(o, rg.apply(o.gnss, s)) for o in others]
-                    _REAL["in_use"][(ri, s)] = learn_in_use(d, gmwm_on_drives(d, base).fits, base)
+                    run = gmwm_on_drives(d, base)
+                    _REAL["in_use"][(ri, s)] = learn_in_use(d, run.fits, base, run.static_pieces)
                 else:
                     _REAL["in_use"][(ri, s)] = dh.learn_on_half(sc, rg.apply(sc.gnss, s), learn_half, base,
                                                                 _REAL["cache"])
@@ -232,7 +233,8 @@ def _sim_job(args: tuple) -> dict:
             learned = None
             if set(LEARNED_ROWS) & set(methods):  # the static part: the gmwm row's fits on the earlier drives
                 d = learning_drives(seed, vehicle_drives, earlier, rg, ns)
-                learned = learn_in_use(d, gmwm_on_drives(d, base).fits, base)
+                run = gmwm_on_drives(d, base)
+                learned = learn_in_use(d, run.fits, base, run.static_pieces)
             for m in methods:
                 prior = priors[n_warm[m]] if m in n_warm else None
                 pooled = stops[n_stops[m]] if m in n_stops else None
@@ -316,4 +318,4 @@ def run_sim(seeds: Sequence[int], *, spec: DenseSpec = _DEFAULT_SPEC, regimes: S
 def _in_use_models(drives: Sequence[dict], regimes: Sequence[GnssRegime]) -> dict:
     """What ``in_use`` learned per drive and GNSS realisation (the in-motion part, the estimate's CPU time)."""
     return {f"{d.get('seed', d.get('name'))}/{regimes[r[1]].label}/{r[2]}": r[3]["in_use"]
-            for d in drives for r in d["runs"] if r[0] == "in_use" and "in_use" in r[3]}
+            for d in drives for r in d["runs"] if r[0] in LEARNED_ROWS and "in_use" in r[3]}

@@ -5,7 +5,7 @@ between samples; the per-window metrics (:mod:`imunoise.experiments.window_error
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -145,9 +145,11 @@ def _unguarded(config: OnlineConfig, updater: Updater | None) -> OnlineConfig:
 
 def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tuple[float, float]], *,
                 initial_models=None, updater: Updater | None = None, keep: bool = False,
-                earlier_static: Sequence[np.ndarray] | None = None, nees: bool = False) -> dict:
+                earlier_static: Sequence[np.ndarray] | None = None, nees: bool = False,
+                prepare: Callable[[OnlineNavigator], Any] | None = None) -> dict:
     """One aided run (``gnss`` everywhere) with a GNSS-free branch per window (module docstring);
-    ``earlier_static``: the navigator's (static pieces of earlier drives of the same IMU).
+    ``earlier_static``: the navigator's (static pieces of earlier drives of the same IMU); ``prepare(nav)``: called on
+    the new navigator before its first sample (the ``in_use_stops`` row attaches its in-motion schedule there).
 
     Returns ``windows`` (per window ``drift``, ``rms``, ``drift_v``, ``aided_rms``) and the aided run's
     ``horizontal_rms_m``/``vertical_rms_m``; ``_full`` (the aided OnlineResult) when ``keep``; with ``nees`` the
@@ -164,6 +166,8 @@ def run_windows(sc: Scenario, config: OnlineConfig, gnss, windows: Sequence[tupl
                           earlier_static=earlier_static)
     if sc.extra.get("streams"):  # GNSS velocity, odometer, ...: every branch keeps them through its window
         nav.add_streams(*sc.extra["streams"])
+    if prepare is not None:  # e.g. a model file's in-motion schedule (imunoise.online.in_motion), before any sample
+        prepare(nav)
     shared = [cache, sc, t, dth, dv, gt, gllh, gsig, sc.imu, sc.ref, config]
     if updater is not None:
         shared += list(updater.shared())
@@ -219,8 +223,8 @@ def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfi
     a ``gmwm_warm`` method pools (:func:`~imunoise.experiments.dense_warm.earlier_stops`); ``in_use`` the model
     the ``in_use`` method learned on the vehicle's earlier drives (:mod:`imunoise.experiments.in_use_method`)."""
     if base_method(name) in (*LEARNED_ROWS, "oracle_const") and name != base_method(name):
-        raise ModelError(f"{name}: {base_method(name)} runs the in-motion batch filter, which has no scale-factor or "
-                         f"NHC variant; use {base_method(name)}")
+        raise ModelError(f"{name}: {base_method(name)} has no scale-factor or NHC variant (the in-motion filter "
+                         f"has no such states); use {base_method(name)}")
     if (name in LEARNED_ROWS) != (in_use is not None):
         raise ModelError(f"{', '.join(LEARNED_ROWS)} navigate with the model learned on the vehicle's earlier drives, "
                          "and only they take one: run them on the simulator with --vehicle-drives 2 or more")
@@ -228,6 +232,11 @@ def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfi
         from imunoise.experiments.in_use_method import run_windows_in_use
 
         return {**run_windows_in_use(sc, gnss, windows, in_use, base=base, nees=nees), "in_use": in_use.summary()}
+    if name == "in_use_stops":
+        from imunoise.experiments.in_use_method import run_windows_in_use_stops
+
+        return {**run_windows_in_use_stops(sc, gnss, windows, in_use, base=base, cache=cache, nees=nees),
+                "in_use": in_use.summary()}
     if (base_method(name) in STATIC_WARM_METHODS) != (earlier_static is not None):
         raise ModelError(f"{name}: earlier drives' stops are for {', '.join(STATIC_WARM_METHODS)} only, and those "
                          "need them (the simulator makes them: run_sim)")

@@ -39,12 +39,14 @@ LABELS = {
     "gmwm_warm3": "GMWM pooling the stops of three earlier drives of the same vehicle",
     "gmwm_dyn_warm3_stops": "gmwm_dyn_warm3 also pooling the stops of its three earlier drives",
     "in_use": "static + in-motion model learned on the vehicle's earlier drives, from the first sample",
+    "in_use_stops": "in_use in the online engine, refitting its static part at the stops (as online --imu-model)",
     "oracle_const": "true static model + the law's constant in-motion average (in_use's family; simulator only)",
     "oracle_const_gmwm": "in_use's static part + the law's constant in-motion average (simulator only)",
 }
-# the rows that navigate with what in_use learned on the vehicle's earlier drives (in_use itself; the constant-model
+# the rows that navigate with what in_use learned on the vehicle's earlier drives (in_use itself, in the batch
+# filter and in the online engine; the constant-model
 # ceiling on in_use's static part: imunoise.experiments.oracle_const)
-LEARNED_ROWS = ("in_use", "oracle_const_gmwm")
+LEARNED_ROWS = ("in_use", "in_use_stops", "oracle_const_gmwm")
 # method → earlier drives whose learner evidence it carries
 WARM_METHODS: dict[str, int] = {"gmwm_dyn_warm": 1, "gmwm_dyn_warm3": 3, "gmwm_dyn_warm3_stops": 3}
 # method → (the method it is, earlier drives whose stops it pools)

@@ -20,6 +20,13 @@ Gauss–Markov state per axis with wander, frozen at stops) in the batch kernel,
 moving flag flips (:func:`imunoise.inuse.likelihood.drive_moving`: the known stops on the simulator, as the
 estimate used), with the protocol of :func:`imunoise.experiments.oracle_law.run_windows_law` (one aided run, a
 GNSS-free branch per window; NEES of the aided run). The model is fixed through the drive: no refit at stops.
+
+``in_use_stops`` (:func:`run_windows_in_use_stops`) navigates the same model the way ``online --imu-model`` does:
+the online engine (the ``gmwm`` row's) starts from the static part plus the in-motion schedule
+(:func:`imunoise.online.in_motion.attach_in_motion`, on the same moving flag), pools the learning drives' stops
+(``earlier_static``, as ``gmwm_warm``) and keeps refitting the static part at the scored drive's stops, each refit
+composed with the same in-motion part. ``in_use`` against ``gmwm`` compares one drive's stops with another's;
+``in_use_stops`` has the stops of both, so what it adds over ``gmwm`` is the earlier stops and the in-motion part.
 """
 
 from __future__ import annotations
@@ -33,15 +40,19 @@ import numpy as np
 from imunoise.errors import ModelError
 from imunoise.experiments.common import Scenario, filter_models
 
-__all__ = ["learn_in_use", "run_windows_in_use", "in_motion_law_filter", "InUseModel"]
+__all__ = ["learn_in_use", "run_windows_in_use", "run_windows_in_use_stops", "in_motion_law_filter", "InUseModel"]
 
 
 class InUseModel:
     """What ``in_use`` carries to the next drive: the six static filter models (``models``: each model with
-    its rate) and the in-motion part, with the estimate's cost and the learning drives' names."""
+    its rate) and the in-motion part, with the estimate's cost and the learning drives' names; ``static_pieces``:
+    the learning drives' pooled stops (:attr:`~imunoise.online.result.OnlineResult.static_pieces`; None where the
+    static part was not fitted on them), which ``in_use_stops`` pools with the scored drive's."""
 
-    def __init__(self, models: list, part: Any, cpu_s: float, runs: int, drives: list[str]) -> None:
+    def __init__(self, models: list, part: Any, cpu_s: float, runs: int, drives: list[str],
+                 static_pieces: list[np.ndarray] | None = None) -> None:
         self.models, self.part, self.cpu_s, self.runs, self.drives = models, part, cpu_s, runs, drives
+        self.static_pieces = static_pieces
 
     def summary(self) -> dict[str, Any]:
         """The part as the model file writes it, and the cost of the estimate."""
@@ -49,10 +60,11 @@ class InUseModel:
                 "drives": self.drives}
 
 
-def learn_in_use(drives: Sequence[tuple[Scenario, Any]], fits: Sequence[Any], base=None) -> InUseModel:
+def learn_in_use(drives: Sequence[tuple[Scenario, Any]], fits: Sequence[Any], base=None,
+                 static_pieces: list[np.ndarray] | None = None) -> InUseModel:
     """The ``in_use`` model of a vehicle from its earlier ``drives`` ((scenario, GNSS) pairs) and ``fits``, the six
     per-axis fits the online engine identified at their stops (``gmwm_on_drives(drives, base).fits``; module
-    docstring)."""
+    docstring); ``static_pieces`` those stops (``gmwm_on_drives(drives, base).static_pieces``)."""
     from imunoise.inuse import estimate_in_motion
     from imunoise.online import OnlineConfig
 
@@ -63,7 +75,7 @@ def learn_in_use(drives: Sequence[tuple[Scenario, Any]], fits: Sequence[Any], ba
     cfg = (base or OnlineConfig()).with_(ekf=scs[0].ekf_config())
     models = filter_models(list(fits), scs[0].rate, cfg)
     est = estimate_in_motion(scs, models, freq=scs[0].rate, names=[sc.name for sc in scs])
-    return InUseModel(models, est.part, est.cpu_s, est.runs, [sc.name for sc in scs])
+    return InUseModel(models, est.part, est.cpu_s, est.runs, [sc.name for sc in scs], static_pieces)
 
 
 def in_motion_law_filter(sc: Scenario, models: list, white_factor, gm_sigma, gm_tau_s, starts, base):
@@ -100,3 +112,23 @@ def run_windows_in_use(sc: Scenario, gnss, windows, model: InUseModel, *, base=N
 
     return run_windows_law(sc, gnss, windows, base=base, nees=nees,
                            make=lambda s, starts, b: _moving_law_filter(s, model, starts, b))
+
+
+def run_windows_in_use_stops(sc: Scenario, gnss, windows, model: InUseModel, *, base=None, cache=None,
+                             nees: bool = False, keep: bool = False) -> dict:
+    """:func:`imunoise.experiments.dense.run_windows`'s keys for ``in_use_stops`` on drive ``sc`` with ``model``
+    (module docstring): the online engine from ``model``, refitting its static part at the stops; ``keep``: with
+    the aided run's result (``_full``)."""
+    from imunoise.experiments.dense_branches import run_windows
+    from imunoise.experiments.dense_methods import method_setup
+    from imunoise.inuse.likelihood import drive_moving
+    from imunoise.online.in_motion import attach_in_motion, initial_models
+
+    if model.static_pieces is None:
+        raise ModelError("in_use_stops pools the stops in_use learned its static part on, and this model has none "
+                         "(--learn-half fits its static part on the whole drive's stops); use in_use")
+    cfg, _, upd = method_setup("gmwm", sc, base, cache)
+    moving = drive_moving(sc)  # per IMU sample in push order, the flag the estimate and in_use use
+    return run_windows(sc, cfg, gnss, windows, initial_models=initial_models(model.part, model.models, sc.rate),
+                       updater=upd, earlier_static=model.static_pieces, nees=nees, keep=keep,
+                       prepare=lambda nav: attach_in_motion(nav, model.part, model.models, moving))

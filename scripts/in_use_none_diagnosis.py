@@ -1,0 +1,140 @@
+"""Under motion law ``none``, where ``in_use`` loses against ``gmwm`` (docs/evidence/in_use_ceiling.md, 'Under
+law none: the stops miss a walk').
+
+    python scripts/in_use_none_diagnosis.py part-effect --results out/dev/none/results.json --out out/part_effect.json
+    python scripts/in_use_none_diagnosis.py white-lr --law none --seeds 7400100,7400108
+
+``part-effect`` reruns the ``in_use`` row of an ``experiment online --sim --vehicle-drives 2`` run (its seeds, 600 s
+drives, 4 stops, dense:60:20, GNSS ``noise:1.5,3,1``, noise seed 1, latency 0.5 s) with the in-motion part removed:
+the same static part (the ``gmwm`` row's fits on the earlier drive), no white factor, no wander. It prints the
+paired end-of-window drift ratios, vehicles as clusters (percentile bootstrap, 4000 draws, seed 0): the run's
+``in_use`` over the static part alone (what the in-motion estimate does) and the static part alone over the run's
+``gmwm`` (what a model of one drive's stops does against one of the scored drive's).
+
+``white-lr`` learns each vehicle's ``in_use`` model again and, for every sensor group whose white factor is not 1,
+evaluates the innovation likelihood at the estimate and with that group's white factor set to 1 (the rest kept):
+2ΔNLL against χ²₁(0.95) = 3.84 says whether the data reject factor 1, beside the Wald interval the estimate gives.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import replace
+
+import numpy as np
+
+REGIME = "noise:1.5,3,1"
+SCEN = {"duration_s": 600.0, "n_stops": 4}
+
+
+def paired(a: list[np.ndarray], b: list[np.ndarray], n_boot: int = 4000) -> tuple[float, float, float, list[float]]:
+    """Geometric-mean ratio of per-window values a/b, windows weighted equally, vehicles as clusters: (ratio, 95 %
+    CI low, high, per-vehicle ratios)."""
+    per = np.array([np.mean(np.log(x / y)) for x, y in zip(a, b, strict=True)])
+    w = np.array([x.size for x in a], dtype=float)
+    est = float(np.exp((per * w).sum() / w.sum()))
+    rng = np.random.default_rng(0)
+    boot = []
+    for _ in range(n_boot):
+        i = rng.integers(0, per.size, per.size)
+        boot.append(np.exp((per[i] * w[i]).sum() / w[i].sum()))
+    lo, hi = np.percentile(boot, [2.5, 97.5])
+    return est, float(lo), float(hi), [float(np.exp(p)) for p in per]
+
+
+def _drifts(per_window: dict, method: str) -> list[np.ndarray]:
+    return [np.asarray(x, dtype=float).ravel() for x in per_window[REGIME]["drift"][method]]
+
+
+def _static_only(drives, fits, base=None, static_pieces=None):
+    """``learn_in_use`` without the in-motion estimate: the static part alone."""
+    from imunoise.experiments.common import filter_models
+    from imunoise.experiments.in_use_method import InUseModel
+    from imunoise.inuse import InMotionPart
+    from imunoise.online import OnlineConfig
+
+    scs = [replace(sc, gnss=g) for sc, g in drives]
+    cfg = (base or OnlineConfig()).with_(ekf=scs[0].ekf_config())
+    return InUseModel(filter_models(list(fits), scs[0].rate, cfg), InMotionPart({}), 0.0, 0,
+                      [sc.name for sc in scs], static_pieces)
+
+
+def part_effect(results: str, out: str, workers: int) -> dict:
+    import imunoise.experiments.in_use_method as ium
+    from imunoise.experiments import dense
+    from imunoise.experiments.gnss_regimes import parse_gnss
+    from imunoise.online import OnlineConfig
+
+    run = json.load(open(results))
+    law = run["scenario"]["motion_noise"]
+    learn = ium.learn_in_use
+    ium.learn_in_use = _static_only  # the row learns in the worker through this name
+    try:
+        res = dense.run_sim(run["seeds"], spec=dense.DenseSpec(60.0, 20.0, 60.0), regimes=(parse_gnss(REGIME),),
+                            noise_seeds=(1,), methods=("in_use",), workers=workers, base=OnlineConfig(latency=0.5),
+                            n_boot=200, vehicle_drives=2, motion_noise=law, **SCEN)
+    finally:
+        ium.learn_in_use = learn
+    static = _drifts(res["per_window"], "in_use")
+    rows = {"in_use / static part alone": paired(_drifts(run["per_window"], "in_use"), static)}
+    if "gmwm" in run["per_window"][REGIME]["drift"]:
+        rows["static part alone / gmwm"] = paired(static, _drifts(run["per_window"], "gmwm"))
+    summary = {"law": law, "seeds": run["seeds"], "rows": rows}
+    with open(out, "w") as f:
+        json.dump(summary, f, indent=1)
+    for name, (r, lo, hi, per) in rows.items():
+        print(f"{law}: {name}: {r:.3f} [{lo:.3f}, {hi:.3f}] over {len(per)} vehicles; per vehicle "
+              + " ".join(f"{x:.2f}" for x in per))
+    return summary
+
+
+def white_lr(law: str, seeds: list[int]) -> None:
+    from imunoise.experiments.carry_over import earlier_scenarios, learning_drives
+    from imunoise.experiments.common import filter_models
+    from imunoise.experiments.dense_warm import gmwm_on_drives
+    from imunoise.experiments.gnss_regimes import parse_gnss
+    from imunoise.inuse import estimate_in_motion
+    from imunoise.inuse.estimate import GROUPS, static_pairs
+    from imunoise.inuse.likelihood import DriveLikelihood
+    from imunoise.online import OnlineConfig
+
+    base = OnlineConfig(latency=0.5)
+    for seed in seeds:
+        scen = {**SCEN, "motion_noise": law}
+        d = learning_drives(seed, 2, earlier_scenarios(seed, 1, **scen), parse_gnss(REGIME), 1)
+        scs = [replace(sc, gnss=g) for sc, g in d]
+        models = filter_models(list(gmwm_on_drives(d, base).fits), scs[0].rate, base.with_(ekf=scs[0].ekf_config()))
+        est = estimate_in_motion(scs, models, freq=scs[0].rate)
+        lik = DriveLikelihood(scs, static_pairs(models, scs[0].rate))
+        n_hat = lik.nll(est.theta)
+        for g, idx in GROUPS.items():
+            if all(abs(est.theta.white[i] - 1.0) < 1e-12 for i in idx):
+                continue
+            w = [1.0 if i in idx else x for i, x in enumerate(est.theta.white)]
+            lr = 2.0 * (lik.nll(replace(est.theta, white=tuple(w))) - n_hat)
+            wf = est.part.axis("gyro_x" if g == "gyro" else "accel_x").white_factor
+            print(f"{seed} {g}: white factor {est.theta.white[idx[0]]:.3g} (given: {wf.value}, Wald 95 % "
+                  f"{wf.ci95}); 2ΔNLL at factor 1 = {lr:.2f} (χ²₁ 95 %: 3.84)", flush=True)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="cmd", required=True)
+    a = sub.add_parser("part-effect", help="in_use with and without its in-motion part")
+    a.add_argument("--results", required=True, help="results.json of the run (rows in_use and gmwm)")
+    a.add_argument("--out", required=True, help="summary JSON to write")
+    a.add_argument("--workers", type=int, default=2)
+    b = sub.add_parser("white-lr", help="the likelihood ratio of white factor 1 against the estimate")
+    b.add_argument("--law", required=True)
+    b.add_argument("--seeds", required=True, help="comma-separated vehicle seeds")
+    args = p.parse_args(argv)
+    if args.cmd == "part-effect":
+        part_effect(args.results, args.out, args.workers)
+    else:
+        white_lr(args.law, [int(s) for s in args.seeds.split(",")])
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
