@@ -63,3 +63,32 @@ def test_no_motion_noise_gives_a_bound_not_a_number():
         assert bd.upper is not None and bd.upper > 0
         assert ax.white_factor.covers(1.0) if ax.white_factor.value is not None else True
     assert est.part.to_dict()["axes"]["accel_x"]["bias"] == {"model": "none", "ci95": {}}
+
+
+@pytest.mark.slow
+def test_a_white_factor_the_likelihood_does_not_reject_is_reported_as_1():
+    """Law ``none`` on development vehicle 7 400 108's learning drive, with the static part the ``gmwm`` row fits at
+    its stops: the gyro white factor's Wald interval at the optimum (about 2.3, interval 1.2–4.4) excludes 1, but
+    twice the NLL difference at factor 1 is about 3.2 < χ²₁(0.95) = 3.84. The factor is reported as 1 with an
+    interval that contains 1, the likelihood ratio in the evidence, and the filter runs with factor 1."""
+    from dataclasses import replace
+
+    from imunoise.experiments.carry_over import earlier_scenarios, learning_drives
+    from imunoise.experiments.common import filter_models
+    from imunoise.experiments.dense_warm import gmwm_on_drives
+    from imunoise.experiments.gnss_regimes import parse_gnss
+    from imunoise.inuse.estimate import LR_WHITE
+    from imunoise.online import OnlineConfig
+
+    seed, scen = 7_400_108, {"duration_s": 600.0, "n_stops": 4, "motion_noise": "none"}
+    d = learning_drives(seed, 2, earlier_scenarios(seed, 1, **scen), parse_gnss("noise:1.5,3,1"), 1)
+    base = OnlineConfig(latency=0.5)
+    scs = [replace(sc, gnss=g) for sc, g in d]
+    models = filter_models(list(gmwm_on_drives(d, base).fits), scs[0].rate, base.with_(ekf=scs[0].ekf_config()))
+    est = estimate_in_motion(scs, models, freq=scs[0].rate)
+    lr = est.part.evidence["lr_white_one"]
+    assert 0.0 < lr["gyro"] < LR_WHITE
+    for a in AXES[:3]:
+        wf = est.part.axis(a).white_factor
+        assert wf.value == 1.0 and wf.ci95 is not None and wf.ci95[0] <= 1.0 < wf.ci95[1]
+    assert est.theta.white[:3] == (1.0, 1.0, 1.0) and est.part.white_factors()[:3] == [1.0, 1.0, 1.0]

@@ -12,6 +12,9 @@ static model, or the no-wander white factor; a moderate or a 30× smaller K). Th
 * the wander's test: LR = 2(NLL(no wander, f searched again at the other group's final values) − NLL(θ̂))
   against χ²₂(0.95) = 5.99. Below it the wander is not given as a number: the bound says up to which σ (at
   τ = 60 s) the fixes still fit (ΔNLL ≤ 1.92) and why;
+* the white factor's test: where its Wald interval (below) excludes 1, LR = 2(NLL(factor 1, the rest kept) −
+  NLL(θ̂)) against χ²₁(0.95) = 3.84; below it the factor is 1, its interval the Wald one widened to 1 (the
+  curvature at f̂ can exclude 1 where the likelihood does not);
 * intervals from the observed information: the Hessian of the NLL in the log parameters by central
   differences (step ``h``). A parameter whose curvature alone gives a 95 % interval wider than ×/÷ 10 is flat
   (not identified: a bound with the reason) and left out; the rest is inverted (:func:`_cov`); Wald intervals
@@ -53,6 +56,7 @@ SIGMA_RANGE = {"gyro": (1e-7, 1e-1), "accel": (1e-5, 1.0)}
 WHITE_RANGE = (0.2, 50.0)
 TAU_MIN_S = 2.0  # the longest τ searched is walk_tau_s (≥ 10 × this)
 LR_WANDER = 5.991  # χ²₂(0.95)
+LR_WHITE = 3.841  # χ²₁(0.95)
 HALF_LR1 = 1.92  # ½ χ²₁(0.95)
 WIDE_SD = math.log(10.0) / 1.96
 
@@ -291,6 +295,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     bounds: dict[str, Bound] = {}
     cov_log: dict[str, Any] = {}
     lrs: dict[str, float] = {}
+    lr_white: dict[str, float] = {}
     for g in groups:
         idx = GROUPS[g]
         nll_hat = lik.nll(th)
@@ -319,6 +324,18 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
         var_s = cov[1, 1] + 0.25 * cov[2, 2] + cov[1, 2] if np.all(np.isfinite(cov[1:, 1:])) else math.inf
         sd_s = math.sqrt(var_s) if var_s >= 0 else math.inf
         white = Interval(f, _ci(f, sd_f)) if sd_f <= WIDE_SD else Interval(None)
+        if white.value is not None and white.ci95 is not None and not white.covers(1.0):
+            # the Wald interval from the curvature at f̂ can exclude 1 where the likelihood does not (the NLL is not
+            # quadratic in log f that far out; docs/evidence/in_use_ceiling.md, 'Under law none'): the factor
+            # stays 1 unless the likelihood ratio rejects it, as the wander stays none unless its test does
+            sw = s if wander else 0.0
+            lr_white[g] = 2.0 * (lik.nll(_theta_with(th, idx, 1.0, sw, tau)) - nll_hat)
+            if lr_white[g] < LR_WHITE:
+                white = Interval(1.0, (min(white.ci95[0], 1.0), max(white.ci95[1], 1.0)))
+                f = 1.0
+                th = _theta_with(th, idx, 1.0, sw, tau)
+                logp[g][0] = 0.0
+                nll_hat = lik.nll(th)
         up, reason, kw, kw_ci = None, "", 0.0, None
         if not wander:
             bias = BiasWander("none")
@@ -360,6 +377,6 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
                 "method": "maximum likelihood of the GNSS innovations over the whole drives (prediction-error "
                           "decomposition), per sensor group; 95 % Wald intervals from the observed information",
                 "freq_hz": float(freq), "groups": list(groups), "nll": lik.nll(th), "nll_static": nll_static,
-                "lr_wander": lrs}
+                "lr_wander": lrs, "lr_white_one": lr_white}
     part = InMotionPart(axes, bounds, evidence)
     return InMotionEstimate(part, th, lik.nll(th), nll_static, cov_log, lrs, lik.runs, time.process_time() - t0)
