@@ -45,7 +45,7 @@ from imunoise.noise.in_motion import (
     walk_tau_s,
 )
 
-__all__ = ["GROUPS", "InMotionEstimate", "estimate_in_motion", "static_nk", "static_pairs"]
+__all__ = ["GROUPS", "InMotionEstimate", "estimate_in_motion", "static_models", "static_nk"]
 
 GROUPS = {"gyro": (0, 1, 2), "accel": (3, 4, 5)}
 SIGMA0 = {"gyro": 1e-4, "accel": 5e-3}  # start of σ [rad/s, m/s²]
@@ -73,9 +73,10 @@ class InMotionEstimate:
     cpu_s: float = 0.0
 
 
-def static_pairs(static_model: Any, freq: float) -> list:
-    """The six static filter pairs through the door: a model file / :class:`~imunoise.noise.imu_model.ImuModel` /
-    parsed dict (:func:`imunoise.nav.defaults.load_axis_models`), or six filter models as they are."""
+def static_models(static_model: Any, freq: float) -> list:
+    """The six static filter models (each with its rate) through the door: a model file /
+    :class:`~imunoise.noise.imu_model.ImuModel` / parsed dict (:func:`imunoise.nav.defaults.load_axis_models`),
+    or six filter models as they are."""
     from imunoise.nav.defaults import load_axis_models, normalize_axis_models
 
     if isinstance(static_model, list | tuple):
@@ -85,17 +86,28 @@ def static_pairs(static_model: Any, freq: float) -> list:
     return load_axis_models(static_model, freq)
 
 
-def static_nk(pairs: list, horizon_s: float) -> list[tuple[float, float]]:
-    """Per axis the static (N [unit/√Hz], K [unit/√s]) of the filter pairs
+def static_nk(models: list, horizon_s: float) -> list[tuple[float, float]]:
+    """Per axis the static (N [unit/√Hz], K [unit/√s]) of the six filter ``models``
     (:func:`imunoise.noise.equivalent_noise.equivalent_noise`, the mapping the exports use), slow AR1s matched
     over scales up to ``horizon_s`` [s]."""
     from imunoise.noise.equivalent_noise import equivalent_noise
 
     out = []
-    for m in pairs:
+    for m in models:
         eq = equivalent_noise(m, m.freq, horizon_s=horizon_s)
         out.append((eq.N, eq.K))
     return out
+
+
+def __getattr__(name: str):
+    # static_models was called static_pairs, though it returns models (each with its rate), not (model, rate) pairs
+    if name == "static_pairs":
+        import warnings
+
+        warnings.warn("imunoise.inuse.static_pairs is renamed static_models (it returns the six filter models, not "
+                      "pairs); the old name goes in the next release", DeprecationWarning, stacklevel=2)
+        return static_models
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _factor_k(k_static: float, kw: float, kw_ci) -> Interval:
@@ -263,7 +275,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     """
     del seed
     t0 = time.process_time()
-    lik = DriveLikelihood(list(drives), static_pairs(static_model, freq), mapper=mapper)
+    lik = DriveLikelihood(list(drives), static_models(static_model, freq), mapper=mapper)
     tau_max = walk_tau_s(lik.hours_moving())  # a walk is reported at this bound and used in this form
     th = Theta()
     nll_static = lik.nll(th)
@@ -286,7 +298,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
         starts = [logp[g], np.array([u0[g], *logp[g][1:]]), *_starts(g, tau_max, (u0[g],))[1:]]
         logp[g] = _search(lik, th, g, tau_max, starts, maxfev // 3)
         th = _theta_with(th, GROUPS[g], *_unlog(logp[g]))
-    nk = static_nk(lik.pairs, max(float(d.imu.t[-1] - d.init.t) for d in lik.drives) / 2.0)
+    nk = static_nk(lik.models, max(float(d.imu.t[-1] - d.init.t) for d in lik.drives) / 2.0)
     axes: dict[str, AxisInMotion] = {}
     bounds: dict[str, Bound] = {}
     cov_log: dict[str, Any] = {}
