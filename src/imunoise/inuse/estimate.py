@@ -195,6 +195,26 @@ def _no_wander(lik: DriveLikelihood, th: Theta, g: str, tau_max: float, near: fl
     return u, lik.nll(_theta_with(th, idx, math.exp(u), 0.0, 60.0))
 
 
+def _held(th: Theta, g: str) -> tuple:
+    """The parameters of the groups other than ``g`` in ``th`` (what group g's no-wander model is searched at)."""
+    return tuple((th.white[i], th.sigma[i], th.tau_s[i]) for i in range(len(th.white)) if i not in GROUPS[g])
+
+
+def _refine_no_wander(lik: DriveLikelihood, th: Theta, g: str, tau_max: float, u0: dict[str, float],
+                      nll0: dict[str, float], refined: dict[str, tuple]) -> None:
+    """Group ``g``'s no-wander model searched again near its last white factor ``u0[g]`` (:func:`_no_wander`) at
+    the other groups' values in ``th``, into ``u0[g]``, ``nll0[g]``; skipped when that search was already made at
+    these values (``refined``: per group the other groups' values of its last such search): the no-wander model
+    of a group depends on the other groups alone, and the search again at unchanged values would only move
+    its white factor within the search's tolerance. With two groups: the first group's search of the second
+    pass, at the last group's final values, is the one its wander test uses; the last group's is made there."""
+    held = _held(th, g)
+    if refined.get(g) == held:
+        return
+    u0[g], nll0[g] = _no_wander(lik, th, g, tau_max, u0[g])
+    refined[g] = held
+
+
 def _hessian(fun, p: np.ndarray, h: float) -> np.ndarray:
     n = p.size
     f0 = fun(p)
@@ -293,8 +313,9 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     # them again at the others' final values, from where they ended or from the no-wander optimum there
     # (measured on the real drive: without it the gyros' wander model ended 10–40 NLL units above their
     # no-wander model once the accelerometers had been fitted)
+    refined: dict[str, tuple] = {}
     for g in list(groups)[:-1]:
-        u0[g], nll0[g] = _no_wander(lik, th, g, tau_max, u0[g])
+        _refine_no_wander(lik, th, g, tau_max, u0, nll0, refined)
         starts = [logp[g], np.array([u0[g], *logp[g][1:]]), *_starts(g, tau_max, (u0[g],))[1:]]
         logp[g] = _search(lik, th, g, tau_max, starts, maxfev // 3)
         th = _theta_with(th, GROUPS[g], *_unlog(logp[g]))
@@ -306,10 +327,9 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     for g in groups:
         idx = GROUPS[g]
         nll_hat = lik.nll(th)
-        # the no-wander model of this group at the other groups' final values (its white factor searched again
-        # near the first search's): the LR compares two models that differ in this group's wander alone
-        if not (len(groups) > 1 and g == groups[-2]):  # that one's no-wander model was searched at these values
-            u0[g], nll0[g] = _no_wander(lik, th, g, tau_max, u0[g])
+        # the LR compares two models that differ in this group's wander alone: the no-wander model at the other
+        # groups' values as they are now
+        _refine_no_wander(lik, th, g, tau_max, u0, nll0, refined)
         lr = 2.0 * (nll0[g] - nll_hat)
         lrs[g] = lr
         wander = lr > LR_WANDER
