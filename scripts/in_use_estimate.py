@@ -102,7 +102,7 @@ def _half(sc, lo: float, hi: float, name: str):
 
 def run_real(args) -> list:
     from imunoise.experiments.common import load_real, repo_data_dir
-    from imunoise.inuse.estimate import static_pairs
+    from imunoise.inuse.estimate import static_models
 
     sc = load_real(repo_data_dir())
     model = args.static_model
@@ -112,7 +112,7 @@ def run_real(args) -> list:
     for name, (lo, hi) in (("first half", (t0g, mid)), ("second half", (mid, t1g + 1.0)), ("whole", (t0g, t1g + 1))):
         d = _half(sc, lo, hi, f"drive_0708 {name}")
         t0 = time.process_time()
-        est = estimate_in_motion([d], static_pairs(json.loads(Path(model).read_text()), sc.rate), freq=sc.rate,
+        est = estimate_in_motion([d], static_models(json.loads(Path(model).read_text()), sc.rate), freq=sc.rate,
                                  names=[d.name])
         cpu = time.process_time() - t0
         rows.append({"half": name, "span_s": [lo, hi], "cpu_s": cpu, "runs": est.runs, "part": est.part.to_dict(),

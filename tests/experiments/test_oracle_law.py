@@ -67,3 +67,49 @@ def test_oracle_law_is_the_oracle_when_the_law_adds_nothing():
     for a, b in zip(law, o, strict=True):
         assert a["drift"] == pytest.approx(b["drift"], rel=1e-4)
     assert not np.any(law_filter(sc, base=base.with_(gate=False)).imu.gate)
+
+
+def test_the_moving_state_is_the_appended_one_beside_a_static_ar1_of_the_same_tau():
+    """The oracle finds each axis' moving Gauss–Markov state by the component it appended, not by its φ: with a
+    static AR1 of the same τ (the same φ) on every axis the law moves, the schedule's moving state is the one that
+    starts with the law's σ² and is frozen at stops, the static one keeps evolving."""
+    import math
+    from dataclasses import replace
+
+    from imunoise.experiments.oracle_law import law_filter, law_states
+    from imunoise.imu import AXES
+    from imunoise.nav.state import N_NAV
+    from imunoise.noise.model import Model
+    from imunoise.noise.processes import AR1
+
+    sc = simulate_scenario(5, duration_s=150.0, n_stops=1, n_outages=0, static_s=20.0,
+                           motion_noise="gyro_moving_gm")
+    sched = sc.extra["law_schedule"]
+    axes = [a for a in range(6) if sched.gm_sigma[a] > 0]
+    assert axes  # the law moves a GM on the gyros
+    static = dict(sc.extra["static_models"])
+    static_var = {}
+    for a in axes:
+        m = static[AXES[a]]  # the truth: parameters per IMU sample, taken at sc.rate by the oracle's mapping
+        phi = math.exp(-1.0 / (float(sched.gm_tau_s[a]) * sc.rate))
+        static_var[a] = 0.3 * float(sched.gm_sigma[a]) ** 2  # not the law's σ²: the two states are told apart
+        static[AXES[a]] = Model([*m.components, AR1(phi=phi, sigma2=static_var[a] * (1 - phi * phi))], m.freq)
+    sc = replace(sc, extra={**sc.extra, "static_models": static})
+    models, gm_index = law_states(sc)
+    lf = law_filter(sc)
+    labels, P = lf.ekf.layout.labels, np.asarray(lf.ekf.P)
+    assert [k >= 0 for k in gm_index] == [a in axes for a in range(6)]
+    for a in axes:
+        phi = math.exp(-1.0 / (float(sched.gm_tau_s[a]) * sc.rate))
+        same = [i for i, c in enumerate(models[a].components) if c.kind == "AR1" and c.values[0] == phi]
+        assert len(same) == 2 and gm_index[a] in same  # the ambiguous case, resolved by the component itself
+        g = int(lf.noise.gm_index[a])
+        s = [i for i, lab in enumerate(labels) if lab.startswith(f"{AXES[a]}.AR1_")
+             and i != g and lf.ekf.layout.phi_pow[1, i, i] == lf.ekf.layout.phi_pow[1, g, g]]
+        assert len(s) == 1
+        sig2 = float(sched.gm_sigma[a]) ** 2
+        np.testing.assert_allclose(P[N_NAV + g, N_NAV + g], sig2, rtol=1e-12)
+        np.testing.assert_allclose(P[N_NAV + s[0], N_NAV + s[0]], static_var[a], rtol=1e-12)
+        assert np.all(lf.noise.phi_frozen[1:, g, g] == 1.0) and np.all(lf.noise.q_frozen[:, g, g] == 0.0)
+        assert np.all(lf.noise.phi_frozen[1:, s[0], s[0]] < 1.0)
+    assert np.all(lf.noise.gm_index[[a for a in range(6) if a not in axes]] == -1)

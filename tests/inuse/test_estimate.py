@@ -34,12 +34,34 @@ def test_flat_parameters_are_left_out_of_the_covariance():
     assert np.all(np.isinf(_cov(np.diag([1.0 / WIDE_SD**2 / 2] * 3))))
 
 
+def test_the_static_models_old_names_warn_and_hand_over_the_same_models():
+    """``static_pairs`` and ``DriveLikelihood.pairs`` were renamed ``static_models`` / ``.models`` (they hold the
+    six filter models with their rate, not pairs): the old names still answer for one release, with a warning."""
+    from types import SimpleNamespace
+
+    import imunoise.inuse as inuse
+    from imunoise.inuse.likelihood import DriveLikelihood
+    from imunoise.nav.defaults import default_axis_models
+
+    six = default_axis_models(100.0)
+    models = inuse.static_models(six, 100.0)
+    assert [(m.to_dict(), m.freq) for m in models] == [(m.to_dict(), m.freq) for m in six]
+    with pytest.warns(DeprecationWarning, match="renamed static_models"):
+        old = inuse.static_pairs
+    assert old is inuse.static_models
+    lik = DriveLikelihood([SimpleNamespace(static_truth=np.zeros(4, dtype=bool))], models)
+    with pytest.warns(DeprecationWarning, match=r"renamed \.models"):
+        assert lik.pairs is lik.models is models
+    with pytest.raises(AttributeError):
+        _ = inuse.static_pairz
+
+
 @pytest.mark.slow
 def test_gyro_moving_gm_is_recovered_within_its_intervals():
-    sc, pairs = _drive(4700, "gyro_moving_gm")
+    sc, models = _drive(4700, "gyro_moving_gm")
     sched = sc.extra["law_schedule"]
     sig, tau = float(sched.gm_sigma[0]), float(sched.gm_tau_s[0])
-    est = estimate_in_motion([sc], pairs, freq=sc.rate, groups=("gyro",))
+    est = estimate_in_motion([sc], models, freq=sc.rate, groups=("gyro",))
     assert est.lr_wander["gyro"] > 5.99
     for a in AXES[:3]:
         b = est.part.axes[a].bias
@@ -53,8 +75,8 @@ def test_gyro_moving_gm_is_recovered_within_its_intervals():
 
 @pytest.mark.slow
 def test_no_motion_noise_gives_a_bound_not_a_number():
-    sc, pairs = _drive(4701, "none")
-    est = estimate_in_motion([sc], pairs, freq=sc.rate, groups=("accel",))
+    sc, models = _drive(4701, "none")
+    est = estimate_in_motion([sc], models, freq=sc.rate, groups=("accel",))
     for a in AXES[3:]:
         ax = est.part.axes[a]
         assert ax.bias.model == "none" and ax.bias.sigma is None

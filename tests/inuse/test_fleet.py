@@ -21,7 +21,7 @@ THETAS = [Theta(), Theta(white=(1.5,) * 3 + (2.0,) * 3, sigma=(2e-4,) * 3 + (0.0
 
 @pytest.fixture(scope="module")
 def fleet():
-    """Two 180 s simulated drives (seeds 5301, 5302; one stop each) and their static filter pairs."""
+    """Two 180 s simulated drives (seeds 5301, 5302; one stop each) and their static filter models."""
     from imunoise.experiments.common import filter_models, simulate_scenario
     from imunoise.noise.model import Model
     from imunoise.noise.processes import WN
@@ -32,17 +32,17 @@ def fleet():
     none = Model([WN(sigma2=1e-30)])
     sc = drives[0]
     cfg = OnlineConfig().with_(ekf=sc.ekf_config(), floor="none")
-    pairs = filter_models([sc.extra["static_models"].get(ax, none) for ax in AXES], sc.rate, cfg)
-    return drives, pairs
+    models = filter_models([sc.extra["static_models"].get(ax, none) for ax in AXES], sc.rate, cfg)
+    return drives, models
 
 
 def test_without_a_scheduler_the_runs_are_summed_in_drive_order_here(fleet):
-    drives, pairs = fleet
+    drives, models = fleet
     with fleet_mapper("sequential") as mapper:
         assert mapper is None
-    lik = DriveLikelihood(drives, pairs)
+    lik = DriveLikelihood(drives, models)
     for th in THETAS:  # the loop of before: one run per drive, the fixes' NLLs added drive after drive
-        imf = in_motion_filter(pairs, th.white, th.sigma, th.tau_s)
+        imf = in_motion_filter(models, th.white, th.sigma, th.tau_s)
         total = 0.0
         for d, mv in zip(drives, lik.moving, strict=True):
             r = run_ekf(d.imu, d.gnss, d.init, d.ekf_config(), in_motion=imf, moving=mv, with_nll=True)
@@ -53,16 +53,16 @@ def test_without_a_scheduler_the_runs_are_summed_in_drive_order_here(fleet):
 
 @pytest.mark.slow  # a 2-process Dask cluster and the estimate twice: about a minute on 2 cores
 def test_a_local_two_worker_cluster_gives_the_serial_nll_and_estimate_bit_for_bit(fleet):
-    drives, pairs = fleet
-    serial = DriveLikelihood(drives, pairs)
+    drives, models = fleet
+    serial = DriveLikelihood(drives, models)
     kw = {"freq": drives[0].rate, "groups": ("gyro",), "maxfev": 6}
-    est_serial = estimate_in_motion(drives, pairs, **kw)
+    est_serial = estimate_in_motion(drives, models, **kw)
     with fleet_mapper("local", 2) as mapper:
         assert isinstance(mapper, DaskDriveMap) and len(mapper.client.scheduler_info()["workers"]) == 2
-        par = DriveLikelihood(drives, pairs, mapper=mapper)
+        par = DriveLikelihood(drives, models, mapper=mapper)
         for th in THETAS:
             assert par.nll(th) == serial.nll(th)  # exact: the same runs, summed in the same order
-        est_par = estimate_in_motion(drives, pairs, mapper=mapper, **kw)
+        est_par = estimate_in_motion(drives, models, mapper=mapper, **kw)
         assert mapper.worker_cpu_s > 0.0
     assert est_par.nll == est_serial.nll and est_par.nll_static == est_serial.nll_static
     assert est_par.part.to_dict() == est_serial.part.to_dict() and est_par.runs == est_serial.runs

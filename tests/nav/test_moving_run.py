@@ -9,7 +9,7 @@ import numpy as np
 
 from imunoise.nav.defaults import EkfConfig
 from imunoise.nav.ekf import LooselyCoupledEKF
-from imunoise.nav.filter_model import in_motion_filter
+from imunoise.nav.filter_model import in_motion_filter, moving_state_rows
 from imunoise.nav.moving_run import moving_control
 from imunoise.nav.state import N_NAV, InitialState
 from imunoise.noise.model import Model
@@ -49,6 +49,7 @@ def test_moving_control_freezes_the_appended_state_not_the_static_one():
     g = int(ctl.gm_index[0])
     assert np.all(ctl.gm_index[1:] == -1)
     labels = ekf.layout.labels
+    assert np.array_equal(moving_state_rows(imf.models, imf.gm_index, labels), ctl.gm_index)  # the door's rows
     static = [i for i, lab in enumerate(labels) if lab.startswith("gyro_x.AR1_") and i != g]
     assert len(static) == 1
     s = static[0]

@@ -37,13 +37,14 @@ from imunoise.errors import ModelError
 from imunoise.imu import AXES
 from imunoise.nav.ekf import check_imu
 from imunoise.nav.filter_loop import FilterArrays, ImuInput
+from imunoise.nav.filter_model import moving_state_rows, with_moving_states
 from imunoise.nav.noise_schedule import NoiseControl, add_bias_variance, run_pieces
 from imunoise.nav.solution import NavSolution
 from imunoise.nav.state import N_NAV
 from imunoise.nav.step_filter import LooselyCoupledEKF, new_outputs
 from imunoise.nav.streams import StreamSet
 
-__all__ = ["LawFilter", "evaluate_law", "law_filter", "law_models", "run_windows_law"]
+__all__ = ["LawFilter", "evaluate_law", "law_filter", "law_models", "law_states", "run_windows_law"]
 
 BRANCH_MARGIN_S = 1.0
 
@@ -51,6 +52,13 @@ BRANCH_MARGIN_S = 1.0
 def law_models(sc, base=None) -> list:
     """The six filter models (with their rate) of ``oracle_law``: the static true models through the oracle's mapping
     (no floor), each axis with σ_j > 0 plus its moving Gauss–Markov as an AR1 (φ = e^{−1/(τ f)}, σ²(1 − φ²))."""
+    return law_states(sc, base)[0]
+
+
+def law_states(sc, base=None) -> tuple[list, tuple[int, ...]]:
+    """:func:`law_models` and per axis the index of its moving Gauss–Markov in the model's ``components`` (−1 where
+    none; :func:`imunoise.nav.filter_model.with_moving_states`: the appended AR1 itself, not the first AR1 of its φ,
+    which a static AR1 of the same τ shares)."""
     from imunoise.experiments.common import filter_models
     from imunoise.noise.model import Model
     from imunoise.noise.processes import AR1, WN
@@ -62,15 +70,16 @@ def law_models(sc, base=None) -> list:
         raise ModelError("the oracle_law method needs a simulated scenario with its motion law (law_schedule)")
     none = Model([WN(sigma2=1e-30)])
     cfg = (base or OnlineConfig()).with_(ekf=sc.ekf_config(), floor="none")
-    pairs = filter_models([static.get(ax, none) for ax in AXES], sc.rate, cfg)
-    out = []
-    for a, (m, f) in enumerate((m, m.freq) for m in pairs):
+    static_models = filter_models([static.get(ax, none) for ax in AXES], sc.rate, cfg)
+    moving: list[AR1 | None] = []
+    for a, m in enumerate(static_models):
         sig, tau = float(sched.gm_sigma[a]), float(sched.gm_tau_s[a])
+        ar1 = None
         if sig > 0:
-            phi = math.exp(-1.0 / (tau * f))
-            m = Model([*m.components, AR1(phi=phi, sigma2=sig * sig * (1.0 - phi * phi))], f)
-        out.append(m)
-    return out
+            phi = math.exp(-1.0 / (tau * m.freq))
+            ar1 = AR1(phi=phi, sigma2=sig * sig * (1.0 - phi * phi))
+        moving.append(ar1)
+    return with_moving_states(static_models, moving)
 
 
 def _folded_psd(sc, models: list) -> np.ndarray:
@@ -85,19 +94,6 @@ def _folded_psd(sc, models: list) -> np.ndarray:
         true_white = static.get(AXES[a], none).white_variance() / f
         out[a] = max(m.white_variance() / f - true_white, 0.0)
     return out
-
-
-def _gm_index(ekf: LooselyCoupledEKF, models: list, sched) -> np.ndarray:
-    """Layout index of each axis' moving GM state (the AR1 whose φ and σ² are the GM's), −1 where none."""
-    idx = np.full(6, -1, dtype=np.int64)
-    for a, (m, f) in enumerate((m, m.freq) for m in models):
-        if not sched.gm_sigma[a] > 0:
-            continue
-        ar1 = [c for c in m.components if c.kind == "AR1"]
-        phi = math.exp(-1.0 / (float(sched.gm_tau_s[a]) * f))
-        i = max(i for i, c in enumerate(ar1) if c.values[0] == phi)
-        idx[a] = ekf.layout.labels.index(f"{AXES[a]}.AR1_{i + 1}")
-    return idx
 
 
 @dataclass
@@ -146,7 +142,9 @@ def law_filter(sc, extra_bounds_t=(), base=None, *, models: list | None = None) 
     piece must start (window starts: the piece starts at the last sample before each). ``models``: fixed
     models (each carrying its rate) with the schedule off (a constant-model filter through the same batch path)."""
     sched = sc.extra["law_schedule"] if models is None else None
-    models = law_models(sc, base) if models is None else models
+    gm_index: tuple[int, ...] = (-1,) * 6
+    if models is None:
+        models, gm_index = law_states(sc, base)
     init = sc.init
     t_all = np.asarray(sc.imu.t, dtype=float)
     dth_all, dv_all = sc.imu.increments()
@@ -172,8 +170,8 @@ def law_filter(sc, extra_bounds_t=(), base=None, *, models: list | None = None) 
         return LawFilter(ekf, NoiseControl(ekf.layout, model, ekf.dt_nom), ImuInput(
             t, dth, dv, gate, np.zeros(n, dtype=np.bool_)), bounds[:-1], np.ones((k, 6)),
             np.ones((k, 6)), np.ones(k, dtype=bool), np.zeros(k, dtype=bool), np.zeros(6))
-    noise = NoiseControl(ekf.layout, model, ekf.dt_nom, _gm_index(ekf, models, sched), sched.warmup_rw_q,
-                         _folded_psd(sc, models))
+    noise = NoiseControl(ekf.layout, model, ekf.dt_nom, moving_state_rows(models, gm_index, ekf.layout.labels),
+                         sched.warmup_rw_q, _folded_psd(sc, models))
     # schedule index of filter sample k (the step into k): k + i0 (schedule.t are the drive's IMU samples)
     off = i0
     cps = sched.change_points() - off - 1

@@ -9,9 +9,18 @@ IMU → detection → modelling → filter: it runs the aided filter over whole 
 * :func:`summary_lines`: the per-axis factors with intervals and units, as ``calibrate`` prints them.
 """
 
-from imunoise.inuse.estimate import InMotionEstimate, estimate_in_motion, static_nk, static_pairs
+from imunoise.inuse.estimate import InMotionEstimate, estimate_in_motion, static_models, static_nk
 from imunoise.inuse.summary import summary_lines
 from imunoise.noise.in_motion import AxisInMotion, BiasWander, Bound, InMotionPart, Interval, gm_equivalent_k
 
 __all__ = ["AxisInMotion", "BiasWander", "Bound", "InMotionEstimate", "InMotionPart", "Interval",
-           "estimate_in_motion", "gm_equivalent_k", "static_nk", "static_pairs", "summary_lines"]
+           "estimate_in_motion", "gm_equivalent_k", "static_models", "static_nk", "summary_lines"]
+
+
+def __getattr__(name: str):
+    # the old name of static_models (imunoise.inuse.estimate warns and hands it over)
+    if name == "static_pairs":
+        from imunoise.inuse import estimate
+
+        return estimate.__getattr__(name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -48,7 +48,7 @@ from imunoise.noise.in_motion import (
     walk_tau_s,
 )
 
-__all__ = ["GROUPS", "InMotionEstimate", "estimate_in_motion", "static_nk", "static_pairs"]
+__all__ = ["GROUPS", "InMotionEstimate", "estimate_in_motion", "static_models", "static_nk"]
 
 GROUPS = {"gyro": (0, 1, 2), "accel": (3, 4, 5)}
 SIGMA0 = {"gyro": 1e-4, "accel": 5e-3}  # start of σ [rad/s, m/s²]
@@ -77,9 +77,10 @@ class InMotionEstimate:
     cpu_s: float = 0.0
 
 
-def static_pairs(static_model: Any, freq: float) -> list:
-    """The six static filter pairs through the door: a model file / :class:`~imunoise.noise.imu_model.ImuModel` /
-    parsed dict (:func:`imunoise.nav.defaults.load_axis_models`), or six filter models as they are."""
+def static_models(static_model: Any, freq: float) -> list:
+    """The six static filter models (each with its rate) through the door: a model file /
+    :class:`~imunoise.noise.imu_model.ImuModel` / parsed dict (:func:`imunoise.nav.defaults.load_axis_models`),
+    or six filter models as they are."""
     from imunoise.nav.defaults import load_axis_models, normalize_axis_models
 
     if isinstance(static_model, list | tuple):
@@ -89,17 +90,28 @@ def static_pairs(static_model: Any, freq: float) -> list:
     return load_axis_models(static_model, freq)
 
 
-def static_nk(pairs: list, horizon_s: float) -> list[tuple[float, float]]:
-    """Per axis the static (N [unit/√Hz], K [unit/√s]) of the filter pairs
+def static_nk(models: list, horizon_s: float) -> list[tuple[float, float]]:
+    """Per axis the static (N [unit/√Hz], K [unit/√s]) of the six filter ``models``
     (:func:`imunoise.noise.equivalent_noise.equivalent_noise`, the mapping the exports use), slow AR1s matched
     over scales up to ``horizon_s`` [s]."""
     from imunoise.noise.equivalent_noise import equivalent_noise
 
     out = []
-    for m in pairs:
+    for m in models:
         eq = equivalent_noise(m, m.freq, horizon_s=horizon_s)
         out.append((eq.N, eq.K))
     return out
+
+
+def __getattr__(name: str):
+    # static_models was called static_pairs, though it returns models (each with its rate), not (model, rate) pairs
+    if name == "static_pairs":
+        import warnings
+
+        warnings.warn("imunoise.inuse.static_pairs is renamed static_models (it returns the six filter models, not "
+                      "pairs); the old name goes in the next release", DeprecationWarning, stacklevel=2)
+        return static_models
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _factor_k(k_static: float, kw: float, kw_ci) -> Interval:
@@ -187,6 +199,26 @@ def _no_wander(lik: DriveLikelihood, th: Theta, g: str, tau_max: float, near: fl
     return u, lik.nll(_theta_with(th, idx, math.exp(u), 0.0, 60.0))
 
 
+def _held(th: Theta, g: str) -> tuple:
+    """The parameters of the groups other than ``g`` in ``th`` (what group g's no-wander model is searched at)."""
+    return tuple((th.white[i], th.sigma[i], th.tau_s[i]) for i in range(len(th.white)) if i not in GROUPS[g])
+
+
+def _refine_no_wander(lik: DriveLikelihood, th: Theta, g: str, tau_max: float, u0: dict[str, float],
+                      nll0: dict[str, float], refined: dict[str, tuple]) -> None:
+    """Group ``g``'s no-wander model searched again near its last white factor ``u0[g]`` (:func:`_no_wander`) at
+    the other groups' values in ``th``, into ``u0[g]``, ``nll0[g]``; skipped when that search was already made at
+    these values (``refined``: per group the other groups' values of its last such search): the no-wander model
+    of a group depends on the other groups alone, and the search again at unchanged values would only move
+    its white factor within the search's tolerance. With two groups: the first group's search of the second
+    pass, at the last group's final values, is the one its wander test uses; the last group's is made there."""
+    held = _held(th, g)
+    if refined.get(g) == held:
+        return
+    u0[g], nll0[g] = _no_wander(lik, th, g, tau_max, u0[g])
+    refined[g] = held
+
+
 def _hessian(fun, p: np.ndarray, h: float) -> np.ndarray:
     n = p.size
     f0 = fun(p)
@@ -267,7 +299,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     """
     del seed
     t0 = time.process_time()
-    lik = DriveLikelihood(list(drives), static_pairs(static_model, freq), mapper=mapper)
+    lik = DriveLikelihood(list(drives), static_models(static_model, freq), mapper=mapper)
     tau_max = walk_tau_s(lik.hours_moving())  # a walk is reported at this bound and used in this form
     th = Theta()
     nll_static = lik.nll(th)
@@ -285,12 +317,13 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     # them again at the others' final values, from where they ended or from the no-wander optimum there
     # (measured on the real drive: without it the gyros' wander model ended 10–40 NLL units above their
     # no-wander model once the accelerometers had been fitted)
+    refined: dict[str, tuple] = {}
     for g in list(groups)[:-1]:
-        u0[g], nll0[g] = _no_wander(lik, th, g, tau_max, u0[g])
+        _refine_no_wander(lik, th, g, tau_max, u0, nll0, refined)
         starts = [logp[g], np.array([u0[g], *logp[g][1:]]), *_starts(g, tau_max, (u0[g],))[1:]]
         logp[g] = _search(lik, th, g, tau_max, starts, maxfev // 3)
         th = _theta_with(th, GROUPS[g], *_unlog(logp[g]))
-    nk = static_nk(lik.pairs, max(float(d.imu.t[-1] - d.init.t) for d in lik.drives) / 2.0)
+    nk = static_nk(lik.models, max(float(d.imu.t[-1] - d.init.t) for d in lik.drives) / 2.0)
     axes: dict[str, AxisInMotion] = {}
     bounds: dict[str, Bound] = {}
     cov_log: dict[str, Any] = {}
@@ -299,10 +332,9 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     for g in groups:
         idx = GROUPS[g]
         nll_hat = lik.nll(th)
-        # the no-wander model of this group at the other groups' final values (its white factor searched again
-        # near the first search's): the LR compares two models that differ in this group's wander alone
-        if not (len(groups) > 1 and g == groups[-2]):  # that one's no-wander model was searched at these values
-            u0[g], nll0[g] = _no_wander(lik, th, g, tau_max, u0[g])
+        # the LR compares two models that differ in this group's wander alone: the no-wander model at the other
+        # groups' values as they are now
+        _refine_no_wander(lik, th, g, tau_max, u0, nll0, refined)
         lr = 2.0 * (nll0[g] - nll_hat)
         lrs[g] = lr
         wander = lr > LR_WANDER

@@ -77,12 +77,12 @@ DriveMapper = Callable[[Callable[[Any, np.ndarray, Any], float], Sequence[Any], 
 
 @dataclass
 class DriveLikelihood:
-    """The pooled NLL of the GNSS fixes of ``drives`` (module docstring) under the static filter ``pairs`` (the six
-    models of the door, each with its rate) plus an in-motion :class:`Theta`; ``nll(theta)`` is cached. ``mapper``
-    (a :data:`DriveMapper`): where the drives' runs go (default: one after the other, here)."""
+    """The pooled NLL of the GNSS fixes of ``drives`` (module docstring) under the static filter ``models`` (the
+    six models of the door, each with its rate) plus an in-motion :class:`Theta`; ``nll(theta)`` is cached.
+    ``mapper`` (a :data:`DriveMapper`): where the drives' runs go (default: one after the other, here)."""
 
     drives: Sequence[Any]
-    pairs: list
+    models: list
     mapper: DriveMapper | None = None
     cache: dict = field(default_factory=dict)
     runs: int = 0
@@ -93,13 +93,22 @@ class DriveLikelihood:
             raise DataError("the in-motion estimate needs at least one drive with GNSS")
         self.moving = [drive_moving(d) for d in self.drives]
 
+    @property
+    def pairs(self) -> list:
+        """Deprecated name of :attr:`models` (they are models with their rate, not pairs)."""
+        import warnings
+
+        warnings.warn("DriveLikelihood.pairs is renamed .models (the six filter models, not pairs); the old name "
+                      "goes in the next release", DeprecationWarning, stacklevel=2)
+        return self.models
+
     def nll(self, theta: Theta) -> float:
         """Σ over drives and fixes of the innovation NLL (inf when a run fails)."""
         k = theta.key()
         if k in self.cache:
             return self.cache[k]
         t0 = time.process_time()
-        imf = in_motion_filter(self.pairs, theta.white, theta.sigma, theta.tau_s)
+        imf = in_motion_filter(self.models, theta.white, theta.sigma, theta.tau_s)
         if self.mapper is None:  # lazily: the runs stop at the first drive that fails
             nlls = (drive_nll(d, mv, imf) for d, mv in zip(self.drives, self.moving, strict=True))
         else:

@@ -28,15 +28,19 @@ file is the user's statement and is taken without a floor (``online --no-floor``
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
+import numpy as np
+
 from imunoise.errors import ModelError
+from imunoise.imu import AXES
 from imunoise.noise.equivalent_noise import data_horizon, dr_equivalent_rw, equivalent_noise
 from imunoise.noise.model import Model
 from imunoise.noise.processes import AR1, DR, RW, WN, Process, StateBlock
 
 __all__ = ["NEGLIGIBLE", "AxisFit", "InMotionFilter", "filter_model", "filter_axis_models", "in_motion_filter",
-           "in_motion_of", "data_horizon", "dr_equivalent_rw"]
+           "in_motion_of", "moving_state_rows", "with_moving_states", "data_horizon", "dr_equivalent_rw"]
 
 NEGLIGIBLE = 1e-12  # relative stationary variance below which a fitted part is treated as absent
 
@@ -216,19 +220,45 @@ def in_motion_filter(models: list, white_factor, gm_sigma, gm_tau_s) -> InMotion
     white_factor, gm_sigma, gm_tau_s : sequence of 6 floats
         The white factor (σ scale), the moving GM σ [unit] and τ [s] per axis (σ = 0: no moving state).
     """
-    out, gm, index = [], [], []
+    moving: list[AR1 | None] = []
     for m, s, tau in zip(models, gm_sigma, gm_tau_s, strict=True):
         f = m.sample_rate(None, "the in-motion filter")
-        k = -1
+        ar1 = None
         if s > 0:
             phi = math.exp(-1.0 / (float(tau) * f))
-            moving = AR1(phi=phi, sigma2=float(s) ** 2 * (1.0 - phi * phi))
-            m = Model([*m.components, moving], f)
-            k = next(i for i, c in enumerate(m.components) if c is moving)  # the object: φ may equal a static one's
+            ar1 = AR1(phi=phi, sigma2=float(s) ** 2 * (1.0 - phi * phi))
+        moving.append(ar1)
+    out, index = with_moving_states(models, moving)
+    return InMotionFilter(out, tuple(float(w) ** 2 for w in white_factor), tuple(bool(s > 0) for s in gm_sigma),
+                          index)
+
+
+def with_moving_states(models: list, moving: Sequence[AR1 | None]) -> tuple[list, tuple[int, ...]]:
+    """Each axis' model of ``models`` (each carrying its rate) with its moving Gauss–Markov state ``moving[j]``
+    appended (None: the model unchanged), and per axis the index of that AR1 in the new model's ``components``
+    (−1 where none), found by identity: :class:`~imunoise.noise.model.Model` orders its AR1s by φ, and a static
+    AR1 of the same τ has the same φ, so a value cannot tell the two apart (:func:`moving_state_rows` finds the
+    state in a filter's layout)."""
+    out, index = [], []
+    for m, ar1 in zip(models, moving, strict=True):
+        k = -1
+        if ar1 is not None:
+            m = Model([*m.components, ar1], m.sample_rate(None, "the moving states"))
+            k = next(i for i, c in enumerate(m.components) if c is ar1)
         out.append(m)
-        gm.append(bool(s > 0))
         index.append(k)
-    return InMotionFilter(out, tuple(float(w) ** 2 for w in white_factor), tuple(gm), tuple(index))
+    return out, tuple(index)
+
+
+def moving_state_rows(models: list, gm_index: Sequence[int], labels: Sequence[str]) -> np.ndarray:
+    """Per axis the row of its moving state among a filter's model states (``labels``: the
+    :class:`~imunoise.nav.error_states.ModelLayout`'s, ``"<axis>.<component name>"``, built on ``models``), −1
+    where none: the state of component ``gm_index[j]`` (:func:`with_moving_states`), by its canonical name."""
+    rows = np.full(6, -1, dtype=np.int64)
+    for a, (m, k) in enumerate(zip(models, gm_index, strict=True)):
+        if k >= 0:
+            rows[a] = list(labels).index(f"{AXES[a]}.{m.component_names()[k]}")
+    return rows
 
 
 def in_motion_of(src, models: list) -> InMotionFilter | None:
