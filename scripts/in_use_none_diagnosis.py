@@ -95,7 +95,7 @@ def white_lr(law: str, seeds: list[int]) -> None:
     from imunoise.experiments.dense_warm import gmwm_on_drives
     from imunoise.experiments.gnss_regimes import parse_gnss
     from imunoise.inuse import estimate_in_motion
-    from imunoise.inuse.estimate import GROUPS, static_pairs
+    from imunoise.inuse.estimate import GROUPS, static_models
     from imunoise.inuse.likelihood import DriveLikelihood
     from imunoise.online import OnlineConfig
 
@@ -106,7 +106,7 @@ def white_lr(law: str, seeds: list[int]) -> None:
         scs = [replace(sc, gnss=g) for sc, g in d]
         models = filter_models(list(gmwm_on_drives(d, base).fits), scs[0].rate, base.with_(ekf=scs[0].ekf_config()))
         est = estimate_in_motion(scs, models, freq=scs[0].rate)
-        lik = DriveLikelihood(scs, static_pairs(models, scs[0].rate))
+        lik = DriveLikelihood(scs, static_models(models, scs[0].rate))
         n_hat = lik.nll(est.theta)
         for g, idx in GROUPS.items():
             if all(abs(est.theta.white[i] - 1.0) < 1e-12 for i in idx):
