@@ -55,10 +55,10 @@ def white_factor(sc, gnss, models) -> dict:
     """No-wander gyro white factor with its Wald interval (module docstring)."""
     from scipy.optimize import minimize_scalar
 
-    from imunoise.inuse.estimate import static_pairs
+    from imunoise.inuse.estimate import static_models
     from imunoise.inuse.likelihood import DriveLikelihood, Theta
 
-    lik = DriveLikelihood([replace(sc, gnss=gnss)], static_pairs(models, sc.rate))
+    lik = DriveLikelihood([replace(sc, gnss=gnss)], static_models(models, sc.rate))
 
     def nll(u: float) -> float:
         f = math.exp(u)
