@@ -14,13 +14,19 @@ from imunoise.experiments.common import simulate_scenario
 from imunoise.experiments.dense_methods import method_setup
 from imunoise.experiments.dense_warm import gmwm_on_drives
 from imunoise.experiments.gnss_regimes import GnssRegime
-from imunoise.experiments.in_use_method import InUseModel, learn_in_use, run_windows_in_use_stops
+from imunoise.experiments.in_use_method import InUseModel, in_use_stops_run, learn_in_use
 from imunoise.inuse import InMotionPart
 from imunoise.inuse.likelihood import drive_moving
 
 SCEN = {"duration_s": 200.0, "n_stops": 1, "motion_noise": "drive0708"}
 SEED = 4802
 WINDOWS = [(100030.0, 30.0), (100090.0, 30.0)]
+
+
+def run_windows_in_use_stops(sc, gnss, windows, model, **kw) -> dict:
+    """The row's run (:func:`in_use_stops_run` through :func:`dense.run_windows`, as ``evaluate_method`` runs it)."""
+    cfg, rk = in_use_stops_run(sc, model)
+    return dense.run_windows(sc, cfg, gnss, windows, **rk, **kw)
 
 
 @pytest.fixture(scope="module")

@@ -233,10 +233,10 @@ def evaluate_method(sc: Scenario, name: str, gnss, windows, *, base: OnlineConfi
 
         return {**run_windows_in_use(sc, gnss, windows, in_use, base=base, nees=nees), "in_use": in_use.summary()}
     if name == "in_use_stops":
-        from imunoise.experiments.in_use_method import run_windows_in_use_stops
+        from imunoise.experiments.in_use_method import in_use_stops_run
 
-        return {**run_windows_in_use_stops(sc, gnss, windows, in_use, base=base, cache=cache, nees=nees),
-                "in_use": in_use.summary()}
+        cfg, kw = in_use_stops_run(sc, in_use, base=base, cache=cache)
+        return {**run_windows(sc, cfg, gnss, windows, nees=nees, **kw), "in_use": in_use.summary()}
     if (base_method(name) in STATIC_WARM_METHODS) != (earlier_static is not None):
         raise ModelError(f"{name}: earlier drives' stops are for {', '.join(STATIC_WARM_METHODS)} only, and those "
                          "need them (the simulator makes them: run_sim)")

@@ -21,7 +21,7 @@ moving flag flips (:func:`imunoise.inuse.likelihood.drive_moving`: the known sto
 estimate used), with the protocol of :func:`imunoise.experiments.oracle_law.run_windows_law` (one aided run, a
 GNSS-free branch per window; NEES of the aided run). The model is fixed through the drive: no refit at stops.
 
-``in_use_stops`` (:func:`run_windows_in_use_stops`) navigates the same model the way ``online --imu-model`` does:
+``in_use_stops`` (:func:`in_use_stops_run`) navigates the same model the way ``online --imu-model`` does:
 the online engine (the ``gmwm`` row's) starts from the static part plus the in-motion schedule
 (:func:`imunoise.online.in_motion.attach_in_motion`, on the same moving flag), pools the learning drives' stops
 (``earlier_static``, as ``gmwm_warm``) and keeps refitting the static part at the scored drive's stops, each refit
@@ -40,7 +40,7 @@ import numpy as np
 from imunoise.errors import ModelError
 from imunoise.experiments.common import Scenario, filter_models
 
-__all__ = ["learn_in_use", "run_windows_in_use", "run_windows_in_use_stops", "in_motion_law_filter", "InUseModel"]
+__all__ = ["learn_in_use", "run_windows_in_use", "in_use_stops_run", "in_motion_law_filter", "InUseModel"]
 
 
 class InUseModel:
@@ -114,12 +114,10 @@ def run_windows_in_use(sc: Scenario, gnss, windows, model: InUseModel, *, base=N
                            make=lambda s, starts, b: _moving_law_filter(s, model, starts, b))
 
 
-def run_windows_in_use_stops(sc: Scenario, gnss, windows, model: InUseModel, *, base=None, cache=None,
-                             nees: bool = False, keep: bool = False) -> dict:
-    """:func:`imunoise.experiments.dense.run_windows`'s keys for ``in_use_stops`` on drive ``sc`` with ``model``
-    (module docstring): the online engine from ``model``, refitting its static part at the stops; ``keep``: with
-    the aided run's result (``_full``)."""
-    from imunoise.experiments.dense_branches import run_windows
+def in_use_stops_run(sc: Scenario, model: InUseModel, *, base=None, cache=None) -> tuple[Any, dict]:
+    """``in_use_stops`` on drive ``sc`` with ``model`` (module docstring): (the online engine's config, the keywords
+    of :func:`imunoise.experiments.dense.run_windows`): the engine from ``model``, refitting its static part at the
+    stops."""
     from imunoise.experiments.dense_methods import method_setup
     from imunoise.inuse.likelihood import drive_moving
     from imunoise.online.in_motion import attach_in_motion, initial_models
@@ -129,6 +127,6 @@ def run_windows_in_use_stops(sc: Scenario, gnss, windows, model: InUseModel, *, 
                          "(--learn-half fits its static part on the whole drive's stops); use in_use")
     cfg, _, upd = method_setup("gmwm", sc, base, cache)
     moving = drive_moving(sc)  # per IMU sample in push order, the flag the estimate and in_use use
-    return run_windows(sc, cfg, gnss, windows, initial_models=initial_models(model.part, model.models, sc.rate),
-                       updater=upd, earlier_static=model.static_pieces, nees=nees, keep=keep,
-                       prepare=lambda nav: attach_in_motion(nav, model.part, model.models, moving))
+    return cfg, {"initial_models": initial_models(model.part, model.models, sc.rate), "updater": upd,
+                 "earlier_static": model.static_pieces,
+                 "prepare": lambda nav: attach_in_motion(nav, model.part, model.models, moving)}
