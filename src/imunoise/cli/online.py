@@ -165,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
     status: dict = {}  # the last run's status per epoch, by kind
     rate = imu.rate_hz
     models = load_axis_models(args.imu_model, rate) if args.imu_model else None
-    in_motion = _in_motion(args, imu, models, rate)  # (part, static pairs, moving flag) or None
+    in_motion = _in_motion(args, imu, models, rate)  # (part, static models, moving flag) or None
     if in_motion is not None:
         from imunoise.online.in_motion import initial_models
 

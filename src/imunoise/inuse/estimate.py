@@ -47,6 +47,7 @@ from imunoise.noise.in_motion import (
     gm_equivalent_k,
     walk_tau_s,
 )
+from imunoise.noise.moved import renamed
 
 __all__ = ["GROUPS", "InMotionEstimate", "estimate_in_motion", "static_models", "static_nk"]
 
@@ -103,15 +104,10 @@ def static_nk(models: list, horizon_s: float) -> list[tuple[float, float]]:
     return out
 
 
-def __getattr__(name: str):
-    # static_models was called static_pairs, though it returns models (each with its rate), not (model, rate) pairs
-    if name == "static_pairs":
-        import warnings
-
-        warnings.warn("imunoise.inuse.static_pairs is renamed static_models (it returns the six filter models, not "
-                      "pairs); the old name goes in the next release", DeprecationWarning, stacklevel=2)
-        return static_models
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# static_models was called static_pairs, though it returns models (each with its rate), not (model, rate) pairs
+__getattr__ = renamed(__name__, {"static_pairs": (lambda: static_models, "imunoise.inuse.static_pairs is renamed "
+                                  "static_models (it returns the six filter models, not pairs); the old name goes in "
+                                  "the next release")})
 
 
 def _factor_k(k_static: float, kw: float, kw_ci) -> Interval:

@@ -1,7 +1,7 @@
 """A filter run whose process noise follows the vehicle's moving flag: the in-motion part of a model file while
 moving, the static part at stops (docs/guide/theory.rst, 'In-use noise').
 
-The filter is the door's :class:`~imunoise.nav.filter_model.InMotionFilter` (static pairs plus one moving
+The filter is the door's :class:`~imunoise.nav.filter_model.InMotionFilter` (static models plus one moving
 Gauss–Markov state per axis with bias wander); :func:`run_moving` runs the batch kernel piece by piece between
 the samples where the moving flag flips (:func:`imunoise.nav.noise_schedule.run_pieces`): while moving the white
 PSD of axis j is scaled by its white factor squared and the moving states evolve; at a stop the scale is 1 and
@@ -14,9 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from imunoise.imu import AXES
 from imunoise.nav.filter_loop import FilterArrays, ImuInput, Outputs
-from imunoise.nav.filter_model import InMotionFilter
+from imunoise.nav.filter_model import InMotionFilter, moving_state_rows
 from imunoise.nav.noise_schedule import NoiseControl, run_pieces
 from imunoise.nav.streams import StreamSet
 
@@ -28,11 +27,7 @@ def moving_control(ekf, imf: InMotionFilter) -> NoiseControl:
     component :func:`~imunoise.nav.filter_model.in_motion_filter` appended (``imf.gm_index``), found in the
     layout by its canonical name."""
     model, _ = ekf.kernel_parts()
-    idx = np.full(6, -1, dtype=np.int64)
-    for a, (m, k) in enumerate(zip(imf.models, imf.gm_index, strict=True)):
-        if k >= 0:
-            idx[a] = ekf.layout.labels.index(f"{AXES[a]}.{m.component_names()[k]}")
-    return NoiseControl(ekf.layout, model, ekf.dt_nom, idx)
+    return NoiseControl(ekf.layout, model, ekf.dt_nom, moving_state_rows(imf.models, imf.gm_index, ekf.layout.labels))
 
 
 def moving_bounds(moving: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

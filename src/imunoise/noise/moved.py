@@ -1,4 +1,5 @@
-"""The old import paths of the modelling core (``imunoise.model``, ``imunoise.fitting.result``, ...) for one release.
+"""The old import paths of the modelling core (``imunoise.model``, ``imunoise.fitting.result``, ...) and the old
+names of renamed module attributes (:func:`renamed`), for one release.
 
 The modules moved into :mod:`imunoise.noise`; code that still imports them by the old name gets the very same
 module object (so ``isinstance`` checks and module state are shared, not duplicated) and one
@@ -13,7 +14,9 @@ import importlib.abc
 import importlib.machinery
 import sys
 import warnings
+from collections.abc import Callable, Mapping
 from types import ModuleType
+from typing import Any
 
 MOVED = frozenset({
     "processes", "process_base", "process_white", "process_bias", "process_ar1", "process_ma1", "ar1_math", "model",
@@ -53,3 +56,17 @@ def install() -> None:
     """Put the finder on ``sys.meta_path`` once."""
     if not any(isinstance(f, MovedFinder) for f in sys.meta_path):
         sys.meta_path.insert(0, MovedFinder())  # before the path finder, which would load a second copy
+
+
+def renamed(module: str, old: Mapping[str, tuple[Callable[[], Any], str]]) -> Callable[[str], Any]:
+    """A module ``__getattr__`` that answers each renamed attribute of ``module`` (``old``: old name → (getter of the
+    object under its new name, the warning's text)) with one ``DeprecationWarning`` and the object itself."""
+
+    def __getattr__(name: str) -> Any:
+        if name in old:
+            get, message = old[name]
+            warnings.warn(message, DeprecationWarning, stacklevel=2)
+            return get()
+        raise AttributeError(f"module {module!r} has no attribute {name!r}")
+
+    return __getattr__

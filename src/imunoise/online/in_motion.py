@@ -59,7 +59,7 @@ class InMotionSchedule:
         ekf.set_noise(self.control.arrays())
 
     def swap_into(self, ekf: Any):
-        """A ``swap_model`` for the engine's model swaps: the new static pairs composed with the moving states,
+        """A ``swap_model`` for the engine's model swaps: the new static models composed with the moving states,
         then the noise control rebuilt on the new layout."""
 
         def swap(models, **kw):

@@ -24,6 +24,7 @@ Parts (one concept per module):
 * :mod:`~imunoise.online.learner.config`: settings and the evidence carried to the next drive.
 """
 
+from imunoise.noise.moved import renamed
 from imunoise.online.learner.candidates import DEFAULT_FAMILIES, Family, LearnedProcess, compose, describe
 from imunoise.online.learner.config import MotionNoiseConfig, MotionNoisePrior
 from imunoise.online.learner.core import MotionNoiseLearner
@@ -35,12 +36,7 @@ __all__ = ["DEFAULT_FAMILIES", "Family", "LearnedProcess", "compose", "describe"
            "horizontal_distance", "ned_offset"]
 
 
-def __getattr__(name: str):
-    # the learner's process was called Process, the same name as the noise process of imunoise.noise.processes
-    if name == "Process":
-        import warnings
-
-        warnings.warn("imunoise.online.learner.Process is renamed LearnedProcess (imunoise.noise.processes.Process is "
-                      "the noise process); the old name goes in the next release", DeprecationWarning, stacklevel=2)
-        return LearnedProcess
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# the learner's process was called Process, the same name as the noise process of imunoise.noise.processes
+__getattr__ = renamed(__name__, {"Process": (lambda: LearnedProcess, "imunoise.online.learner.Process is renamed "
+                                 "LearnedProcess (imunoise.noise.processes.Process is the noise process); the old "
+                                 "name goes in the next release")})

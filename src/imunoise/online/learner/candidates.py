@@ -26,6 +26,7 @@ from typing import Any
 
 from imunoise.errors import ModelError
 from imunoise.noise.model import Model
+from imunoise.noise.moved import renamed
 from imunoise.noise.processes import AR1, WN
 
 __all__ = ["LearnedProcess", "Family", "DEFAULT_FAMILIES", "LIKELIHOOD_FAMILIES", "compose", "rated", "with_process",
@@ -212,12 +213,6 @@ def spec_from_dicts(items: Sequence[dict[str, Any]]) -> Spec:
     return out
 
 
-def __getattr__(name: str):
-    # the old name of LearnedProcess (it clashed with imunoise.noise.processes.Process, the noise process)
-    if name == "Process":
-        import warnings
-
-        warnings.warn("imunoise.online.learner.candidates.Process is renamed LearnedProcess; the old name goes in the "
-                      "next release", DeprecationWarning, stacklevel=2)
-        return LearnedProcess
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# the old name of LearnedProcess (it clashed with imunoise.noise.processes.Process, the noise process)
+__getattr__ = renamed(__name__, {"Process": (lambda: LearnedProcess, "imunoise.online.learner.candidates.Process is "
+                                 "renamed LearnedProcess; the old name goes in the next release")})
