@@ -325,6 +325,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     cov_log: dict[str, Any] = {}
     lrs: dict[str, float] = {}
     lr_white: dict[str, float] = {}
+    white_upper: dict[str, float | None] = {}  # the likelihood bound of a white factor that is not identified
     for g in groups:
         idx = GROUPS[g]
         nll_hat = lik.nll(th)
@@ -388,6 +389,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
             sw = s if wander else 0.0
             wu = _scan_up(lambda x, idx=idx, th=th, sw=sw, tau=tau: lik.nll(_theta_with(th, idx, x, sw, tau)), f,
                           WHITE_RANGE[1], nll_hat + HALF_LR1, 1.5)
+            white_upper[g] = wu
             text = "white factor not identified (95 % interval wider than ×/÷ 10)"
             if not reason:
                 up = wu
@@ -405,6 +407,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
                 "method": "maximum likelihood of the GNSS innovations over the whole drives (prediction-error "
                           "decomposition), per sensor group; 95 % Wald intervals from the observed information",
                 "freq_hz": float(freq), "groups": list(groups), "nll": lik.nll(th), "nll_static": nll_static,
-                "lr_wander": lrs, "lr_white_one": lr_white}
+                "lr_wander": lrs, "lr_white_one": lr_white,
+                "white_upper": white_upper}
     part = InMotionPart(axes, bounds, evidence)
     return InMotionEstimate(part, th, lik.nll(th), nll_static, cov_log, lrs, lik.runs, time.process_time() - t0)
