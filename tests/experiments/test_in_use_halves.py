@@ -82,17 +82,17 @@ def test_the_learning_half_scores_only_its_own_fixes(drive):
     llh = np.asarray(g.llh, dtype=float).copy()
     llh[np.asarray(g.t) >= sp["second"][0], 0] += 50.0 / 6.4e6
     moved = type(g)(t=g.t, llh=llh, sigma_ned=g.sigma_ned)
-    pairs = dense.method_setup("gmwm_hindsight", drive, BASE, {})[1]
-    nll = [DriveLikelihood([dh.learning_half(drive, x, "first")], pairs).nll(Theta()) for x in (g, moved)]
+    models = dense.method_setup("gmwm_hindsight", drive, BASE, {})[1]
+    nll = [DriveLikelihood([dh.learning_half(drive, x, "first")], models).nll(Theta()) for x in (g, moved)]
     assert np.isfinite(nll[0]) and nll[0] == nll[1]
     # ... and the second half's estimate scores only its own fixes: the same moved fixes change its likelihood
-    nll2 = [DriveLikelihood([dh.learning_half(drive, x, "second")], pairs).nll(Theta()) for x in (g, moved)]
+    nll2 = [DriveLikelihood([dh.learning_half(drive, x, "second")], models).nll(Theta()) for x in (g, moved)]
     assert nll2[1] > nll2[0] + 100.0
 
 
 @pytest.mark.slow
 def test_in_use_learned_on_one_half_navigates_the_other(drive):
-    """The ``in_use`` model of half "first": the static part is ``gmwm_hindsight``'s (the same six filter pairs),
+    """The ``in_use`` model of half "first": the static part is ``gmwm_hindsight``'s (the same six filter models),
     the in-motion part names the half; its windows in the second half are the unrestricted run's values."""
     cache: dict = {}
     model = dh.learn_on_half(drive, drive.gnss, "first", BASE, cache)
@@ -115,6 +115,19 @@ def test_cli_refuses_learn_half_on_the_simulator(tmp_path, capsys):
     assert main(["experiment", "online", "--sim", "--outages", "dense:30:30:60", "--learn-half", "first",
                  "--out", str(tmp_path / "a")]) == 2
     assert "--learn-half cross-fits on the halves of a real drive" in capsys.readouterr().err
+
+
+def test_cli_refuses_in_use_stops_with_learn_half_before_any_work(tmp_path, capsys):
+    """in_use_stops pools the stops its static part was learned on; --learn-half fits that part on the whole drive's
+    stops, so the pair is refused at the arguments (exit 2, one line), not after the half's learning runs."""
+    from imunoise.cli import main
+
+    out = tmp_path / "a"
+    assert main(["experiment", "online", "--data", str(tmp_path / "absent"), "--outages", "dense:60:60:60",
+                 "--methods", "gmwm,in_use_stops", "--learn-half", "first", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--methods in_use_stops" in err and "use in_use with --learn-half" in err and len(err.splitlines()) == 1
+    assert not out.exists()
 
 
 @pytest.mark.slow

@@ -85,6 +85,13 @@ def test_no_motion_noise_gives_a_bound_not_a_number():
         assert bd.upper is not None and bd.upper > 0
         assert ax.white_factor.covers(1.0) if ax.white_factor.value is not None else True
     assert est.part.to_dict()["axes"]["accel_x"]["bias"] == {"model": "none", "ci95": {}}
+    # a white factor that is not identified carries its likelihood bound in the evidence, the number in the text
+    up = est.part.evidence["white_upper"]
+    if est.part.axes["accel_x"].white_factor.value is None:
+        assert up["accel"] is not None and up["accel"] >= 1.0
+        assert f"≤ {up['accel']:.3g}" in est.part.bounds["accel_x"].reason
+    else:
+        assert "accel" not in up
 
 
 @pytest.mark.slow

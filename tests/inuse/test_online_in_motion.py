@@ -29,18 +29,18 @@ def test_online_in_motion_matches_nav_and_changes_the_solution():
     sc = simulate_scenario(4702, duration_s=330.0, n_stops=2, motion_noise="gyro_moving_gm", n_outages=0)
     cfg = OnlineConfig().with_(ekf=sc.ekf_config(), floor="none", modelling=False, gate=False)
     none = Model([WN(sigma2=1e-30)])
-    pairs = filter_models([sc.extra["static_models"].get(ax, none) for ax in AXES], sc.rate, cfg)
+    models = filter_models([sc.extra["static_models"].get(ax, none) for ax in AXES], sc.rate, cfg)
     sched = sc.extra["law_schedule"]
     part = InMotionPart({a: AxisInMotion(Interval(1.5), BiasWander("gm", sigma=float(sched.gm_sigma[i]), tau_s=60.0)
                                          if i < 3 else BiasWander("none")) for i, a in enumerate(AXES)})
     moving = sched.moving
-    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=initial_models(part, pairs, sc.rate))
-    attach_in_motion(nav, part, pairs, moving)
+    nav = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=initial_models(part, models, sc.rate))
+    attach_in_motion(nav, part, models, moving)
     online = nav.run(sc.imu, sc.gnss)
     batch = run_ekf(sc.imu, sc.gnss, sc.init, sc.ekf_config(), in_motion=in_motion_filter(
-        pairs, part.white_factors(), *part.moving_gm()), moving=moving)
-    static_online = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=pairs).run(sc.imu, sc.gnss)
-    static_batch = run_ekf(sc.imu, sc.gnss, sc.init, sc.ekf_config(), pairs)
+        models, part.white_factors(), *part.moving_gm()), moving=moving)
+    static_online = OnlineNavigator(cfg, sc.init, imu_rate_hz=sc.rate, initial_models=models).run(sc.imu, sc.gnss)
+    static_batch = run_ekf(sc.imu, sc.gnss, sc.init, sc.ekf_config(), models)
     # the two engines differ by their flush points alone (3e-7 m without any in-motion part): the same here
     assert _max_diff(static_online, static_batch) < 1e-5
     assert _max_diff(online, batch) < 1e-5

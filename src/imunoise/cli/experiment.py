@@ -288,6 +288,9 @@ def _check_vehicle(args: argparse.Namespace, evidence: bool) -> None:
         raise ModelError("--learn-half cross-fits on the halves of a real drive in the dense-window evidence "
                          "(--data ... --outages dense:L:S); on the simulator use --vehicle-drives K")
     learned = {"in_use", "in_use_stops", "oracle_const_gmwm"} & set((args.methods or "").split(","))
+    if args.learn_half and "in_use_stops" in learned:  # refused here, before the drive's learning runs
+        raise ModelError("--methods in_use_stops pools the stops in_use learned its static part on, and --learn-half "
+                         "fits that part on the whole drive's stops: use in_use with --learn-half")
     if learned and args.sim and args.vehicle_drives < 2:
         raise ModelError(f"--methods {sorted(learned)[0]} learns on a vehicle's earlier drives: give --vehicle-drives "
                          "2 or more")
