@@ -9,7 +9,10 @@ drives, 4 stops, dense:60:20, GNSS ``noise:1.5,3,1``, noise seed 1, latency 0.5 
 the same static part (the ``gmwm`` row's fits on the earlier drive), no white factor, no wander. It prints the
 paired end-of-window drift ratios, vehicles as clusters (percentile bootstrap, 4000 draws, seed 0): the run's
 ``in_use`` over the static part alone (what the in-motion estimate does) and the static part alone over the run's
-``gmwm`` (what a model of one drive's stops does against one of the scored drive's).
+``gmwm`` (what a model of one drive's stops does against one of the scored drive's). ``--variant white-rule``
+reruns it with the run's own learned parts instead, each white factor whose interval contains 1 set to 1 (a rule
+the estimate does not apply: a diagnosis of it); ``--variant stored`` with the parts unchanged (ratio 1 exactly:
+the check that the rerun is the run).
 
 ``white-lr`` learns each vehicle's ``in_use`` model again and, for every sensor group whose white factor is not 1,
 evaluates the innovation likelihood at the estimate and with that group's white factor set to 1 (the rest kept):
@@ -60,7 +63,33 @@ def _static_only(drives, fits, base=None, static_pieces=None):
                       [sc.name for sc in scs], static_pieces)
 
 
-def part_effect(results: str, out: str, workers: int) -> dict:
+_STORED: dict = {}  # drive names → the run's learned in-motion part (set before the workers fork)
+
+
+def _white_rule(part: dict) -> dict:
+    """A stored part with every group's white factor set to 1 where its interval contains 1 or it is not identified:
+    the factor kept only where the data reject 1, as the wander is kept only where its test rejects none."""
+    out = json.loads(json.dumps(part))
+    for ax in out["axes"].values():
+        wf = ax.get("white_factor") or {}
+        ci = wf.get("ci95")
+        if wf.get("value") is None or ci is None or ci[0] <= 1.0 <= ci[1]:
+            ax["white_factor"] = {"value": 1.0, "ci95": ci}
+            ax["factor_N"] = {"value": 1.0, "ci95": ci}
+    return out
+
+
+def _stored(drives, fits, base=None, static_pieces=None):
+    """``learn_in_use`` with the run's own learned part (``_STORED``, by the learning drives' names): the static
+    part recomputed from ``fits`` as the run did, no new estimate."""
+    from imunoise.inuse import InMotionPart
+
+    m = _static_only(drives, fits, base, static_pieces)
+    m.part = InMotionPart.from_dict(_STORED[tuple(m.drives)])
+    return m
+
+
+def part_effect(results: str, out: str, workers: int, variant: str = "static") -> dict:
     import imunoise.experiments.in_use_method as ium
     from imunoise.experiments import dense
     from imunoise.experiments.gnss_regimes import parse_gnss
@@ -69,18 +98,22 @@ def part_effect(results: str, out: str, workers: int) -> dict:
     run = json.load(open(results))
     law = run["scenario"]["motion_noise"]
     learn = ium.learn_in_use
-    ium.learn_in_use = _static_only  # the row learns in the worker through this name
+    for v in run["in_use_models"].values():
+        _STORED[tuple(v["drives"])] = v["in_motion"] if variant == "stored" else _white_rule(v["in_motion"])
+    # the row learns in the worker through this name
+    ium.learn_in_use = _static_only if variant == "static" else _stored
     try:
         res = dense.run_sim(run["seeds"], spec=dense.DenseSpec(60.0, 20.0, 60.0), regimes=(parse_gnss(REGIME),),
                             noise_seeds=(1,), methods=("in_use",), workers=workers, base=OnlineConfig(latency=0.5),
                             n_boot=200, vehicle_drives=2, motion_noise=law, **SCEN)
     finally:
         ium.learn_in_use = learn
-    static = _drifts(res["per_window"], "in_use")
-    rows = {"in_use / static part alone": paired(_drifts(run["per_window"], "in_use"), static)}
+    alt = _drifts(res["per_window"], "in_use")
+    name = {"static": "static part alone", "stored": "the run's own part again", "white-rule": "white rule"}[variant]
+    rows = {f"in_use / {name}": paired(_drifts(run["per_window"], "in_use"), alt)}
     if "gmwm" in run["per_window"][REGIME]["drift"]:
-        rows["static part alone / gmwm"] = paired(static, _drifts(run["per_window"], "gmwm"))
-    summary = {"law": law, "seeds": run["seeds"], "rows": rows}
+        rows[f"{name} / gmwm"] = paired(alt, _drifts(run["per_window"], "gmwm"))
+    summary = {"law": law, "seeds": run["seeds"], "variant": variant, "rows": rows}
     with open(out, "w") as f:
         json.dump(summary, f, indent=1)
     for name, (r, lo, hi, per) in rows.items():
@@ -125,12 +158,15 @@ def main(argv=None) -> int:
     a.add_argument("--results", required=True, help="results.json of the run (rows in_use and gmwm)")
     a.add_argument("--out", required=True, help="summary JSON to write")
     a.add_argument("--workers", type=int, default=2)
+    a.add_argument("--variant", choices=("static", "white-rule", "stored"), default="static",
+                   help="static: no in-motion part; white-rule: the run's part with each white factor whose interval "
+                        "contains 1 set to 1; stored: the run's part as it was (must give ratio 1 exactly)")
     b = sub.add_parser("white-lr", help="the likelihood ratio of white factor 1 against the estimate")
     b.add_argument("--law", required=True)
     b.add_argument("--seeds", required=True, help="comma-separated vehicle seeds")
     args = p.parse_args(argv)
     if args.cmd == "part-effect":
-        part_effect(args.results, args.out, args.workers)
+        part_effect(args.results, args.out, args.workers, args.variant)
     else:
         white_lr(args.law, [int(s) for s in args.seeds.split(",")])
     return 0
