@@ -12,7 +12,7 @@ paired end-of-window drift ratios, vehicles as clusters (percentile bootstrap, 4
 ``gmwm`` (what a model of one drive's stops does against one of the scored drive's). ``--variant white-rule``
 reruns it with the run's own learned parts instead, each white factor whose interval contains 1 set to 1 (a rule
 the estimate does not apply: a diagnosis of it); ``--variant stored`` with the parts unchanged (ratio 1 exactly:
-the check that the rerun is the run).
+the check that the rerun is the run); ``--variant no-wander`` with the parts' wanders removed.
 
 ``white-lr`` learns each vehicle's ``in_use`` model again and, for every sensor group whose white factor is not 1,
 evaluates the innovation likelihood at the estimate and with that group's white factor set to 1 (the rest kept):
@@ -79,6 +79,15 @@ def _white_rule(part: dict) -> dict:
     return out
 
 
+def _no_wander(part: dict) -> dict:
+    """A stored part without its bias wander (white factors kept)."""
+    out = json.loads(json.dumps(part))
+    for ax in out["axes"].values():
+        ax["bias"] = {"model": "none", "ci95": {}}
+        ax["factor_K"] = {"value": 1.0, "ci95": None}
+    return out
+
+
 def _stored(drives, fits, base=None, static_pieces=None):
     """``learn_in_use`` with the run's own learned part (``_STORED``, by the learning drives' names): the static
     part recomputed from ``fits`` as the run did, no new estimate."""
@@ -99,7 +108,8 @@ def part_effect(results: str, out: str, workers: int, variant: str = "static") -
     law = run["scenario"]["motion_noise"]
     learn = ium.learn_in_use
     for v in run["in_use_models"].values():
-        _STORED[tuple(v["drives"])] = v["in_motion"] if variant == "stored" else _white_rule(v["in_motion"])
+        _STORED[tuple(v["drives"])] = {"stored": lambda p: p, "white-rule": _white_rule,
+                                       "no-wander": _no_wander}.get(variant, _white_rule)(v["in_motion"])
     # the row learns in the worker through this name
     ium.learn_in_use = _static_only if variant == "static" else _stored
     try:
@@ -109,7 +119,8 @@ def part_effect(results: str, out: str, workers: int, variant: str = "static") -
     finally:
         ium.learn_in_use = learn
     alt = _drifts(res["per_window"], "in_use")
-    name = {"static": "static part alone", "stored": "the run's own part again", "white-rule": "white rule"}[variant]
+    name = {"static": "static part alone", "stored": "the run's own part again", "white-rule": "white rule",
+            "no-wander": "no wander"}[variant]
     rows = {f"in_use / {name}": paired(_drifts(run["per_window"], "in_use"), alt)}
     if "gmwm" in run["per_window"][REGIME]["drift"]:
         rows[f"{name} / gmwm"] = paired(alt, _drifts(run["per_window"], "gmwm"))
@@ -158,9 +169,10 @@ def main(argv=None) -> int:
     a.add_argument("--results", required=True, help="results.json of the run (rows in_use and gmwm)")
     a.add_argument("--out", required=True, help="summary JSON to write")
     a.add_argument("--workers", type=int, default=2)
-    a.add_argument("--variant", choices=("static", "white-rule", "stored"), default="static",
+    a.add_argument("--variant", choices=("static", "white-rule", "no-wander", "stored"), default="static",
                    help="static: no in-motion part; white-rule: the run's part with each white factor whose interval "
-                        "contains 1 set to 1; stored: the run's part as it was (must give ratio 1 exactly)")
+                        "contains 1 set to 1; no-wander: the run's part without its wander; stored: the run's part "
+                        "as it was (must give ratio 1 exactly)")
     b = sub.add_parser("white-lr", help="the likelihood ratio of white factor 1 against the estimate")
     b.add_argument("--law", required=True)
     b.add_argument("--seeds", required=True, help="comma-separated vehicle seeds")
