@@ -2,8 +2,16 @@
 true factor is 1 (docs/evidence/in_use_estimate.md, 'Why the accelerometer white factor sometimes comes out near
 25 (development)').
 
-    python scripts/in_use_accel_white_diagnosis.py --drives 4703:gyro_moving_gm 7520101:none --estimate \
-        --out out/accwhite/diag.json
+    python scripts/in_use_accel_white_diagnosis.py --drives 4703:gyro_moving_gm --estimate --out out/accwhite/d4703.json
+    python scripts/in_use_accel_white_diagnosis.py --drives 7520100:none 7520104:none --estimate \
+        --out out/accwhite/dnone.json
+    python scripts/in_use_accel_white_diagnosis.py --drives 7520104:none --profile-only --gnss-sigma 0.3 0.3 0.6 \
+        --out out/accwhite/sig03.json
+    python scripts/in_use_accel_white_diagnosis.py --drives 7520104:none --profile-only --gnss-sigma 3 3 6 \
+        --out out/accwhite/sig3.json
+
+(the drives where it shows found with ``scripts/in_use_estimate.py sim --laws none --seeds 7520100 7520130``;
+development seeds only.)
 
 Per drive (seed:law; 600 s, 4 stops, no outages, the static part the simulator's true static model, as
 ``scripts/in_use_estimate.py sim`` builds them: :func:`in_use_estimate._true_pairs`):
@@ -13,6 +21,8 @@ Per drive (seed:law; 600 s, 4 stops, no outages, the static part the simulator's
 * ``profile``: the pooled NLL (:class:`imunoise.inuse.likelihood.DriveLikelihood`) over the accelerometer white
   factor on a log grid 0.3 … 100, no wander, the gyro group at factor 1 and (with ``--estimate``) at the
   estimate's gyro values;
+  with the grid's minimum, its likelihood interval (ΔNLL ≤ 1.92) and the Wald interval of the curvature there;
+  ``--gnss-sigma`` changes the GNSS σ (where the profile's wall lies), ``--profile-only`` stops here;
 * ``epochs``: per GNSS fix the NLL at factor 1 minus that at ``--factor`` (the gain), with the filter's χ² gate as
   the estimate runs it and without it (gate off, ``gate_abs_m`` 0: then the NIS is the innovation's quadratic form
   q and the term ½(q + log det S) splits into its two parts); the gain's share carried by the top 1/3/10 fixes,
@@ -45,13 +55,15 @@ GRID = [0.3, 0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 16.0, 20.0, 25.0, 30.0, 40.0, 5
 TAUS_S = [0.01, 0.1, 1.0, 10.0, 100.0]
 
 
-def _drive(seed: int, law: str, duration: float, stops: int):
-    """The scenario (as the recovery builds it) and the simulated drive behind it (true increments, error paths)."""
+def _drive(seed: int, law: str, duration: float, stops: int, gnss_sigma: list | None):
+    """The scenario (as the recovery builds it) and the simulated drive behind it (true increments, error paths);
+    ``gnss_sigma`` (N, E, D [m]) replaces the simulator's GNSS σ (simulated and reported) when given."""
     from imunoise.experiments.common import SIM_IMU, simulate_scenario
     from imunoise.sim import DriveConfig, simulate_drive
 
-    sc = simulate_scenario(seed, duration_s=duration, motion_noise=law, n_outages=0, n_stops=stops)
-    dr = simulate_drive(DriveConfig(duration_s=duration, n_stops=stops, seed=seed, motion_noise=law), SIM_IMU,
+    kw = {} if gnss_sigma is None else {"gnss_sigma_m": tuple(gnss_sigma)}
+    sc = simulate_scenario(seed, duration_s=duration, motion_noise=law, n_outages=0, n_stops=stops, **kw)
+    dr = simulate_drive(DriveConfig(duration_s=duration, n_stops=stops, seed=seed, motion_noise=law, **kw), SIM_IMU,
                         seed=seed)
     if not np.array_equal(np.asarray(dr.imu.dv), np.asarray(sc.imu.dv)):
         raise SystemExit(f"seed {seed}: the re-simulated drive differs from the scenario's")
@@ -81,6 +93,25 @@ def _estimate(sc, models) -> dict:
 
 def _profile(sc, models, moving, gyro: tuple) -> list:
     return [[f, float(np.nansum(_run(sc, models, moving, gyro, f).gnss_nll))] for f in GRID]
+
+
+def _profile_summary(prof: list) -> dict:
+    """The grid's minimum, the likelihood interval on the grid (NLL ≤ min + 1.92, ½χ²₁(0.95)) and the Wald
+    interval from the curvature at the grid's minimum in log f (neighbouring grid points), as the estimate's
+    Hessian takes it there."""
+    f = np.array([x for x, _ in prof])
+    v = np.array([y for _, y in prof])
+    i = int(np.argmin(v))
+    inside = f[v <= v[i] + 1.92]
+    out = {"f_min": float(f[i]), "dnll_min_vs_1": float(v[i] - v[f == 1.0][0]),
+           "lik_interval_grid": [float(inside.min()), float(inside.max())], "wald": None}
+    if 0 < i < f.size - 1:
+        u = np.log(f[i - 1:i + 2])
+        c = np.polyfit(u, v[i - 1:i + 2], 2)[0] * 2.0  # second derivative in log f
+        if c > 0:
+            sd = 1.0 / math.sqrt(c)
+            out["wald"] = [float(f[i] * math.exp(-1.96 * sd)), float(f[i] * math.exp(1.96 * sd))]
+    return out
 
 
 def _shares(gain: np.ndarray, masks: dict) -> dict:
@@ -183,15 +214,20 @@ def _models(sc, models) -> dict:
 def diagnose(seed: int, law: str, args) -> dict:
     from imunoise.inuse.likelihood import drive_moving
 
-    sc, dr = _drive(seed, law, args.duration, args.stops)
+    sc, dr = _drive(seed, law, args.duration, args.stops, args.gnss_sigma)
     models = _true_pairs(sc)
     moving = drive_moving(sc)
-    row = {"seed": seed, "law": law, "factor": args.factor}
+    row = {"seed": seed, "law": law, "factor": args.factor, "gnss_sigma_m": args.gnss_sigma}
     if args.estimate:
         row["estimate"] = _estimate(sc, models)
     row["profile_gyro_1"] = _profile(sc, models, moving, (1.0, 0.0, 60.0))
     if args.estimate:
         row["profile_gyro_est"] = _profile(sc, models, moving, tuple(row["estimate"]["gyro"]))
+    for k in ("profile_gyro_1", "profile_gyro_est"):
+        if k in row:
+            row[k + "_summary"] = _profile_summary(row[k])
+    if args.profile_only:
+        return row
     row["epochs"] = _epochs(sc, models, moving, args.factor)
     row["parts"] = _parts(sc, dr, models, moving, args.factor)
     row["models"] = _models(sc, models)
@@ -208,6 +244,9 @@ def _print(row: dict) -> None:
         if k in row:
             n0 = dict((f, v) for f, v in row[k])[1.0]
             print(f"  {k}: NLL − NLL(f=1):", " ".join(f"{f:g}:{v - n0:+.2f}" for f, v in row[k]))
+            print("   ", row[k + "_summary"])
+    if "epochs" not in row:
+        return
     for lab, ep in row["epochs"].items():
         g = ep["gain"]
         print(f"  epochs {lab}: gain {g['total']:.2f} (top1 {g['top1']:.2f}, top3 {g['top3']:.2f}, top10 "
@@ -232,6 +271,9 @@ def main(argv=None) -> int:
     p.add_argument("--duration", type=float, default=600.0, help="drive length [s]")
     p.add_argument("--stops", type=int, default=4)
     p.add_argument("--estimate", action="store_true", help="run the estimate too (gyro values for the profile)")
+    p.add_argument("--gnss-sigma", nargs=3, type=float, default=None, help="GNSS σ N E D [m] (default: the "
+                   "simulator's 1 1 2)")
+    p.add_argument("--profile-only", action="store_true", help="the profiles alone (no epochs, parts, models)")
     p.add_argument("--out", required=True)
     args = p.parse_args(argv)
     rows = []
