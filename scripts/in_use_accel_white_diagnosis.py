@@ -14,7 +14,7 @@ true factor is 1 (docs/evidence/in_use_estimate.md, 'Why the accelerometer white
 development seeds only.)
 
 Per drive (seed:law; 600 s, 4 stops, no outages, the static part the simulator's true static model, as
-``scripts/in_use_estimate.py sim`` builds them: :func:`in_use_estimate._true_pairs`):
+``scripts/in_use_estimate.py sim`` builds them: :func:`imunoise.experiments.oracle_const.true_static_models`):
 
 * ``estimate`` (with ``--estimate``): :func:`imunoise.inuse.estimate_in_motion` as the recovery runs it, its
   group values and the white factor's likelihood-ratio test;
@@ -48,8 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from in_use_estimate import _true_pairs  # noqa: E402 (the recovery's static part, the same code)
+from imunoise.experiments.oracle_const import true_static_models
 
 GRID = [0.3, 0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 16.0, 20.0, 25.0, 30.0, 40.0, 50.0, 70.0, 100.0]
 TAUS_S = [0.01, 0.1, 1.0, 10.0, 100.0]
@@ -215,7 +214,7 @@ def diagnose(seed: int, law: str, args) -> dict:
     from imunoise.inuse.likelihood import drive_moving
 
     sc, dr = _drive(seed, law, args.duration, args.stops, args.gnss_sigma)
-    models = _true_pairs(sc)
+    models = true_static_models(sc)
     moving = drive_moving(sc)
     row = {"seed": seed, "law": law, "factor": args.factor, "gnss_sigma_m": args.gnss_sigma}
     if args.estimate:

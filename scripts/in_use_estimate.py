@@ -26,23 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from imunoise.imu import AXES
 from imunoise.inuse import estimate_in_motion, summary_lines
-
-
-def _true_pairs(sc):
-    """The simulator's true static model as the filter's six models (the static part given to the estimate)."""
-    from imunoise.experiments.common import filter_models
-    from imunoise.noise.model import Model
-    from imunoise.noise.processes import WN
-    from imunoise.online import OnlineConfig
-
-    none = Model([WN(sigma2=1e-30)])
-    cfg = OnlineConfig().with_(ekf=sc.ekf_config(), floor="none")
-    return filter_models([sc.extra["static_models"].get(ax, none) for ax in AXES], sc.rate, cfg)
-
-
-GROUP_AXES = {"gyro": slice(0, 3), "accel": slice(3, 6)}
+from imunoise.inuse.estimate import GROUPS
+from imunoise.io.atomic import atomic_write_text
 
 
 def _truth(sc, moving: np.ndarray) -> dict:
@@ -55,7 +41,8 @@ def _truth(sc, moving: np.ndarray) -> dict:
     step at departures, axes that differ) is marked "not in the family" and not counted."""
     ls = sc.extra["law_schedule"]
     out = {}
-    for g, sl in GROUP_AXES.items():
+    for g, idx in GROUPS.items():
+        sl = slice(idx[0], idx[-1] + 1)  # a group's axes are contiguous; a view keeps the mean's summation order
         w = np.asarray(ls.white_var_scale)[moving][:, sl]
         sig, tau = np.asarray(ls.gm_sigma)[sl], np.asarray(ls.gm_tau_s)[sl]
         bvs = np.asarray(ls.bias_var_scale)[moving][:, sl]
@@ -107,12 +94,13 @@ def _coverage(part, truth: dict) -> dict:
 def _sim_one(job: tuple) -> dict:
     """One simulated drive's estimate (a process of the pool)."""
     from imunoise.experiments.common import simulate_scenario
+    from imunoise.experiments.oracle_const import true_static_models
     from imunoise.inuse.likelihood import drive_moving
 
     law, seed, duration, stops = job
     sc = simulate_scenario(seed, duration_s=duration, motion_noise=law, n_outages=0, n_stops=stops)
     t0 = time.process_time()
-    est = estimate_in_motion([sc], _true_pairs(sc), freq=sc.rate, names=[sc.name])
+    est = estimate_in_motion([sc], true_static_models(sc), freq=sc.rate, names=[sc.name])
     row = {"law": law, "seed": seed, "cpu_s": time.process_time() - t0, "runs": est.runs,
            "hours_moving": est.part.evidence["hours_moving"], "lr_wander": est.lr_wander,
            "lr_white_one": est.part.evidence.get("lr_white_one", {}),
@@ -173,10 +161,8 @@ def recovery_table(rows: list) -> list[str]:
 
 def _write(args, rows: list) -> None:
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(args.out).with_suffix(".part")
-    tmp.write_text(json.dumps({"argv": sys.argv, "seed_role": getattr(args, "seed_role", None), "rows": rows},
-                              indent=1, default=float))
-    tmp.replace(args.out)
+    atomic_write_text(args.out, json.dumps({"argv": sys.argv, "seed_role": getattr(args, "seed_role", None),
+                                            "rows": rows}, indent=1, default=float))
 
 
 def _half(sc, lo: float, hi: float, name: str):
