@@ -107,9 +107,10 @@ def part_effect(results: str, out: str, workers: int, variant: str = "static") -
     run = json.load(open(results))
     law = run["scenario"]["motion_noise"]
     learn = ium.learn_in_use
-    for v in run["in_use_models"].values():
-        _STORED[tuple(v["drives"])] = {"stored": lambda p: p, "white-rule": _white_rule,
-                                       "no-wander": _no_wander}.get(variant, _white_rule)(v["in_motion"])
+    change = {"static": None, "stored": lambda p: p, "white-rule": _white_rule, "no-wander": _no_wander}[variant]
+    if change is not None:  # the run's own parts, changed one way; "static" uses none of them
+        for v in run["in_use_models"].values():
+            _STORED[tuple(v["drives"])] = change(v["in_motion"])
     # the row learns in the worker through this name
     ium.learn_in_use = _static_only if variant == "static" else _stored
     try:
