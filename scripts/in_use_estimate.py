@@ -104,6 +104,7 @@ def _sim_one(job: tuple) -> dict:
     row = {"law": law, "seed": seed, "cpu_s": time.process_time() - t0, "runs": est.runs,
            "hours_moving": est.part.evidence["hours_moving"], "lr_wander": est.lr_wander,
            "lr_white_one": est.part.evidence.get("lr_white_one", {}),
+           "dispersion": est.part.evidence.get("dispersion", {}),
            **_coverage(est.part, _truth(sc, drive_moving(sc)))}
     row["summary"] = summary_lines(est.part)
     return row

@@ -50,19 +50,19 @@ def estimate(kind: str, groups: tuple, patch, maxfev: int = 40):
     value)`` replaces a global of :mod:`imunoise.inuse.likelihood`."""
     trace: list = []
 
-    def drive_nll(drive, moving, th):
+    def drive_terms(drive, moving, th):  # one term per drive: no scores to estimate a dispersion from (c = 1)
         trace.append(th)
-        return synthetic_nll(kind, th)
+        return np.array([synthetic_nll(kind, th)])
 
     patch("in_motion_filter", lambda models, w, s, t: (tuple(w), tuple(s), tuple(t)))
-    patch("drive_nll", drive_nll)
+    patch("drive_terms", drive_terms)
     est = estimate_in_motion([_drive()], default_axis_models(100.0), freq=100.0, groups=groups, maxfev=maxfev)
     return est, trace
 
 
 def every_number(maxfev: int = 40) -> dict:
     """Every number of the estimate and every θ evaluated, for each synthetic optimum and group order."""
-    saved = {k: getattr(lik_mod, k) for k in ("in_motion_filter", "drive_nll")}
+    saved = {k: getattr(lik_mod, k) for k in ("in_motion_filter", "drive_terms")}
     out = {}
     try:
         for kind in TRUE_K:

@@ -21,7 +21,10 @@ static model, or the no-wander white factor; a moderate or a 30× smaller K). Th
   exp(θ̂ ± 1.96 sd), positive by construction; log σ = log K + ½ log τ − ½ log 2 takes its variance from both;
 * the wander is reported as a GM (σ, τ) when both are identified and τ̂ is below its limit (three times the
   drives' moving time), as a random walk k = K when only K is (the data support a random walk), else as a
-  bound.
+  bound;
+* the model family's error: per group the dispersion c ≥ 1 of the fixes' scores against the information
+  (:mod:`imunoise.inuse.dispersion`); the covariance is c times the information's inverse, and the wander's and
+  the white factor's likelihood ratios and the bounds' levels are divided by c.
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ from scipy.optimize import minimize
 
 from imunoise.errors import DataError
 from imunoise.imu import AXES
+from imunoise.inuse.dispersion import dispersion, score_variance
 from imunoise.inuse.likelihood import DriveLikelihood, Theta
 from imunoise.noise.in_motion import (
     AxisInMotion,
@@ -247,6 +251,27 @@ def _cov(H: np.ndarray) -> np.ndarray:
     return np.full((n, n), math.inf)
 
 
+def _dispersion(lik: DriveLikelihood, thf, p: np.ndarray, h: float, H: np.ndarray, cov: np.ndarray) -> float:
+    """The dispersion c ≥ 1 (:mod:`imunoise.inuse.dispersion`) at ``p`` of the parameters ``cov`` keeps (finite
+    variance): the per-fix scores by the central differences the Hessian ``H`` (step ``h``) already ran,
+    ``thf(p)`` the :class:`Theta` of the log parameters ``p``. Fixes without a term in any of the runs are left
+    out; 1 when a run failed."""
+    keep = [i for i in range(p.size) if math.isfinite(cov[i, i])]
+    if not keep:
+        return 1.0
+    e = np.eye(p.size) * h
+    plus = [lik.terms(thf(p + e[i])) for i in keep]
+    minus = [lik.terms(thf(p - e[i])) for i in keep]
+    n = len(lik.drives)
+    if any(len(t) != n for t in (*plus, *minus)):
+        return 1.0
+    scores = []
+    for d in range(n):
+        s = np.column_stack([(a[d] - b[d]) / (2.0 * h) for a, b in zip(plus, minus, strict=True)])
+        scores.append(s[np.all(np.isfinite(s), axis=1)])
+    return dispersion(H[np.ix_(keep, keep)], score_variance(scores))
+
+
 def _scan_up(fun, x0: float, limit: float, level: float, step: float = 1.6) -> float | None:
     """The last x (×``step`` from ``x0``) with fun(x) ≤ ``level`` before it is exceeded, or None if not below
     ``limit``."""
@@ -325,6 +350,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     cov_log: dict[str, Any] = {}
     lrs: dict[str, float] = {}
     lr_white: dict[str, float] = {}
+    dispersions: dict[str, float] = {}  # per group c ≥ 1 (imunoise.inuse.dispersion): intervals × √c, LRs ÷ c
     white_upper: dict[str, float | None] = {}  # the likelihood bound of a white factor that is not identified
     for g in groups:
         idx = GROUPS[g]
@@ -335,16 +361,24 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
         lr = 2.0 * (nll0[g] - nll_hat)
         lrs[g] = lr
         wander = lr > LR_WANDER
+        c = 1.0
+        if wander:  # the wander model's information and dispersion; its test is LR / c
+            thf = lambda p, idx=idx, th=th: _theta_with(th, idx, *_unlog(p))  # noqa: E731
+            H = _hessian(lambda p, thf=thf: lik.nll(thf(p)), logp[g], h)
+            cov = _cov(H)
+            c = _dispersion(lik, thf, logp[g], h, H, cov)
+            wander = lr / c > LR_WANDER
         if not wander:  # the no-wander model: the white factor of the first search, σ = 0
             th = _theta_with(th, idx, math.exp(u0[g]), 0.0, 60.0)
             logp[g][0] = u0[g]
             nll_hat = lik.nll(th)
-            fun = lambda p, idx=idx, th=th: lik.nll(_theta_with(th, idx, math.exp(p[0]), 0.0, 60.0))  # noqa: E731
-            c1 = _cov(_hessian(fun, logp[g][:1], h))
+            thf = lambda p, idx=idx, th=th: _theta_with(th, idx, math.exp(p[0]), 0.0, 60.0)  # noqa: E731
+            H = _hessian(lambda p, thf=thf: lik.nll(thf(p)), logp[g][:1], h)
+            c1 = _cov(H)
+            c = _dispersion(lik, thf, logp[g][:1], h, H, c1)
             cov = np.diag([c1[0, 0], math.inf, math.inf])
-        else:
-            fun = lambda p, idx=idx, th=th: lik.nll(_theta_with(th, idx, *_unlog(p)))  # noqa: E731
-            cov = _cov(_hessian(fun, logp[g], h))
+        cov = cov * c
+        dispersions[g] = c
         cov_log[g] = cov.tolist()
         f, s, tau = _unlog(logp[g])
         k_hat = float(np.exp(logp[g][1]))
@@ -359,7 +393,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
             # stays 1 unless the likelihood ratio rejects it, as the wander stays none unless its test does
             sw = s if wander else 0.0
             lr_white[g] = 2.0 * (lik.nll(_theta_with(th, idx, 1.0, sw, tau)) - nll_hat)
-            if lr_white[g] < LR_WHITE:
+            if lr_white[g] / c < LR_WHITE:
                 white = Interval(1.0, (min(white.ci95[0], 1.0), max(white.ci95[1], 1.0)))
                 f = 1.0
                 th = _theta_with(th, idx, 1.0, sw, tau)
@@ -369,8 +403,9 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
         if not wander:
             bias = BiasWander("none")
             up = _scan_up(lambda x, idx=idx, f=f, th=th: lik.nll(_theta_with(th, idx, f, x, 60.0)),
-                          SIGMA_RANGE[g][0] * 100, SIGMA_RANGE[g][1], nll_hat + HALF_LR1)
-            reason = (f"bias wander while moving not distinguishable from none: LR {lr:.2f} < {LR_WANDER:.2f} "
+                          SIGMA_RANGE[g][0] * 100, SIGMA_RANGE[g][1], nll_hat + HALF_LR1 * c)
+            by_c = f" / dispersion {c:.2f} = {lr / c:.2f}" if c > 1.0 else ""
+            reason = (f"bias wander while moving not distinguishable from none: LR {lr:.2f}{by_c} < {LR_WANDER:.2f} "
                       "(χ²₂ 95 %); upper: σ at τ = 60 s")
         elif sd_t <= WIDE_SD and sd_s <= WIDE_SD and tau < 0.999 * tau_max:
             bias = BiasWander("gm", sigma=s, tau_s=tau, ci95={"sigma": _ci(s, sd_s), "tau_s": _ci(tau, sd_t)})
@@ -388,7 +423,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
         if white.value is None:
             sw = s if wander else 0.0
             wu = _scan_up(lambda x, idx=idx, th=th, sw=sw, tau=tau: lik.nll(_theta_with(th, idx, x, sw, tau)), f,
-                          WHITE_RANGE[1], nll_hat + HALF_LR1, 1.5)
+                          WHITE_RANGE[1], nll_hat + HALF_LR1 * c, 1.5)
             white_upper[g] = wu
             text = "white factor not identified (95 % interval wider than ×/÷ 10)"
             if not reason:
@@ -405,9 +440,10 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
                                                                   for k, d in enumerate(lik.drives)],
                 "hours_moving": lik.hours_moving(), "gnss_sigma_m": lik.gnss_sigma_m(),
                 "method": "maximum likelihood of the GNSS innovations over the whole drives (prediction-error "
-                          "decomposition), per sensor group; 95 % Wald intervals from the observed information",
+                          "decomposition), per sensor group; 95 % Wald intervals from the observed information "
+                          "times the dispersion of the fixes' scores",
                 "freq_hz": float(freq), "groups": list(groups), "nll": lik.nll(th), "nll_static": nll_static,
-                "lr_wander": lrs, "lr_white_one": lr_white,
+                "lr_wander": lrs, "lr_white_one": lr_white, "dispersion": dispersions,
                 "white_upper": white_upper}
     part = InMotionPart(axes, bounds, evidence)
     return InMotionEstimate(part, th, lik.nll(th), nll_static, cov_log, lrs, lik.runs, time.process_time() - t0)

@@ -3,9 +3,9 @@ independent filter runs, so each evaluation of the pooled NLL (:class:`imunoise.
 runs them in parallel, one task per drive.
 
 The drives and their moving flags go to the workers once (scattered to every worker); an evaluation then sends
-only the in-motion filter θ gives. The per-drive NLLs come back in drive order and the likelihood sums them in
-that order, as its serial loop does: the pooled NLL is the serial one to the last bit, and so is the estimate.
-The client comes from :func:`imunoise.io.dask_client.dask_client`, the one ``batch`` uses.
+only the in-motion filter θ gives. The per-drive NLL terms (one per fix) come back in drive order and the
+likelihood sums them in that order, as its serial loop does: the pooled NLL is the serial one to the last bit,
+and so is the estimate. The client comes from :func:`imunoise.io.dask_client.dask_client`, the one ``batch`` uses.
 """
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ SEQUENTIAL = "sequential"
 """``--scheduler sequential``: the drives one after the other in this process (no Dask)."""
 
 
-def _timed(fn: Callable[[Any, np.ndarray, Any], float], drive: Any, moving: np.ndarray,
-           imf: Any) -> tuple[float, float]:
+def _timed(fn: Callable[[Any, np.ndarray, Any], Any], drive: Any, moving: np.ndarray,
+           imf: Any) -> tuple[Any, float]:
     """``fn(drive, moving, imf)`` and the worker's CPU seconds for it."""
     t0 = time.process_time()
     x = fn(drive, moving, imf)
@@ -43,8 +43,8 @@ class DaskDriveMap:
         self.worker_cpu_s = 0.0
         self._sent: tuple[Sequence[Any], list, list] | None = None
 
-    def __call__(self, fn: Callable[[Any, np.ndarray, Any], float], drives: Sequence[Any],
-                 moving: Sequence[np.ndarray], imf: Any) -> list[float]:
+    def __call__(self, fn: Callable[[Any, np.ndarray, Any], Any], drives: Sequence[Any],
+                 moving: Sequence[np.ndarray], imf: Any) -> list[Any]:
         from distributed.comm.core import CommClosedError
         from distributed.scheduler import KilledWorker
 

@@ -34,7 +34,7 @@ from imunoise.inuse.stops import moving_flag
 from imunoise.nav.ekf import run_ekf
 from imunoise.nav.filter_model import in_motion_filter
 
-__all__ = ["Theta", "DriveLikelihood", "DriveMapper", "drive_moving", "drive_nll"]
+__all__ = ["Theta", "DriveLikelihood", "DriveMapper", "drive_moving", "drive_nll", "drive_terms"]
 
 
 @dataclass(frozen=True)
@@ -58,33 +58,43 @@ def drive_moving(drive: Any) -> np.ndarray:
     return moving_flag(drive.imu)
 
 
-def drive_nll(drive: Any, moving: np.ndarray, imf: Any) -> float:
-    """The innovation NLL of one drive's scored fixes under the in-motion filter ``imf`` (inf when the filter
-    fails under it: a θ that makes the filter diverge explains nothing)."""
+def drive_terms(drive: Any, moving: np.ndarray, imf: Any) -> np.ndarray:
+    """The innovation NLL of each of one drive's scored fixes under the in-motion filter ``imf``, in time order
+    (NaN where a fix has none); ``[inf]`` when the filter fails under it: a θ that makes the filter diverge
+    explains nothing."""
     try:
         r = run_ekf(drive.imu, drive.gnss, drive.init, drive.ekf_config(), in_motion=imf, moving=moving,
                     with_nll=True)
     except (DataError, np.linalg.LinAlgError):
-        return math.inf
+        return np.array([math.inf])
     t_after = (getattr(drive, "extra", None) or {}).get("score_after_s", -math.inf)
-    return float(np.nansum(r.gnss_nll[np.asarray(r.gnss_t) >= t_after]))
+    return np.asarray(r.gnss_nll[np.asarray(r.gnss_t) >= t_after], dtype=float)
 
 
-DriveMapper = Callable[[Callable[[Any, np.ndarray, Any], float], Sequence[Any], Sequence[np.ndarray], Any],
-                       Sequence[float]]
-"""``mapper(drive_nll, drives, moving, imf)`` → per drive ``drive_nll(drive, moving, imf)``, in drive order."""
+def drive_nll(drive: Any, moving: np.ndarray, imf: Any) -> float:
+    """The innovation NLL of one drive's scored fixes under the in-motion filter ``imf`` (the sum of
+    :func:`drive_terms`; inf when the filter fails under it)."""
+    return float(np.nansum(drive_terms(drive, moving, imf)))
+
+
+DriveMapper = Callable[[Callable[[Any, np.ndarray, Any], Any], Sequence[Any], Sequence[np.ndarray], Any],
+                       Sequence[Any]]
+"""``mapper(fn, drives, moving, imf)`` → per drive ``fn(drive, moving, imf)`` (:func:`drive_terms`), in drive
+order."""
 
 
 @dataclass
 class DriveLikelihood:
     """The pooled NLL of the GNSS fixes of ``drives`` (module docstring) under the static filter ``models`` (the
-    six models of the door, each with its rate) plus an in-motion :class:`Theta`; ``nll(theta)`` is cached.
-    ``mapper`` (a :data:`DriveMapper`): where the drives' runs go (default: one after the other, here)."""
+    six models of the door, each with its rate) plus an in-motion :class:`Theta`; ``nll(theta)`` and the per-fix
+    terms behind it (``terms(theta)``) are cached. ``mapper`` (a :data:`DriveMapper`): where the drives' runs go
+    (default: one after the other, here)."""
 
     drives: Sequence[Any]
     models: list
     mapper: DriveMapper | None = None
     cache: dict = field(default_factory=dict)
+    term_cache: dict = field(default_factory=dict)
     runs: int = 0
     cpu_s: float = 0.0
 
@@ -110,18 +120,28 @@ class DriveLikelihood:
         t0 = time.process_time()
         imf = in_motion_filter(self.models, theta.white, theta.sigma, theta.tau_s)
         if self.mapper is None:  # lazily: the runs stop at the first drive that fails
-            nlls = (drive_nll(d, mv, imf) for d, mv in zip(self.drives, self.moving, strict=True))
+            per = (drive_terms(d, mv, imf) for d, mv in zip(self.drives, self.moving, strict=True))
         else:
-            nlls = self.mapper(drive_nll, self.drives, self.moving, imf)
+            per = self.mapper(drive_terms, self.drives, self.moving, imf)
         total = 0.0
-        for x in nlls:  # in drive order, whoever ran them
+        terms = []
+        for a in per:  # in drive order, whoever ran them
+            x = float(np.nansum(a))
+            terms.append(a)
             total += x
             if math.isinf(x):
                 break
         self.runs += len(self.drives)
         self.cpu_s += time.process_time() - t0
         self.cache[k] = total
+        self.term_cache[k] = terms
         return total
+
+    def terms(self, theta: Theta) -> list[np.ndarray]:
+        """Per drive the NLL of each scored fix under ``theta`` (:func:`drive_terms`; fewer drives when a run
+        failed), from the same runs as :meth:`nll`."""
+        self.nll(theta)
+        return self.term_cache[theta.key()]
 
     def hours_moving(self) -> float:
         """Hours of driving (moving flag) over the drives."""

@@ -25,7 +25,8 @@ def _sigma(a: str, v: float) -> str:
 
 
 def summary_lines(part: InMotionPart) -> list[str]:
-    """Per axis: "gyro_y: in-use N 2.10× static [1.80, 2.50]; bias wander GM σ 120 °/h [..] τ 60 s [..]"."""
+    """Per axis: "gyro_y: in-use N 2.10× static [1.80, 2.50]; bias wander GM σ 120 °/h [..] τ 60 s [..]", the
+    group's dispersion where it is above 1, then a bound with its reason."""
     lines = []
     for a in AXES:
         if a not in part.axes:
@@ -44,6 +45,9 @@ def summary_lines(part: InMotionPart) -> list[str]:
             s += f"; bias wander while moving RW k {b.k:.3g} {unit}" + (f" [{ci[0]:.3g}, {ci[1]:.3g}]" if ci else "")
         if ax.factor_K.value is not None:
             s += f"; in-use K {_iv(ax.factor_K)} static"
+        c = (part.evidence.get("dispersion") or {}).get("gyro" if a.startswith("gyro") else "accel", 1.0)
+        if c > 1.0:  # imunoise.inuse.dispersion: the family's error widens the intervals
+            s += f"; dispersion {c:.3g} (model error: log intervals {math.sqrt(c):.3g}× wider)"
         bd = part.bounds.get(a)
         if bd is not None:
             up = "" if bd.upper is None else f" ≤ {_sigma(a, bd.upper) if bd.what == 'bias' else f'{bd.upper:.3g}'}"
