@@ -101,3 +101,27 @@ def test_intervals_widen_by_the_dispersion_of_time_correlated_fixes(monkeypatch,
     assert wf.covers(1.0) == (phi > 0)
     # the summary says so where it widened the intervals
     assert any("dispersion" in line for line in summary_lines(est.part)) == (c > 1.0)
+
+
+def test_the_likelihood_keeps_each_fix_term_and_its_nll_is_their_sum(monkeypatch):
+    """The per-fix terms the scores come from are those of the NLL's own runs: the cached NLL is their NaN-skipping
+    sum to the bit, one run per drive and θ (a fix without a term, NaN, adds nothing)."""
+    from types import SimpleNamespace
+
+    from imunoise.inuse.likelihood import DriveLikelihood, Theta
+
+    calls = []
+
+    def drive_terms(drive, moving, th):
+        calls.append(th)
+        return np.array([0.1, np.nan, 0.25 * th[0][0], drive.k])
+
+    monkeypatch.setattr(lik_mod, "in_motion_filter", lambda models, w, s, t: (tuple(w), tuple(s), tuple(t)))
+    monkeypatch.setattr(lik_mod, "drive_terms", drive_terms)
+    drives = [SimpleNamespace(k=k, static_truth=np.zeros(4, dtype=bool)) for k in (1.0, 2.0)]
+    lik = DriveLikelihood(drives, default_axis_models(100.0))
+    th = Theta(white=(2.0,) * 6)
+    total = lik.nll(th)
+    terms = lik.terms(th)
+    assert len(calls) == 2 and lik.runs == 2  # terms() reused the runs of nll()
+    assert total == float(np.nansum(terms[0])) + float(np.nansum(terms[1])) == 0.1 + 0.5 + 1.0 + 0.1 + 0.5 + 2.0
