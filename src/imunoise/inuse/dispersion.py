@@ -43,8 +43,9 @@ def bandwidth(x: np.ndarray) -> int:
 
 
 def hac(s: np.ndarray, lag: int) -> np.ndarray:
-    """Σ over lags |j| ≤ ``lag`` of the Bartlett-weighted (1 − |j|/(lag + 1)) sums of s_k s_{k−j}ᵀ of the
-    scores ``s`` (T × p), centred: the variance of their sum, T times the long-run covariance."""
+    """Σ over lags j with ``abs(j) ≤ lag`` of the Bartlett-weighted ``(1 − abs(j)/(lag + 1))`` sums of
+    s_k s_{k−j}ᵀ of the scores ``s`` (T × p), centred: the variance of their sum, T times the long-run
+    covariance."""
     s = np.asarray(s, dtype=float)
     s = s - s.mean(axis=0)
     out = s.T @ s
