@@ -9,6 +9,7 @@ import math
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 import imunoise.inuse.likelihood as lik_mod
 from imunoise.inuse import estimate_in_motion
@@ -38,6 +39,23 @@ def test_one_newton_step_lands_on_a_quadratics_minimum():
     assert np.allclose(fin.p, XMIN, rtol=0, atol=1e-10)
     assert fin.left < 1e-18
     assert np.allclose(fin.cov, np.linalg.inv(A), rtol=1e-10, atol=0)
+
+
+def test_a_decided_caller_gets_no_steps():
+    """``decided(f, left)`` sees the value and the remaining decrease and ends the steps: a caller that asks whether
+    the minimum is below a level stops when twice the remaining decrease cannot reach it."""
+    seen = []
+
+    def decided(f, left):
+        seen.append((f, left))
+        return f - 2.0 * left > -10.0  # 14.8 − 2·11.8 (the value and twice what is left of it above 3) > −10
+
+    p0 = np.zeros(3)
+    fin = newton_finish(_quadratic, p0, 0.25, *BOX, decided=decided)
+    assert fin.steps == 0 and np.array_equal(fin.p, p0)
+    assert seen == [(_quadratic(p0), pytest.approx(_quadratic(p0) - 3.0, rel=1e-12))]
+    fin = newton_finish(_quadratic, p0, 0.25, *BOX, decided=lambda f, left: f - 2.0 * left > 2.5)
+    assert fin.steps == 1 and np.allclose(fin.p, XMIN, rtol=0, atol=1e-10)
 
 
 def test_the_steps_never_raise_the_function_and_stop_at_the_box():

@@ -224,17 +224,19 @@ def _refine_no_wander(lik: DriveLikelihood, th: Theta, g: str, tau_max: float, u
 
 
 def _white_profile(lik: DriveLikelihood, th: Theta, idx: Sequence[int], p: np.ndarray, H: np.ndarray, h: float,
-                   box: tuple[np.ndarray, np.ndarray]):
+                   box: tuple[np.ndarray, np.ndarray], level: float):
     """The wander model held at white factor 1: (log K, log τ) from the better of ``p``'s and the quadratic model's
     conditional optimum (``H`` the Hessian at ``p``), finished by Newton steps: their
-    :class:`~imunoise.inuse.information.Information` and the NLL where they ended."""
+    :class:`~imunoise.inuse.information.Information` and the NLL where they ended. The steps stop once twice the
+    quadratic model's remaining decrease cannot bring the NLL below ``level`` (the test's decision is made)."""
     fun = lambda r: lik.nll(_theta_with(th, idx, *_unlog(np.array([0.0, *r]))))  # noqa: E731
     starts = [p[1:]]
     try:
         starts.append(np.clip(p[1:] + np.linalg.solve(H[1:, 1:], H[1:, 0] * p[0]), box[0][1:], box[1][1:]))
     except np.linalg.LinAlgError:
         pass
-    fin = newton_finish(fun, min(starts, key=fun), h, box[0][1:], box[1][1:])
+    fin = newton_finish(fun, min(starts, key=fun), h, box[0][1:], box[1][1:],
+                        decided=lambda f, left: f - 2.0 * left > level)
     return fin, fun(fin.p)
 
 
@@ -251,7 +253,7 @@ def _scan_up(fun, x0: float, limit: float, level: float, step: float = 1.6) -> f
 
 
 def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float, seed: int | None = None,
-                       groups: Sequence[str] = ("gyro", "accel"), maxfev: int = 40, h: float = 0.25,
+                       groups: Sequence[str] = ("gyro", "accel"), maxfev: int = 25, h: float = 0.25,
                        names: Sequence[str] | None = None, mapper: Any = None) -> InMotionEstimate:
     """Estimate the in-motion noise from whole GNSS-aided drives (module docstring).
 
@@ -271,7 +273,9 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     groups : sequence of {"gyro", "accel"}
         The sensor groups to estimate (the others keep factor 1 and no wander).
     maxfev : int
-        Likelihood evaluations per group in the search.
+        Likelihood evaluations per group in the Nelder–Mead search (a third of it in the second pass); Newton
+        steps finish it. On the real drive 25 and the steps reach a lower NLL than 40 and the steps, in fewer
+        filter runs (docs/evidence/in_use_estimate.md, 'Where the search stops').
     h : float
         Step of the Hessian's differences in the log parameters.
     names : sequence of str, optional
@@ -368,7 +372,8 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
             # quadratic in log f that far out; docs/evidence/in_use_ceiling.md, 'Under law none'): the factor
             # stays 1 unless the likelihood ratio rejects it, as the wander stays none unless its test does
             # (Wilks: with the wander's K and τ searched again at factor 1; kept as they were, the ratio overstates)
-            r, nll1 = _white_profile(lik, th, idx, logp[g], H, h, _box(g, tau_max)) if wander else (None, None)
+            r, nll1 = _white_profile(lik, th, idx, logp[g], H, h, _box(g, tau_max),
+                                     nll_hat + 0.5 * LR_WHITE * c) if wander else (None, None)
             sw = s if wander else 0.0
             lr_white[g] = 2.0 * ((nll1 if r else lik.nll(_theta_with(th, idx, 1.0, sw, tau))) - nll_hat)
             if lr_white[g] / c < LR_WHITE:

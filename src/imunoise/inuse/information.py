@@ -80,9 +80,11 @@ class Information:
 
 
 def newton_finish(fun: Callable[[np.ndarray], float], p: np.ndarray, h: float, lo: np.ndarray, hi: np.ndarray, *,
-                  tol: float = 0.02, max_steps: int = 3) -> Information:
+                  tol: float = 0.02, max_steps: int = 3,
+                  decided: Callable[[float, float], bool] | None = None) -> Information:
     """Newton steps on ``fun`` from ``p`` inside the box [``lo``, ``hi``] (module docstring); at most ``max_steps``,
-    each taken only where ``fun`` falls."""
+    each taken only where ``fun`` falls; none once ``decided(fun(p), left)`` (a caller that needs only to know
+    whether the minimum is below a level stops when the remaining decrease cannot decide it otherwise)."""
     p = np.asarray(p, dtype=float).copy()
     steps = 0
     while True:
@@ -94,9 +96,9 @@ def newton_finish(fun: Callable[[np.ndarray], float], p: np.ndarray, h: float, l
         if keep:
             d[keep] = -cov[np.ix_(keep, keep)] @ g[keep]
         left = float(-0.5 * g @ d)
-        if steps >= max_steps or not left > tol:
-            return Information(p, H, cov, steps, left)
         f0 = fun(p)
+        if steps >= max_steps or not left > tol or (decided is not None and decided(f0, left)):
+            return Information(p, H, cov, steps, left)
         for frac in (1.0, 0.5):
             q = np.clip(p + frac * d, lo, hi)
             if fun(q) < f0:
