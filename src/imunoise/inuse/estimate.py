@@ -253,7 +253,7 @@ def _scan_up(fun, x0: float, limit: float, level: float, step: float = 1.6) -> f
 
 
 def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float, seed: int | None = None,
-                       groups: Sequence[str] = ("gyro", "accel"), maxfev: int = 25, h: float = 0.25,
+                       groups: Sequence[str] = ("gyro", "accel"), maxfev: int = 40, h: float = 0.25,
                        names: Sequence[str] | None = None, mapper: Any = None) -> InMotionEstimate:
     """Estimate the in-motion noise from whole GNSS-aided drives (module docstring).
 
@@ -274,8 +274,9 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
         The sensor groups to estimate (the others keep factor 1 and no wander).
     maxfev : int
         Likelihood evaluations per group in the Nelder–Mead search (a third of it in the second pass); Newton
-        steps finish it. On the real drive 25 and the steps reach a lower NLL than 40 and the steps, in fewer
-        filter runs (docs/evidence/in_use_estimate.md, 'Where the search stops').
+        steps finish it, but cannot move a parameter the likelihood is flat in where the search left it: with 25
+        the moving GM's τ stayed far out on simulated drives (docs/evidence/in_use_estimate.md, 'Where the
+        search stops').
     h : float
         Step of the Hessian's differences in the log parameters.
     names : sequence of str, optional
