@@ -11,7 +11,7 @@ import pytest
 
 from imunoise.imu import AXES
 from imunoise.inuse import estimate_in_motion, summary_lines
-from imunoise.inuse.estimate import WIDE_SD, _cov
+from imunoise.inuse.information import WIDE_SD, covariance
 
 
 def _drive(seed: int, law: str):
@@ -28,10 +28,10 @@ def _drive(seed: int, law: str):
 
 def test_flat_parameters_are_left_out_of_the_covariance():
     H = np.array([[1e-3, 0.5, 0.0], [0.5, 50.0, 2.0], [0.0, 2.0, 1.0]])
-    cov = _cov(H)
+    cov = covariance(H)
     assert math.isinf(cov[0, 0])  # curvature alone gives ×/÷ > 10: flat
     assert np.allclose(cov[1:, 1:], np.linalg.inv(H[1:, 1:]))
-    assert np.all(np.isinf(_cov(np.diag([1.0 / WIDE_SD**2 / 2] * 3))))
+    assert np.all(np.isinf(covariance(np.diag([1.0 / WIDE_SD**2 / 2] * 3))))
 
 
 def test_the_static_models_old_names_warn_and_hand_over_the_same_models():

@@ -5,8 +5,9 @@ IMU → detection → modelling → filter: it runs the aided filter over whole 
 * :class:`InMotionPart` (with :class:`AxisInMotion`, :class:`BiasWander`, :class:`Interval`, :class:`Bound`):
   the model file's ``in_motion`` part (:mod:`imunoise.noise.in_motion`);
 * :func:`estimate_in_motion`: maximum likelihood of the GNSS innovations over whole drives
-  (:mod:`imunoise.inuse.estimate`), returning an :class:`InMotionEstimate`; its intervals carry the model
-  family's error through the fixes' dispersion (:mod:`imunoise.inuse.dispersion`);
+  (:mod:`imunoise.inuse.estimate`), returning an :class:`InMotionEstimate`; its search is finished by Newton
+  steps and its intervals come from the observed information (:mod:`imunoise.inuse.information`), widened by the
+  model family's error through the fixes' dispersion (:mod:`imunoise.inuse.dispersion`);
 * :func:`summary_lines`: the per-axis factors with intervals and units, as ``calibrate`` prints them.
 """
 

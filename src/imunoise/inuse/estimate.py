@@ -7,18 +7,23 @@ correlation time τ_g (the GM evolves while moving and is frozen at stops; K rat
 shorter than τ sees the driving density, and σ, τ alone would lie on a ridge). The group's axes share them.
 One group at a time, the other held at its current values (gyros first): the white factor without wander
 (bounded golden search), then (log f, log K, log τ) by Nelder–Mead from the best of four starts (f = 1, the
-static model, or the no-wander white factor; a moderate or a 30× smaller K). Then:
+static model, or the no-wander white factor; a moderate or a 30× smaller K). Where the wander's test
+(below) passes at the search's end, Newton steps from the Hessian's own runs finish the search
+(:mod:`imunoise.inuse.information`: the simplex stops short of the optimum by a sizeable part of a standard
+deviation). Then:
 
 * the wander's test: LR = 2(NLL(no wander, f searched again at the other group's final values) − NLL(θ̂))
   against χ²₂(0.95) = 5.99. Below it the wander is not given as a number: the bound says up to which σ (at
   τ = 60 s) the fixes still fit (ΔNLL ≤ 1.92) and why;
-* the white factor's test: where its Wald interval (below) excludes 1, LR = 2(NLL(factor 1, the rest kept) −
-  NLL(θ̂)) against χ²₁(0.95) = 3.84; below it the factor is 1, its interval the Wald one widened to 1 (the
-  curvature at f̂ can exclude 1 where the likelihood does not);
+* the white factor's test: where its Wald interval (below) excludes 1, LR = 2(NLL(factor 1) − NLL(θ̂)) against
+  χ²₁(0.95) = 3.84, the wander's K and τ searched again at factor 1 (the profile: kept as they were, the ratio
+  overstates); below it the factor is 1, its interval the Wald one widened to 1 (the curvature at f̂ can exclude
+  1 where the likelihood does not), the wander where the profile ended with its information there;
 * intervals from the observed information: the Hessian of the NLL in the log parameters by central
   differences (step ``h``). A parameter whose curvature alone gives a 95 % interval wider than ×/÷ 10 is flat
-  (not identified: a bound with the reason) and left out; the rest is inverted (:func:`_cov`); Wald intervals
-  exp(θ̂ ± 1.96 sd), positive by construction; log σ = log K + ½ log τ − ½ log 2 takes its variance from both;
+  (not identified: a bound with the reason) and left out; the rest is inverted
+  (:func:`~imunoise.inuse.information.covariance`); Wald intervals exp(θ̂ ± 1.96 sd), positive by construction;
+  log σ = log K + ½ log τ − ½ log 2 takes its variance from both;
 * the wander is reported as a GM (σ, τ) when both are identified and τ̂ is below its limit (three times the
   drives' moving time), as a random walk k = K when only K is (the data support a random walk), else as a
   bound;
@@ -40,7 +45,7 @@ from scipy.optimize import minimize
 
 from imunoise.errors import DataError
 from imunoise.imu import AXES
-from imunoise.inuse.dispersion import dispersion, score_variance
+from imunoise.inuse.information import WIDE_SD, covariance, dispersion_at, hessian, newton_finish
 from imunoise.inuse.likelihood import DriveLikelihood, Theta
 from imunoise.noise.in_motion import (
     AxisInMotion,
@@ -63,7 +68,6 @@ TAU_MIN_S = 2.0  # the longest τ searched is walk_tau_s (≥ 10 × this)
 LR_WANDER = 5.991  # χ²₂(0.95)
 LR_WHITE = 3.841  # χ²₁(0.95)
 HALF_LR1 = 1.92  # ½ χ²₁(0.95)
-WIDE_SD = math.log(10.0) / 1.96
 
 
 @dataclass
@@ -219,57 +223,21 @@ def _refine_no_wander(lik: DriveLikelihood, th: Theta, g: str, tau_max: float, u
     refined[g] = held
 
 
-def _hessian(fun, p: np.ndarray, h: float) -> np.ndarray:
-    n = p.size
-    f0 = fun(p)
-    H = np.zeros((n, n))
-    e = np.eye(n) * h
-    for i in range(n):
-        H[i, i] = (fun(p + e[i]) - 2 * f0 + fun(p - e[i])) / (h * h)
-        for j in range(i):
-            H[i, j] = H[j, i] = (fun(p + e[i] + e[j]) - fun(p + e[i] - e[j]) - fun(p - e[i] + e[j])
-                                 + fun(p - e[i] - e[j])) / (4 * h * h)
-    return H
-
-
-def _cov(H: np.ndarray) -> np.ndarray:
-    """Covariance of the log parameters from the observed information ``H``: a parameter whose curvature alone
-    gives an interval wider than ×/÷ 10 (flat) is left out (variance inf) and the rest inverted; if that block is
-    not positive definite either, the least curved parameter is left out too, and so on."""
-    n = H.shape[0]
-    keep = [i for i in range(n) if H[i, i] > 1.0 / WIDE_SD**2]
-    while keep:
-        sub = H[np.ix_(keep, keep)]
-        try:
-            np.linalg.cholesky(sub)
-        except np.linalg.LinAlgError:
-            keep.remove(min(keep, key=lambda i: H[i, i]))
-            continue
-        cov = np.full((n, n), math.inf)
-        cov[np.ix_(keep, keep)] = np.linalg.inv(sub)
-        return cov
-    return np.full((n, n), math.inf)
-
-
-def _dispersion(lik: DriveLikelihood, thf, p: np.ndarray, h: float, H: np.ndarray, cov: np.ndarray) -> float:
-    """The dispersion c ≥ 1 (:mod:`imunoise.inuse.dispersion`) at ``p`` of the parameters ``cov`` keeps (finite
-    variance): the per-fix scores by the central differences the Hessian ``H`` (step ``h``) already ran,
-    ``thf(p)`` the :class:`Theta` of the log parameters ``p``. Fixes without a term in any of the runs are left
-    out; 1 when a run failed."""
-    keep = [i for i in range(p.size) if math.isfinite(cov[i, i])]
-    if not keep:
-        return 1.0
-    e = np.eye(p.size) * h
-    plus = [lik.terms(thf(p + e[i])) for i in keep]
-    minus = [lik.terms(thf(p - e[i])) for i in keep]
-    n = len(lik.drives)
-    if any(len(t) != n for t in (*plus, *minus)):
-        return 1.0
-    scores = []
-    for d in range(n):
-        s = np.column_stack([(a[d] - b[d]) / (2.0 * h) for a, b in zip(plus, minus, strict=True)])
-        scores.append(s[np.all(np.isfinite(s), axis=1)])
-    return dispersion(H[np.ix_(keep, keep)], score_variance(scores))
+def _white_profile(lik: DriveLikelihood, th: Theta, idx: Sequence[int], p: np.ndarray, H: np.ndarray, h: float,
+                   box: tuple[np.ndarray, np.ndarray], level: float):
+    """The wander model held at white factor 1: (log K, log τ) from the better of ``p``'s and the quadratic model's
+    conditional optimum (``H`` the Hessian at ``p``), finished by Newton steps: their
+    :class:`~imunoise.inuse.information.Information` and the NLL where they ended. The steps stop once twice the
+    quadratic model's remaining decrease cannot bring the NLL below ``level`` (the test's decision is made)."""
+    fun = lambda r: lik.nll(_theta_with(th, idx, *_unlog(np.array([0.0, *r]))))  # noqa: E731
+    starts = [p[1:]]
+    try:
+        starts.append(np.clip(p[1:] + np.linalg.solve(H[1:, 1:], H[1:, 0] * p[0]), box[0][1:], box[1][1:]))
+    except np.linalg.LinAlgError:
+        pass
+    fin = newton_finish(fun, min(starts, key=fun), h, box[0][1:], box[1][1:],
+                        decided=lambda f, left: f - 2.0 * left > level)
+    return fin, fun(fin.p)
 
 
 def _scan_up(fun, x0: float, limit: float, level: float, step: float = 1.6) -> float | None:
@@ -305,7 +273,10 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
     groups : sequence of {"gyro", "accel"}
         The sensor groups to estimate (the others keep factor 1 and no wander).
     maxfev : int
-        Likelihood evaluations per group in the search.
+        Likelihood evaluations per group in the Nelder–Mead search (a third of it in the second pass); Newton
+        steps finish it, but cannot move a parameter the likelihood is flat in where the search left it: with 25
+        the moving GM's τ stayed far out on simulated drives (docs/evidence/in_use_estimate.md, 'Where the
+        search stops').
     h : float
         Step of the Hessian's differences in the log parameters.
     names : sequence of str, optional
@@ -344,6 +315,16 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
         starts = [logp[g], np.array([u0[g], *logp[g][1:]]), *_starts(g, tau_max, (u0[g],))[1:]]
         logp[g] = _search(lik, th, g, tau_max, starts, maxfev // 3)
         th = _theta_with(th, GROUPS[g], *_unlog(logp[g]))
+    # the search stops where its simplex is small, not at the optimum: Newton steps from the Hessian's own runs
+    # finish it for every group whose wander the search already kept (imunoise.inuse.information)
+    for g in groups:
+        _refine_no_wander(lik, th, g, tau_max, u0, nll0, refined)
+        if 2.0 * (nll0[g] - lik.nll(th)) > LR_WANDER:
+            idx = GROUPS[g]
+            fin = newton_finish(lambda p, idx=idx, th=th: lik.nll(_theta_with(th, idx, *_unlog(p))), logp[g], h,
+                                *_box(g, tau_max))
+            logp[g] = fin.p
+            th = _theta_with(th, idx, *_unlog(fin.p))
     nk = static_nk(lik.models, max(float(d.imu.t[-1] - d.init.t) for d in lik.drives) / 2.0)
     axes: dict[str, AxisInMotion] = {}
     bounds: dict[str, Bound] = {}
@@ -364,18 +345,18 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
         c = 1.0
         if wander:  # the wander model's information and dispersion; its test is LR / c
             thf = lambda p, idx=idx, th=th: _theta_with(th, idx, *_unlog(p))  # noqa: E731
-            H = _hessian(lambda p, thf=thf: lik.nll(thf(p)), logp[g], h)
-            cov = _cov(H)
-            c = _dispersion(lik, thf, logp[g], h, H, cov)
+            H = hessian(lambda p, thf=thf: lik.nll(thf(p)), logp[g], h)
+            cov = covariance(H)
+            c = dispersion_at(lik, thf, logp[g], h, H, cov)
             wander = lr / c > LR_WANDER
         if not wander:  # the no-wander model: the white factor of the first search, σ = 0
             th = _theta_with(th, idx, math.exp(u0[g]), 0.0, 60.0)
             logp[g][0] = u0[g]
             nll_hat = lik.nll(th)
             thf = lambda p, idx=idx, th=th: _theta_with(th, idx, math.exp(p[0]), 0.0, 60.0)  # noqa: E731
-            H = _hessian(lambda p, thf=thf: lik.nll(thf(p)), logp[g][:1], h)
-            c1 = _cov(H)
-            c = _dispersion(lik, thf, logp[g][:1], h, H, c1)
+            H = hessian(lambda p, thf=thf: lik.nll(thf(p)), logp[g][:1], h)
+            c1 = covariance(H)
+            c = dispersion_at(lik, thf, logp[g][:1], h, H, c1)
             cov = np.diag([c1[0, 0], math.inf, math.inf])
         cov = cov * c
         dispersions[g] = c
@@ -391,10 +372,22 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
             # the Wald interval from the curvature at f̂ can exclude 1 where the likelihood does not (the NLL is not
             # quadratic in log f that far out; docs/evidence/in_use_ceiling.md, 'Under law none'): the factor
             # stays 1 unless the likelihood ratio rejects it, as the wander stays none unless its test does
+            # (Wilks: with the wander's K and τ searched again at factor 1; kept as they were, the ratio overstates)
+            r, nll1 = _white_profile(lik, th, idx, logp[g], H, h, _box(g, tau_max),
+                                     nll_hat + 0.5 * LR_WHITE * c) if wander else (None, None)
             sw = s if wander else 0.0
-            lr_white[g] = 2.0 * (lik.nll(_theta_with(th, idx, 1.0, sw, tau)) - nll_hat)
+            lr_white[g] = 2.0 * ((nll1 if r else lik.nll(_theta_with(th, idx, 1.0, sw, tau))) - nll_hat)
             if lr_white[g] / c < LR_WHITE:
                 white = Interval(1.0, (min(white.ci95[0], 1.0), max(white.ci95[1], 1.0)))
+                if r:  # the model held at factor 1: its wander where the profile ended, its information there
+                    logp[g] = np.array([0.0, *r.p])
+                    cov[1:, 1:] = r.cov * c
+                    cov_log[g] = cov.tolist()
+                    f, s, tau = _unlog(logp[g])
+                    k_hat, sw = float(np.exp(logp[g][1])), s
+                    sd_k, sd_t = np.sqrt(np.diag(cov))[1:]
+                    var_s = cov[1, 1] + 0.25 * cov[2, 2] + cov[1, 2] if np.all(np.isfinite(cov[1:, 1:])) else math.inf
+                    sd_s = math.sqrt(var_s) if var_s >= 0 else math.inf
                 f = 1.0
                 th = _theta_with(th, idx, 1.0, sw, tau)
                 logp[g][0] = 0.0
