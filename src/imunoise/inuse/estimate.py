@@ -240,6 +240,13 @@ def _white_profile(lik: DriveLikelihood, th: Theta, idx: Sequence[int], p: np.nd
     return fin, fun(fin.p)
 
 
+def _sds(cov: np.ndarray) -> tuple[float, float, float, float]:
+    """The sd of log f, log K, log τ (``cov``'s diagonal) and of log σ = log K + ½ log τ − ½ log 2 (from both)."""
+    sd_f, sd_k, sd_t = (float(x) for x in np.sqrt(np.diag(cov)))
+    var_s = cov[1, 1] + 0.25 * cov[2, 2] + cov[1, 2] if np.all(np.isfinite(cov[1:, 1:])) else math.inf
+    return sd_f, sd_k, sd_t, (math.sqrt(var_s) if var_s >= 0 else math.inf)
+
+
 def _scan_up(fun, x0: float, limit: float, level: float, step: float = 1.6) -> float | None:
     """The last x (×``step`` from ``x0``) with fun(x) ≤ ``level`` before it is exceeded, or None if not below
     ``limit``."""
@@ -363,10 +370,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
         cov_log[g] = cov.tolist()
         f, s, tau = _unlog(logp[g])
         k_hat = float(np.exp(logp[g][1]))
-        sd_f, sd_k, sd_t = np.sqrt(np.diag(cov))
-        # log σ = log K + ½ log τ − ½ log 2
-        var_s = cov[1, 1] + 0.25 * cov[2, 2] + cov[1, 2] if np.all(np.isfinite(cov[1:, 1:])) else math.inf
-        sd_s = math.sqrt(var_s) if var_s >= 0 else math.inf
+        sd_f, sd_k, sd_t, sd_s = _sds(cov)
         white = Interval(f, _ci(f, sd_f)) if sd_f <= WIDE_SD else Interval(None)
         if white.value is not None and white.ci95 is not None and not white.covers(1.0):
             # the Wald interval from the curvature at f̂ can exclude 1 where the likelihood does not (the NLL is not
@@ -385,9 +389,7 @@ def estimate_in_motion(drives: Sequence[Any], static_model: Any, *, freq: float,
                     cov_log[g] = cov.tolist()
                     f, s, tau = _unlog(logp[g])
                     k_hat, sw = float(np.exp(logp[g][1])), s
-                    sd_k, sd_t = np.sqrt(np.diag(cov))[1:]
-                    var_s = cov[1, 1] + 0.25 * cov[2, 2] + cov[1, 2] if np.all(np.isfinite(cov[1:, 1:])) else math.inf
-                    sd_s = math.sqrt(var_s) if var_s >= 0 else math.inf
+                    _, sd_k, sd_t, sd_s = _sds(cov)
                 f = 1.0
                 th = _theta_with(th, idx, 1.0, sw, tau)
                 logp[g][0] = 0.0
