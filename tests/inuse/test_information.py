@@ -22,23 +22,50 @@ A = np.array([[4.0, 1.0, 0.5], [1.0, 3.0, -0.8], [0.5, -0.8, 2.0]])
 XMIN = np.array([0.7, -1.2, 2.5])
 
 
+A_INV_NORM = float(np.linalg.norm(np.linalg.inv(A), 2))
+
+
 def _quadratic(x: np.ndarray) -> float:
     d = x - XMIN
     return float(0.5 * d @ A @ d + 3.0)
 
 
+def _rounding(fun, p: np.ndarray, h: float) -> tuple[float, float]:
+    """Bounds of the rounding in the central differences at ``p`` (exact in exact arithmetic on a quadratic): each
+    value of ``fun`` within 10 ε |f| (a 3 × 3 quadratic form and its sums), F the largest |f| the differences
+    evaluate; a second difference adds four values over h², a first difference two over 2h. Returns the bound
+    for the Hessian's and for the gradient's entries."""
+    grid = np.array(np.meshgrid(*[[-h, 0.0, h]] * p.size)).reshape(p.size, -1).T
+    big = max(abs(fun(p + a)) for a in grid)
+    err = 10.0 * np.finfo(float).eps * big
+    return 4.0 * err / h**2, 2.0 * err / (2.0 * h)
+
+
 def test_central_differences_are_exact_on_a_quadratic():
     x = np.array([0.1, 0.2, -0.3])
-    assert np.allclose(hessian(_quadratic, x, 0.25), A, rtol=0, atol=1e-12)
-    assert np.allclose(gradient(_quadratic, x, 0.25), A @ (x - XMIN), rtol=0, atol=1e-12)
+    tol_h, tol_g = _rounding(_quadratic, x, 0.25)
+    assert np.allclose(hessian(_quadratic, x, 0.25), A, rtol=0, atol=tol_h)
+    assert np.allclose(gradient(_quadratic, x, 0.25), A @ (x - XMIN), rtol=0, atol=tol_g)
+
+
+def _step_tolerance(p0: np.ndarray) -> float:
+    """How far one Newton step from ``p0`` can land from the minimum by rounding alone: ‖A⁻¹‖ (‖Δg‖ + ‖ΔH‖ ‖δ‖)
+    with ‖Δg‖, ‖ΔH‖ from :func:`_rounding` (three entries per row)."""
+    tol_h, tol_g = _rounding(_quadratic, p0, 0.25)
+    return A_INV_NORM * 3.0 * (tol_g + tol_h * float(np.linalg.norm(XMIN - p0)))
 
 
 def test_one_newton_step_lands_on_a_quadratics_minimum():
     fin = newton_finish(_quadratic, np.zeros(3), 0.25, *BOX)
     assert fin.steps == 1
-    assert np.allclose(fin.p, XMIN, rtol=0, atol=1e-10)
-    assert fin.left < 1e-18
-    assert np.allclose(fin.cov, np.linalg.inv(A), rtol=1e-10, atol=0)
+    assert np.allclose(fin.p, XMIN, rtol=0, atol=_step_tolerance(np.zeros(3)))
+    tol_h, tol_g = _rounding(_quadratic, fin.p, 0.25)
+    # what is left is the gradient where the step landed: A (p − XMIN) within the step's rounding, plus its own
+    g_max = float(np.linalg.norm(A, 2)) * _step_tolerance(np.zeros(3)) + math.sqrt(3.0) * tol_g
+    assert fin.left <= 0.5 * A_INV_NORM * g_max**2
+    # the inverse's perturbation: ‖ΔA⁻¹‖ ≤ ‖A⁻¹‖² ‖ΔA‖ / (1 − ‖A⁻¹‖ ‖ΔA‖)
+    d_h = 3.0 * tol_h
+    assert np.allclose(fin.cov, np.linalg.inv(A), rtol=0, atol=A_INV_NORM**2 * d_h / (1.0 - A_INV_NORM * d_h))
 
 
 def test_a_decided_caller_gets_no_steps():
@@ -53,9 +80,14 @@ def test_a_decided_caller_gets_no_steps():
     p0 = np.zeros(3)
     fin = newton_finish(_quadratic, p0, 0.25, *BOX, decided=decided)
     assert fin.steps == 0 and np.array_equal(fin.p, p0)
-    assert seen == [(_quadratic(p0), pytest.approx(_quadratic(p0) - 3.0, rel=1e-12))]
+    # left = ½ gᵀ H⁻¹ g = f − 3 up to the rounding of g (×‖H⁻¹g‖) and of H (×‖δ‖² / 2)
+    tol_h, tol_g = _rounding(_quadratic, p0, 0.25)
+    step = float(np.linalg.norm(XMIN - p0))
+    tol_left = 3.0 * (tol_g * step + 0.5 * tol_h * step**2)
+    assert len(seen) == 1 and seen[0][0] == _quadratic(p0)
+    assert seen[0][1] == pytest.approx(_quadratic(p0) - 3.0, rel=0, abs=tol_left)
     fin = newton_finish(_quadratic, p0, 0.25, *BOX, decided=lambda f, left: f - 2.0 * left > 2.5)
-    assert fin.steps == 1 and np.allclose(fin.p, XMIN, rtol=0, atol=1e-10)
+    assert fin.steps == 1 and np.allclose(fin.p, XMIN, rtol=0, atol=_step_tolerance(p0))
 
 
 def test_the_steps_never_raise_the_function_and_stop_at_the_box():
@@ -79,9 +111,11 @@ def test_a_flat_parameter_is_not_moved():
     def fun(x):
         return float(2.0 * (x[0] - 1.0) ** 2 + 0.5 * flat * x[1] ** 2 + 5.0 * x[1])
 
-    fin = newton_finish(fun, np.array([0.0, 0.3]), 0.25, np.full(2, -10.0), np.full(2, 10.0))
+    p0 = np.array([0.0, 0.3])
+    fin = newton_finish(fun, p0, 0.25, np.full(2, -10.0), np.full(2, 10.0))
     assert fin.p[1] == 0.3 and math.isinf(fin.cov[1, 1])
-    assert abs(fin.p[0] - 1.0) < 1e-12
+    tol_h, tol_g = _rounding(fun, p0, 0.25)  # one step of length 1 on curvature 4: (Δg + ΔH·1) / 4
+    assert abs(fin.p[0] - 1.0) <= (tol_g + tol_h) / 4.0
 
 
 def _drive(n: int = 7200):
